@@ -1,0 +1,28 @@
+"""inertest: testing and calibration of inertial instruments.
+
+Conventions (also in README.md)
+-------------------------------
+* **Units.** SI inside the library: rad, s, m, m/s^2, rad/s. Engineering units (deg/h, deg/h/g,
+  ug, ppm, arcsec) only at the edges, always labelled; conversions live in :mod:`inertest.units`.
+  The unit "g" is standard gravity g0 = 9.80665 m/s^2. The specific force on an instrument at rest
+  has the magnitude of the site's local gravity (given in the plan, or WGS-84 normal gravity).
+* **Frames.** Local level ENU (x east, y north, z up); platform P; body b; instrument axes I
+  (input), O (output), S (spin reference) of an SDF gyro with I x O = S. ``C_ab`` maps vectors
+  from frame b to frame a; vectors are named ``vec_frame``. Rotations use
+  :class:`scipy.spatial.transform.Rotation` (scalar-last quaternions, as scipy).
+* **Earth.** Rate 7.2921151467e-5 rad/s (WGS-84); ENU components ``(0, W cos L, W sin L)``.
+  An instrument at rest feels specific force ``+g`` along up.
+* **Signs.** Gyro drift adds to the true rate: ``w_out = w_I + drift``; accelerometer bias adds
+  to the true specific force. Torque-feedback output ``S_T * i = w_I + drift``.
+* **SDF gyro static drift model** (f in g, i.e. specific force divided by g0)::
+
+      drift = DF + DI fI + DO fO + DS fS + DIO fI fO + DOS fO fS + DSI fS fI
+                 + DII fI^2 + DOO fO^2 + DSS fS^2
+
+  Coefficients are held in rad/s per g^k inside, reported in deg/h, deg/h/g, deg/h/g^2.
+"""
+
+from inertest.api import fit, load_data, load_plan, simulate
+
+__all__ = ["fit", "load_data", "load_plan", "simulate"]
+__version__ = "0.1.0"

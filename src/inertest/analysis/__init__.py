@@ -1,0 +1,1 @@
+"""System-level analyses: INS error propagation, rotation modulation."""

@@ -1,0 +1,88 @@
+"""The Python API; it mirrors the command line (``inertest simulate``, ``inertest fit``).
+
+Example
+-------
+>>> import inertest
+>>> plan = inertest.load_plan("examples/polar_tumble/plan.toml")       # doctest: +SKIP
+>>> data = inertest.simulate(plan, "examples/polar_tumble/truth.toml", noise=0.002, rng=1)
+>>> result = inertest.fit(plan, data)                                   # doctest: +SKIP
+>>> result.coefficients["DI"]                  # Estimate(name='DI', value=..., unit='deg/h/g')
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.io.data_file import read_table
+from inertest.io.plan_file import load_plan as _load_plan
+from inertest.io.plan_file import load_truth
+from inertest.models.sdf_gyro import coefficients_from_deg_h
+from inertest.plan import Plan
+from inertest.procedures import procedure_module
+
+PathLike = str | os.PathLike[str]
+
+
+def load_plan(path: PathLike) -> Plan:
+    """Read a TOML plan file."""
+    return _load_plan(path)
+
+
+def load_data(path: PathLike) -> dict[str, NDArray]:
+    """Read a CSV or Parquet data file into ``{column: ndarray}``."""
+    return read_table(path)
+
+
+def fit(
+    plan: Plan | PathLike, data: Mapping[str, Any] | PathLike, *, sigma: float | None = None
+) -> Any:
+    """Identify the instrument's coefficients from the test data (``inertest fit``).
+
+    Parameters
+    ----------
+    plan : Plan or path
+        The test plan.
+    data : mapping of columns, or path to a CSV/Parquet file
+        Measurements with the columns the procedure names.
+    sigma : float, optional
+        Known noise per row [output unit]; estimated from the residuals when omitted.
+
+    Returns
+    -------
+    The procedure's result object (e.g. ``PolarTumbleResult``) with ``coefficients``,
+    ``combinations``, ``to_dict()``.
+    """
+    p = plan if isinstance(plan, Plan) else load_plan(plan)
+    d = data if isinstance(data, Mapping) else load_data(data)
+    return procedure_module(p.kind).fit(p, d, sigma=sigma)
+
+
+def simulate(
+    plan: Plan | PathLike,
+    truth: Mapping[str, float] | PathLike | NDArray[np.float64],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Readings of a virtual instrument on the plan (``inertest simulate``).
+
+    Parameters
+    ----------
+    truth : mapping, path or ndarray
+        True coefficients: ``{name: value}`` in deg/h units, a TOML truth file, or the SI vector.
+    noise : float
+        White noise per reading [output unit].
+    """
+    p = plan if isinstance(plan, Plan) else load_plan(plan)
+    if isinstance(truth, np.ndarray):
+        c = truth
+    elif isinstance(truth, Mapping):
+        c = coefficients_from_deg_h(truth)
+    else:
+        c = load_truth(truth)
+    return procedure_module(p.kind).simulate(p, c, noise=noise, rng=rng)

@@ -1,0 +1,81 @@
+"""Level fixture: the instrument's axes set along the local directions E, W, N, S, U, D.
+
+Used by the local-level ("geographic") tumble (seed ``000_dad8be616c6569c7.txt``, sec. 3). The
+letter S names *south* here; the gyro's spin-reference axis is the third column of a position.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.earth import DIRECTIONS_ENU, earth_rate_enu, specific_force_enu
+from inertest.errors import InputError
+from inertest.units import G0
+
+
+def axes_from_directions(i_dir: str, o_dir: str, s_dir: str) -> NDArray[np.float64]:
+    """Rows I, O, S in ENU for one position given as direction letters.
+
+    Raises
+    ------
+    InputError
+        A letter is not one of E, W, N, S, U, D, two axes are not perpendicular, or the triad is
+        left-handed (the gyro axes satisfy I x O = S).
+    """
+    vecs = []
+    for axis, d in zip("IOS", (i_dir, o_dir, s_dir), strict=True):
+        key = str(d).strip().upper()
+        if key not in DIRECTIONS_ENU:
+            raise InputError(
+                f'{axis} axis direction "{d}" is not one of E, W, N, S, U, D (S = south)'
+            )
+        vecs.append(DIRECTIONS_ENU[key])
+    i, o, s = vecs
+    label = f"I={i_dir}, O={o_dir}, S={s_dir}"
+    if abs(i @ o) > 0.5 or abs(o @ s) > 0.5 or abs(s @ i) > 0.5:
+        raise InputError(
+            f"position ({label}) is not an orthogonal triad: each of I, O, S must point along a "
+            "different axis of E/W, N/S, U/D"
+        )
+    if np.cross(i, o) @ s < 0:
+        raise InputError(
+            f"position ({label}) is left-handed; the gyro axes satisfy I x O = S, so S must be "
+            f"{_direction_name(-s)} here"
+        )
+    return np.vstack([i, o, s])
+
+
+def _direction_name(v: NDArray[np.float64]) -> str:
+    for k, u in DIRECTIONS_ENU.items():
+        if u @ v > 0.5:
+            return k
+    raise AssertionError("not a local direction")  # pragma: no cover
+
+
+def specific_force_ios(axes: NDArray[np.float64], gravity_m_s2: float) -> NDArray[np.float64]:
+    """Specific force along (I, O, S) [g0]; ``axes`` has shape (n, 3, 3) (rows I, O, S in ENU)."""
+    return axes @ specific_force_enu(gravity_m_s2) / G0
+
+
+def input_rate(axes: NDArray[np.float64], latitude_rad: float) -> NDArray[np.float64]:
+    """Earth rate along the input axis [rad/s] for each position, shape (n,)."""
+    return axes[:, 0, :] @ earth_rate_enu(latitude_rad)
+
+
+def all_positions() -> list[tuple[str, str, str]]:
+    """The 24 right-handed positions with each gyro axis along a local direction.
+
+    Each of I, O, S points up and down once for each of the four horizontal headings of the
+    other two axes: the full set of the cube's rotations, a balanced default plan.
+    """
+    out = []
+    letters = list(DIRECTIONS_ENU)
+    for a in letters:
+        for b in letters:
+            va, vb = DIRECTIONS_ENU[a], DIRECTIONS_ENU[b]
+            if abs(va @ vb) > 0.5:
+                continue
+            c = np.cross(va, vb)
+            out.append((a, b, _direction_name(c)))
+    return out

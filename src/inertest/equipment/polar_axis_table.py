@@ -1,0 +1,92 @@
+"""Polar-axis turntable: a table whose rotation axis is parallel to the Earth's axis.
+
+The gyro is mounted with its output axis O (mountings ``O-Np``, ``O-Sp``) or spin-reference axis
+S (``S-Np``, ``S-Sp``) along the table axis, pointing to the north (Np) or south (Sp) celestial
+pole; the input axis I lies in the table plane, perpendicular to the polar axis, so it never
+senses the Earth rate (seed ``000_dad8be616c6569c7.txt``, sec. 2(5)).
+
+Table angle convention (as in the seed): at ``theta = 0`` the I axis is horizontal and the other
+in-plane axis (S for O mountings, O for S mountings) is at its highest; ``theta`` grows as I rises
+towards up. Then, with latitude L and specific force in units of local gravity::
+
+    mounting  fI              fO              fS
+    O-Np      cosL sin(theta) +sinL           cosL cos(theta)
+    O-Sp      cosL sin(theta) -sinL           cosL cos(theta)
+    S-Np      cosL sin(theta) cosL cos(theta) +sinL
+    S-Sp      cosL sin(theta) cosL cos(theta) -sinL
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+from inertest.earth import earth_rate_enu, polar_axis_enu, specific_force_enu
+from inertest.errors import InputError
+from inertest.units import G0
+
+MOUNTINGS: tuple[str, ...] = ("O-Np", "O-Sp", "S-Np", "S-Sp")
+
+
+def _base_axes_and_rotation_axis(
+    mounting: str, latitude_rad: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(I, O, S) in ENU at theta = 0 (rows) and the unit rotation axis of increasing theta."""
+    p = polar_axis_enu(latitude_rad)
+    east = np.array([1.0, 0.0, 0.0])
+    # In the equatorial plane, the direction whose elevation is highest: (0, -sinL, cosL).
+    e2 = np.cross(p, east) * -1.0
+    if mounting == "O-Np":
+        i, o, s, axis = east, p, e2, -p
+    elif mounting == "O-Sp":
+        i, o, s, axis = -east, -p, e2, p
+    elif mounting == "S-Np":
+        i, o, s, axis = -east, e2, p, p
+    elif mounting == "S-Sp":
+        i, o, s, axis = east, e2, -p, -p
+    else:
+        raise InputError(
+            f'unknown polar-tumble mounting "{mounting}"; use one of {", ".join(MOUNTINGS)}'
+        )
+    return np.vstack([i, o, s]), axis
+
+
+def instrument_axes_enu(
+    mounting: str, table_angle_rad: ArrayLike, latitude_rad: float
+) -> NDArray[np.float64]:
+    """Unit vectors of the gyro's I, O, S axes in ENU at each table angle.
+
+    Parameters
+    ----------
+    mounting : {"O-Np", "O-Sp", "S-Np", "S-Sp"}
+    table_angle_rad : array_like, shape (n,)
+        Table angle theta [rad].
+    latitude_rad : float
+        Site latitude [rad].
+
+    Returns
+    -------
+    ndarray, shape (n, 3, 3)
+        ``axes[k, j]`` is axis j (0: I, 1: O, 2: S) in ENU, i.e. the rows of ``C_ios_enu``.
+    """
+    base, axis = _base_axes_and_rotation_axis(mounting, latitude_rad)
+    theta = np.atleast_1d(np.asarray(table_angle_rad, dtype=float))
+    rot = Rotation.from_rotvec(theta[:, None] * axis[None, :])
+    return np.stack([rot.apply(base[j]) for j in range(3)], axis=1)
+
+
+def specific_force_ios(
+    mounting: str, table_angle_rad: ArrayLike, latitude_rad: float, gravity_m_s2: float
+) -> NDArray[np.float64]:
+    """Specific force along (I, O, S) [g0] at each table angle, shape (n, 3)."""
+    axes = instrument_axes_enu(mounting, table_angle_rad, latitude_rad)
+    return axes @ specific_force_enu(gravity_m_s2) / G0
+
+
+def input_rate(
+    mounting: str, table_angle_rad: ArrayLike, latitude_rad: float
+) -> NDArray[np.float64]:
+    """Earth rate along the input axis [rad/s] (zero by design of the test, to rounding)."""
+    axes = instrument_axes_enu(mounting, table_angle_rad, latitude_rad)
+    return axes[:, 0, :] @ earth_rate_enu(latitude_rad)

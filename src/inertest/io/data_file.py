@@ -1,0 +1,64 @@
+"""Tabular data files (CSV, Parquet) <-> dictionaries of numpy columns, via pyarrow."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+from numpy.typing import NDArray
+
+from inertest.errors import DataError
+from inertest.io.atomic import target_file
+
+_SUFFIXES = (".csv", ".parquet", ".pq")
+
+
+def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
+    """Read a CSV or Parquet file into ``{column: ndarray}``.
+
+    Numeric columns become float arrays (empty cells -> NaN, so the procedures can name them);
+    text columns become arrays of str.
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise DataError(f"data file {p}: unknown format {suffix!r}; use .csv or .parquet")
+    if not p.exists():
+        raise FileNotFoundError(2, "no such file", str(p))
+    try:
+        if suffix == ".csv":
+            table = pacsv.read_csv(p)
+        else:
+            table = pq.read_table(p)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, OSError) as exc:
+        raise DataError(f"data file {p} cannot be read: {exc}") from None
+    out: dict[str, NDArray] = {}
+    for name in table.column_names:
+        col = table.column(name)
+        if pa.types.is_integer(col.type) or pa.types.is_floating(col.type):
+            out[name] = col.to_numpy(zero_copy_only=False).astype(float)
+        elif pa.types.is_null(col.type):
+            out[name] = np.full(len(col), np.nan)
+        else:
+            out[name] = np.asarray(col.to_pylist(), dtype=object).astype(str)
+    return out
+
+
+def write_table(path: str | os.PathLike[str], columns: Mapping[str, NDArray]) -> Path:
+    """Write columns to CSV or Parquet (by suffix), atomically."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise DataError(f"output file {p}: unknown format {suffix!r}; use .csv or .parquet")
+    table = pa.table({k: np.asarray(v) for k, v in columns.items()})
+    with target_file(p) as tmp:
+        if suffix == ".csv":
+            pacsv.write_csv(table, tmp)
+        else:
+            pq.write_table(table, tmp)
+    return p

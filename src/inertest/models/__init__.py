@@ -1,0 +1,1 @@
+"""Instrument error models: regressors Phi(inputs), coefficient names and units."""

@@ -1,0 +1,85 @@
+"""Static drift model of a single-degree-of-freedom (SDF) floated gyro in a 1 g field.
+
+Model (seed ``000_dad8be616c6569c7.txt``, ch. 3, sec. 1.1; DESIGN.md)::
+
+    drift = DF + DI fI + DO fO + DS fS + DIO fI fO + DOS fO fS + DSI fS fI
+               + DII fI^2 + DOO fO^2 + DSS fS^2
+
+with ``(fI, fO, fS)`` the specific force along the input, output and spin-reference axes as a
+multiple of standard gravity g0 (dimensionless), and the drift added to the true input rate:
+``w_out = w_I + drift``. Coefficients are held in SI rate units per power of g: rad/s, rad/s/g,
+rad/s/g^2; they are reported in deg/h, deg/h/g, deg/h/g^2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from inertest.errors import InputError
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, gyro_coefficient_unit
+
+#: Coefficient names in the order of the regressor columns.
+COEFFICIENTS: tuple[str, ...] = (
+    "DF", "DI", "DO", "DS", "DIO", "DOS", "DSI", "DII", "DOO", "DSS",
+)
+#: Power of the specific force (in g) that each coefficient multiplies.
+G_POWER: dict[str, int] = {
+    "DF": 0, "DI": 1, "DO": 1, "DS": 1,
+    "DIO": 2, "DOS": 2, "DSI": 2, "DII": 2, "DOO": 2, "DSS": 2,
+}
+#: Engineering unit of each coefficient.
+ENGINEERING_UNIT: dict[str, str] = {k: gyro_coefficient_unit(p) for k, p in G_POWER.items()}
+
+
+def drift_regressors(f_ios_g: ArrayLike) -> NDArray[np.float64]:
+    """Regressor matrix of the static drift model.
+
+    Parameters
+    ----------
+    f_ios_g : array_like, shape (n, 3)
+        Specific force along (I, O, S) [g0].
+
+    Returns
+    -------
+    ndarray, shape (n, 10)
+        Columns ``1, fI, fO, fS, fI fO, fO fS, fS fI, fI^2, fO^2, fS^2`` in the order of
+        :data:`COEFFICIENTS`, so that ``drift = Phi @ coefficients``.
+    """
+    f = np.asarray(f_ios_g, dtype=float)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise InputError(f"specific force must have shape (n, 3), got {f.shape}")
+    fi, fo, fs = f[:, 0], f[:, 1], f[:, 2]
+    return np.column_stack(
+        [np.ones_like(fi), fi, fo, fs, fi * fo, fo * fs, fs * fi, fi * fi, fo * fo, fs * fs]
+    )
+
+
+def drift(f_ios_g: ArrayLike, coefficients: ArrayLike) -> NDArray[np.float64]:
+    """Static drift [same rate unit as ``coefficients``] for specific forces ``f_ios_g`` [g0]."""
+    c = np.asarray(coefficients, dtype=float)
+    if c.shape != (len(COEFFICIENTS),):
+        raise InputError(f"expected {len(COEFFICIENTS)} coefficients, got shape {c.shape}")
+    return drift_regressors(f_ios_g) @ c
+
+
+def coefficients_from_deg_h(values: Mapping[str, float]) -> NDArray[np.float64]:
+    """Coefficient vector [rad/s per g^k] from a mapping of names to deg/h per g^k.
+
+    Names not given are zero; unknown names are an error (a typo would otherwise be a silent zero).
+    """
+    unknown = sorted(set(values) - set(COEFFICIENTS))
+    if unknown:
+        raise InputError(
+            f"unknown drift coefficient(s) {', '.join(unknown)}; "
+            f"use the names {', '.join(COEFFICIENTS)}"
+        )
+    out = np.zeros(len(COEFFICIENTS))
+    for i, name in enumerate(COEFFICIENTS):
+        v = float(values.get(name, 0.0))
+        if not np.isfinite(v):
+            raise InputError(f"drift coefficient {name} must be finite, got {v}")
+        out[i] = v * DEG_PER_H_TO_RAD_PER_S
+    return out

@@ -1,0 +1,1 @@
+"""Allan-family deviations and noise identification."""

@@ -1,0 +1,110 @@
+"""A test plan: where (site), what (instrument) and how (procedure), without any file I/O.
+
+Plan files are TOML (read by :mod:`inertest.io.plan_file`)::
+
+    [site]
+    latitude_deg = 34.25        # gravity = 9.7966 (m/s^2, optional: normal gravity otherwise)
+
+    [instrument]
+    kind = "sdf-gyro"
+    serial = "FG-17"
+    output_unit = "mA"          # or a rate unit: "deg/h", "deg/s", "rad/s"
+    scale_factor = 12.5         # S_T [deg/h per output unit]; needed when the output is not a rate
+
+    [procedure]
+    kind = "polar-tumble"       # parameters of the procedure follow
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from inertest.earth import Site
+from inertest.errors import PlanError
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, ELECTRICAL_UNITS, RATE_UNITS
+
+INSTRUMENT_KINDS: tuple[str, ...] = ("sdf-gyro",)
+
+
+@dataclass(frozen=True)
+class Instrument:
+    """The instrument under test and how its output is read.
+
+    Attributes
+    ----------
+    kind : str
+        Instrument kind (``"sdf-gyro"``).
+    serial : str
+        Serial number (free text).
+    output_unit : str
+        Unit of the recorded output: a rate unit (``deg/h``, ``deg/s``, ``rad/s``) or an
+        electrical unit (``mA``, ``uA``, ``A``, ``V``, ``mV``) of a torque-rebalance loop.
+    scale_factor : float or None
+        Torquer scale factor S_T [deg/h per output unit] for electrical outputs.
+    """
+
+    kind: str = "sdf-gyro"
+    serial: str = ""
+    output_unit: str = "deg/h"
+    scale_factor: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in INSTRUMENT_KINDS:
+            raise PlanError(
+                f'unknown instrument kind "{self.kind}"; use one of {", ".join(INSTRUMENT_KINDS)}'
+            )
+        known = [*RATE_UNITS, *ELECTRICAL_UNITS]
+        if self.output_unit not in known:
+            raise PlanError(
+                f'unknown output_unit "{self.output_unit}"; use one of {", ".join(known)}'
+            )
+        if self.output_unit in ELECTRICAL_UNITS:
+            sf = self.scale_factor
+            if sf is None or not np.isfinite(sf) or sf == 0:
+                raise PlanError(
+                    f'output_unit "{self.output_unit}" needs [instrument] scale_factor = S_T in '
+                    f"deg/h per {self.output_unit} (finite, non-zero)"
+                )
+
+    @property
+    def rad_s_per_output_unit(self) -> float:
+        """Factor from the recorded output to the indicated rate [rad/s per output unit]."""
+        if self.output_unit in RATE_UNITS:
+            return RATE_UNITS[self.output_unit]
+        assert self.scale_factor is not None
+        return float(self.scale_factor) * DEG_PER_H_TO_RAD_PER_S
+
+    def output_to_rate(self, output: ArrayLike) -> NDArray[np.float64]:
+        """Indicated rate [rad/s] from recorded output (``S_T * i`` for a torque loop)."""
+        return np.asarray(output, dtype=float) * self.rad_s_per_output_unit
+
+    def rate_to_output(self, rate_rad_s: ArrayLike) -> NDArray[np.float64]:
+        """Recorded output for an indicated rate [rad/s]."""
+        return np.asarray(rate_rad_s, dtype=float) / self.rad_s_per_output_unit
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A complete test plan.
+
+    Attributes
+    ----------
+    site : Site
+    instrument : Instrument
+    procedure : Any
+        The procedure's own parameter object (e.g. :class:`~inertest.procedures.polar_tumble.
+        PolarTumbleSpec`), whose ``kind`` names the procedure.
+    """
+
+    site: Site
+    instrument: Instrument
+    procedure: Any
+
+    @property
+    def kind(self) -> str:
+        """The procedure kind, e.g. ``"polar-tumble"``."""
+        return str(self.procedure.kind)

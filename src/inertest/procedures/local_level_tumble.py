@@ -1,0 +1,233 @@
+"""Local-level ("geographic") tumble test of an SDF floated gyro in the 1 g field.
+
+Seed ``000_dad8be616c6569c7.txt``, ch. 3, sec. 3: the gyro's axes are set along the local
+directions E, S, W, N, U, D. At each position exactly one gyro axis is vertical, so specific force
+acts on one axis at a time: the cross-axis terms DIO, DOS, DSI never enter a reading and cannot be
+found; the linear terms DI, DO, DS are found from up/down pairs, and each square term only in the
+combination ``DF + (g/g0)^2 Dxx`` (because fI^2 + fO^2 + fS^2 = (g/g0)^2). The Earth rate on the
+input axis, ``W (I . (0, cos L, sin L))``, is subtracted from each reading.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.equipment import level_fixture as fixture
+from inertest.errors import InertestWarning, PlanError
+from inertest.models.sdf_gyro import drift as model_drift
+from inertest.plan import Plan
+from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
+from inertest.procedures.sdf_drift import identify_drift
+from inertest.procedures.tumble_common import (
+    check_no_unknown_keys,
+    check_samples_per_position,
+    noise_samples,
+    require_columns,
+)
+from inertest.units import DEG_PER_H_TO_RAD_PER_S
+
+KIND = "local-level-tumble"
+
+
+@dataclass(frozen=True)
+class LocalLevelTumbleSpec:
+    """Parameters of a local-level tumble plan (``[procedure]`` table).
+
+    Attributes
+    ----------
+    positions : tuple of (str, str, str)
+        Directions of (I, O, S) at each position, letters E, W, N, S, U, D (S = south). In a plan
+        file: ``positions = ["UNW", "DNE", ...]`` or ``[["U", "N", "W"], ...]``. Default: the 24
+        right-handed positions (each axis up and down at four headings).
+    samples_per_position : int
+        Readings recorded at each position (for simulation).
+    """
+
+    kind: ClassVar[str] = KIND
+    positions: tuple[tuple[str, str, str], ...] = field(
+        default_factory=lambda: tuple(fixture.all_positions())
+    )
+    samples_per_position: int = 1
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> LocalLevelTumbleSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        check_no_unknown_keys(params, ("positions", "samples_per_position"), KIND)
+        spp = check_samples_per_position(params.get("samples_per_position", 1))
+        if "positions" not in params:
+            return cls(samples_per_position=spp)
+        raw = params["positions"]
+        if not isinstance(raw, list) or not raw:
+            raise PlanError('positions must be a non-empty list such as ["UNW", "DNE"]')
+        positions = []
+        for p in raw:
+            triple = tuple(p) if isinstance(p, (list, str)) else ()
+            if len(triple) != 3:
+                raise PlanError(
+                    f"position {p!r} must give three directions (I, O, S), e.g. \"UNW\""
+                )
+            fixture.axes_from_directions(*triple)  # validates letters and handedness
+            positions.append(tuple(str(t).upper() for t in triple))
+        return cls(positions=tuple(positions), samples_per_position=spp)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class LocalLevelTumbleResult:
+    """Outcome of :func:`fit` for a local-level tumble.
+
+    Attributes
+    ----------
+    identification : Identification
+        Coefficients (DI, DO, DS when each axis was both up and down), combinations
+        ``DF + (g/g0)^2 Dxx``, and the statement of what is not determined.
+    position : ndarray of str
+        ``"I O S"`` directions of each row.
+    drift_deg_h, fitted_deg_h : ndarray
+        Observed drift (Earth rate removed) and model value per row [deg/h].
+    """
+
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    position: NDArray = field(repr=False)
+    drift_deg_h: NDArray[np.float64] = field(repr=False)
+    fitted_deg_h: NDArray[np.float64] = field(repr=False)
+    earth_rate_deg_h: NDArray[np.float64] = field(repr=False)
+    residual_output: NDArray[np.float64] = field(repr=False)
+    output_unit: str = "deg/h"
+    messages: tuple[str, ...] = ()
+    procedure: str = KIND
+
+    @property
+    def coefficients(self) -> dict[str, Estimate]:
+        """Individually identifiable coefficients."""
+        return self.identification.coefficients
+
+    @property
+    def combinations(self) -> tuple[Combination, ...]:
+        """Identifiable combinations of the rest."""
+        return self.identification.combinations
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary (DESIGN.md's ``fit --json`` layout)."""
+        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
+        d["site"] = {
+            "latitude_deg": self.site_latitude_deg,
+            "gravity_m_s2": self.site_gravity_m_s2,
+        }
+        d.update(self.identification.to_dict())
+        d["residual_rms"] = {
+            "value": float(np.sqrt(np.mean(self.residual_output**2))),
+            "unit": self.output_unit,
+        }
+        d["n_observations"] = int(self.drift_deg_h.size)
+        d["messages"] = list(self.messages)
+        return d
+
+
+def fit(
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+) -> LocalLevelTumbleResult:
+    """Identify what a local-level tumble determines of the static drift model.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site, instrument and a :class:`LocalLevelTumbleSpec`.
+    data : mapping
+        Columns ``I_dir``, ``O_dir``, ``S_dir`` (letters E, W, N, S, U, D; S = south) and
+        ``output`` [instrument output unit].
+    sigma : float, optional
+        Known noise per row [output unit]; estimated from the residuals when omitted.
+    """
+    cols = require_columns(data, ("output",), ("I_dir", "O_dir", "S_dir"), procedure=KIND)
+    site, inst = plan.site, plan.instrument
+    axes, labels = _axes(cols["I_dir"], cols["O_dir"], cols["S_dir"])
+    f = fixture.specific_force_ios(axes, site.gravity_m_s2)
+    w_in = fixture.input_rate(axes, site.latitude_rad)
+    drift = inst.output_to_rate(cols["output"]) - w_in
+    sigma_rad_s = None
+    if sigma is not None:
+        if not np.isfinite(sigma) or sigma <= 0:
+            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+        sigma_rad_s = float(sigma) * inst.rad_s_per_output_unit
+    messages = _balance_messages(labels)
+    for msg in messages:
+        warnings.warn(msg, InertestWarning, stacklevel=2)
+    lsq, ident = identify_drift(
+        f,
+        drift,
+        gravity_g=site.gravity_g,
+        sigma_rad_s=sigma_rad_s,
+        pivot_order=("DII", "DOO", "DSS", "DF"),
+        normalize_to="DF",
+    )
+    k = DEG_PER_H_TO_RAD_PER_S
+    return LocalLevelTumbleResult(
+        site_latitude_deg=site.latitude_deg,
+        site_gravity_m_s2=site.gravity_m_s2,
+        identification=ident,
+        position=labels,
+        drift_deg_h=drift / k,
+        fitted_deg_h=(drift - lsq.residuals) / k,
+        earth_rate_deg_h=w_in / k,
+        residual_output=inst.rate_to_output(lsq.residuals),
+        output_unit=inst.output_unit,
+        messages=tuple(messages),
+    )
+
+
+def simulate(
+    plan: Plan,
+    coefficients_rad_s: NDArray[np.float64],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Readings of a virtual gyro on the plan's local-level tumble (Earth rate included).
+
+    Returns columns ``I_dir``, ``O_dir``, ``S_dir``, ``output`` [output unit].
+    """
+    spec: LocalLevelTumbleSpec = plan.procedure
+    reps = spec.samples_per_position
+    pos = [p for p in spec.positions for _ in range(reps)]
+    cols = [np.array([p[j] for p in pos]) for j in range(3)]
+    axes, _ = _axes(*cols)
+    f = fixture.specific_force_ios(axes, plan.site.gravity_m_s2)
+    rate = fixture.input_rate(axes, plan.site.latitude_rad) + model_drift(f, coefficients_rad_s)
+    output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+    return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
+
+
+def _axes(
+    i_dir: Sequence[str], o_dir: Sequence[str], s_dir: Sequence[str]
+) -> tuple[NDArray[np.float64], NDArray]:
+    labels = np.char.add(
+        np.char.add(np.char.add(np.char.upper(np.asarray(i_dir, dtype=str)), " "),
+                    np.char.add(np.char.upper(np.asarray(o_dir, dtype=str)), " ")),
+        np.char.upper(np.asarray(s_dir, dtype=str)),
+    )
+    uniq, inverse = np.unique(labels, return_inverse=True)
+    table = np.stack([fixture.axes_from_directions(*u.split(" ")) for u in uniq])
+    return table[inverse], labels
+
+
+def _balance_messages(labels: NDArray) -> list[str]:
+    """Each axis should be up and down: otherwise its linear term mixes with DF."""
+    out = []
+    for j, axis in enumerate("IOS"):
+        dirs = {lab.split(" ")[j] for lab in np.unique(labels)}
+        if not {"U", "D"} <= dirs:
+            have = "up" if "U" in dirs else ("down" if "D" in dirs else "vertical")
+            out.append(
+                f"the {axis} axis is never "
+                + ("both up and down" if have != "vertical" else "vertical")
+                + f"; D{axis} is then not separable from DF and D{axis}{axis}"
+            )
+    return out

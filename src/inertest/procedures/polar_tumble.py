@@ -1,0 +1,407 @@
+"""Polar-axis tumble test of an SDF floated gyro in the 1 g field.
+
+Seed ``000_dad8be616c6569c7.txt`` (NWPU lecture notes, ch. 3, sec. 2): the turntable axis is
+parallel to the Earth's axis, the gyro's I axis perpendicular to it (so ``w_I = 0``), and the
+table turns through equally spaced angles over 360 deg in each of four mountings (O or S axis to
+the north or south pole). At each mounting the drift is a Fourier series in the table angle::
+
+    S_T i = B0 + S1 sin(theta) + C1 cos(theta) + S2 sin(2 theta) + C2 cos(2 theta)
+
+With gamma = g/g0 and latitude L, for the O mountings (upper sign Np, lower Sp)::
+
+    B0 = DF +- gamma sinL DO + gamma^2 sin^2L DOO + gamma^2 cos^2L (DII + DSS) / 2
+    S1 = gamma cosL (DI +- gamma sinL DIO)        C1 = gamma cosL (DS +- gamma sinL DOS)
+    S2 = gamma^2 cos^2L DSI / 2                   C2 = gamma^2 cos^2L (DSS - DII) / 2
+
+and for the S mountings the same with (O, S) exchanged in B0, C1 and DIO in S2, DSI in S1,
+(DOO - DII) in C2. The closed-form separation (seed, sec. 2(4), with gamma restored) follows
+from sums and differences of the Np and Sp terms; it is computed here beside the general least
+squares over all data, and the two agree exactly for noise-free data.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.equipment import polar_axis_table as table
+from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
+from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
+from inertest.models.sdf_gyro import ENGINEERING_UNIT
+from inertest.models.sdf_gyro import drift as model_drift
+from inertest.plan import Instrument, Plan
+from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
+from inertest.procedures.sdf_drift import combination_name, identify_drift
+from inertest.procedures.tumble_common import (
+    check_no_unknown_keys,
+    check_samples_per_position,
+    noise_samples,
+    require_columns,
+)
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
+
+KIND = "polar-tumble"
+#: Latitudes closer than this to a pole leave I without gravity: the test needs cos L > 0.
+_MIN_COS_LAT = 0.05
+
+
+@dataclass(frozen=True)
+class PolarTumbleSpec:
+    """Parameters of a polar-axis tumble plan (``[procedure]`` table).
+
+    Attributes
+    ----------
+    mountings : tuple of str
+        Mountings to run, any of ``O-Np``, ``O-Sp``, ``S-Np``, ``S-Sp`` (default all four).
+    angles_deg : tuple of float
+        Table angles [deg]; default 16 equally spaced from 0 (``positions = 16``).
+    samples_per_position : int
+        Readings recorded at each angle (for simulation).
+    """
+
+    kind: ClassVar[str] = KIND
+    mountings: tuple[str, ...] = table.MOUNTINGS
+    angles_deg: tuple[float, ...] = tuple(np.arange(16) * 22.5)
+    samples_per_position: int = 1
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> PolarTumbleSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        check_no_unknown_keys(
+            params, ("mountings", "positions", "angles_deg", "samples_per_position"), KIND
+        )
+        mountings = tuple(str(m) for m in params.get("mountings", table.MOUNTINGS))  # type: ignore[union-attr]
+        for m in mountings:
+            if m not in table.MOUNTINGS:
+                raise PlanError(
+                    f'unknown polar-tumble mounting "{m}"; use any of {", ".join(table.MOUNTINGS)}'
+                )
+        if "angles_deg" in params and "positions" in params:
+            raise PlanError("give either positions (a count) or angles_deg (a list), not both")
+        if "angles_deg" in params:
+            angles = tuple(float(a) for a in params["angles_deg"])  # type: ignore[union-attr]
+        else:
+            count = params.get("positions", 16)
+            if not isinstance(count, int) or isinstance(count, bool) or count < 1:
+                raise PlanError(f"positions must be a positive integer, got {count!r}")
+            angles = tuple(float(a) for a in np.arange(count) * 360.0 / count)
+        if not angles:
+            raise PlanError("the plan lists no table angles")
+        spp = check_samples_per_position(params.get("samples_per_position", 1))
+        return cls(mountings=mountings, angles_deg=angles, samples_per_position=spp)
+
+
+@dataclass(frozen=True)
+class MountingHarmonics:
+    """Fourier terms of the drift at one mounting [deg/h], and the data they came from."""
+
+    mounting: str
+    terms: tuple[Estimate, ...]
+    angles_deg: NDArray[np.float64] = field(repr=False)
+    drift_deg_h: NDArray[np.float64] = field(repr=False)
+    fit: HarmonicFit = field(repr=False)
+
+
+@dataclass(frozen=True)
+class PolarTumbleResult:
+    """Outcome of :func:`fit` for a polar-axis tumble.
+
+    Attributes
+    ----------
+    identification : Identification
+        General least squares over all data: coefficients, combinations, what is not separable.
+    harmonics : dict
+        Per mounting, the Fourier terms B0, S1, C1, S2, C2 [deg/h] with std.
+    closed_form : dict
+        Per mounting pair (``"O"``: O-Np + O-Sp, ``"S"``: S-Np + S-Sp), the seed's closed-form
+        separation as combinations of coefficients.
+    mounting, angle_deg, drift_deg_h, fitted_deg_h : ndarray
+        The observations and the general model's fitted values, per row.
+    messages : tuple of str
+        Warnings about the plan (spacing, count of positions).
+    """
+
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    harmonics: dict[str, MountingHarmonics]
+    closed_form: dict[str, tuple[Combination, ...]]
+    mounting: NDArray = field(repr=False)
+    angle_deg: NDArray[np.float64] = field(repr=False)
+    drift_deg_h: NDArray[np.float64] = field(repr=False)
+    fitted_deg_h: NDArray[np.float64] = field(repr=False)
+    residual_output: NDArray[np.float64] = field(repr=False)
+    output_unit: str = "deg/h"
+    messages: tuple[str, ...] = ()
+    procedure: str = KIND
+
+    @property
+    def coefficients(self) -> dict[str, Estimate]:
+        """Individually identifiable coefficients."""
+        return self.identification.coefficients
+
+    @property
+    def combinations(self) -> tuple[Combination, ...]:
+        """Identifiable combinations of the rest."""
+        return self.identification.combinations
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary (DESIGN.md's ``fit --json`` layout)."""
+        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
+        d["site"] = {
+            "latitude_deg": self.site_latitude_deg,
+            "gravity_m_s2": self.site_gravity_m_s2,
+        }
+        d.update(self.identification.to_dict())
+        d["harmonics"] = {
+            m: {t.name: t.to_dict() for t in h.terms} for m, h in self.harmonics.items()
+        }
+        d["closed_form"] = {k: [c.to_dict() for c in v] for k, v in self.closed_form.items()}
+        d["residual_rms"] = {
+            "value": float(np.sqrt(np.mean(self.residual_output**2))),
+            "unit": self.output_unit,
+        }
+        d["n_observations"] = int(self.angle_deg.size)
+        d["messages"] = list(self.messages)
+        return d
+
+
+def fit(
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+) -> PolarTumbleResult:
+    """Identify the static drift coefficients from polar-axis tumble data.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site, instrument (output unit, scale factor) and a :class:`PolarTumbleSpec`.
+    data : mapping
+        Columns ``mounting`` (str), ``angle_deg`` [deg] and ``output`` [instrument output unit];
+        one row per sample or per position average.
+    sigma : float, optional
+        Known noise per row [output unit]; estimated from the residuals when omitted.
+
+    Returns
+    -------
+    PolarTumbleResult
+    """
+    cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
+    mounting, angle_deg = cols["mounting"], cols["angle_deg"]
+    site, inst = plan.site, plan.instrument
+    _check_latitude(site.latitude_rad)
+    unknown = sorted(set(mounting) - set(table.MOUNTINGS))
+    if unknown:
+        raise DataError(
+            f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "
+            f"use {', '.join(table.MOUNTINGS)}"
+        )
+    present = [m for m in table.MOUNTINGS if np.any(mounting == m)]
+    f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
+    drift = inst.output_to_rate(cols["output"]) - w_in
+    sigma_rad_s = None if sigma is None else _sigma_rad_s(sigma, inst)
+    messages = _spacing_messages(mounting, angle_deg, present)
+    for msg in messages:
+        warnings.warn(msg, InertestWarning, stacklevel=2)
+    lsq, ident = identify_drift(
+        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s
+    )
+    k = DEG_PER_H_TO_RAD_PER_S
+    noise_deg_h = lsq.sigma / k if sigma is None else None
+    harmonics = {}
+    for m in present:
+        sel = mounting == m
+        try:
+            harmonics[m] = _harmonics(
+                m, angle_deg[sel], drift[sel] / k,
+                sigma=(noise_deg_h if sigma is None else sigma * inst.rad_s_per_output_unit / k),
+            )
+        except IdentifiabilityError as exc:
+            # The general least squares above still says what the data determine.
+            messages.append(f"no Fourier terms for {exc}")
+            warnings.warn(messages[-1], InertestWarning, stacklevel=2)
+    closed = _closed_forms(harmonics, site.latitude_rad, site.gravity_g)
+    fitted = drift - lsq.residuals
+    return PolarTumbleResult(
+        site_latitude_deg=site.latitude_deg,
+        site_gravity_m_s2=site.gravity_m_s2,
+        identification=ident,
+        harmonics=harmonics,
+        closed_form=closed,
+        mounting=mounting,
+        angle_deg=angle_deg,
+        drift_deg_h=drift / k,
+        fitted_deg_h=fitted / k,
+        residual_output=inst.rate_to_output(lsq.residuals),
+        output_unit=inst.output_unit,
+        messages=tuple(messages),
+    )
+
+
+def simulate(
+    plan: Plan,
+    coefficients_rad_s: NDArray[np.float64],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Readings of a virtual gyro on the plan's polar-axis tumble.
+
+    Parameters
+    ----------
+    plan : Plan
+        With a :class:`PolarTumbleSpec`.
+    coefficients_rad_s : ndarray, shape (10,)
+        True drift coefficients [rad/s per g^k] in the order of ``sdf_gyro.COEFFICIENTS``.
+    noise : float
+        Standard deviation of white noise per reading [output unit].
+    rng : Generator, int or None
+        Random source for the noise.
+
+    Returns
+    -------
+    dict
+        Columns ``mounting``, ``angle_deg``, ``output`` [output unit].
+    """
+    spec: PolarTumbleSpec = plan.procedure
+    site = plan.site
+    _check_latitude(site.latitude_rad)
+    reps = spec.samples_per_position
+    ang = np.repeat(np.asarray(spec.angles_deg, dtype=float), reps)
+    mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
+    angle_deg = np.tile(ang, len(spec.mountings))
+    f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
+    rate = w_in + model_drift(f, coefficients_rad_s)
+    output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+    return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
+
+
+def _check_latitude(latitude_rad: float) -> None:
+    if np.cos(latitude_rad) < _MIN_COS_LAT:
+        raise PlanError(
+            f"a polar-axis tumble at latitude {np.degrees(latitude_rad):.2f} deg gives the I axis "
+            "almost no gravity (cos L < 0.05); use a local-level tumble near the poles"
+        )
+
+
+def _sigma_rad_s(sigma: float, inst: Instrument) -> float:
+    if not np.isfinite(sigma) or sigma <= 0:
+        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+    return float(sigma) * inst.rad_s_per_output_unit
+
+
+def _kinematics(
+    mounting: NDArray, angle_rad: NDArray[np.float64], latitude_rad: float, gravity: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    f = np.empty((angle_rad.size, 3))
+    w = np.empty(angle_rad.size)
+    for m in np.unique(mounting):
+        sel = mounting == m
+        f[sel] = table.specific_force_ios(m, angle_rad[sel], latitude_rad, gravity)
+        w[sel] = table.input_rate(m, angle_rad[sel], latitude_rad)
+    return f, w
+
+
+def _spacing_messages(
+    mounting: NDArray, angle_deg: NDArray[np.float64], present: Sequence[str]
+) -> list[str]:
+    """The seed asks for angles equally spaced over 360 deg from 0, a multiple of 4 of them."""
+    out = []
+    for m in present:
+        a = np.unique(np.round(np.mod(angle_deg[mounting == m], 360.0), 9))
+        n = a.size
+        regular = np.allclose(a, np.arange(n) * 360.0 / n, atol=1e-6)
+        if not regular or n % 4:
+            out.append(
+                f"{m}: {n} distinct table angle(s) "
+                + ("not equally spaced from 0 over 360 deg" if not regular else "")
+                + (" and " if (not regular and n % 4) else "")
+                + (f"count {n} not a multiple of 4" if n % 4 else "")
+                + "; the Fourier terms are then correlated (general least squares still applies)"
+            )
+    return out
+
+
+def _harmonics(
+    mounting: str, angle_deg: NDArray[np.float64], drift_deg_h: NDArray[np.float64],
+    *, sigma: float | None,
+) -> MountingHarmonics:
+    try:
+        hf = harmonic_fit(angle_deg * DEG_TO_RAD, drift_deg_h, order=2, sigma=sigma)
+    except IdentifiabilityError as exc:
+        raise IdentifiabilityError(f"mounting {mounting}: {exc}") from None
+    terms = tuple(
+        Estimate(n, float(v), float(s), "deg/h")
+        for n, v, s in zip(hf.names, hf.values, hf.std, strict=True)
+    )
+    return MountingHarmonics(mounting, terms, angle_deg, drift_deg_h, hf)
+
+
+#: Closed-form separation for a pair of mountings (seed sec. 2(4), gamma restored).
+#: Each entry: (coefficient terms with weights as functions of sL, cL, gamma;
+#:              weights on [B0, S1, C1, S2, C2] of Np and of Sp as functions of sL, cL, gamma).
+def _pair_formulas(first: str, sL: float, cL: float, gm: float):
+    """Rows ``(terms, wN, wS)`` so that ``sum terms * D = wN . X_Np + wS . X_Sp``."""
+    a, b = ("DO", "DS") if first == "O" else ("DS", "DO")
+    ab, ba = ("DOO", "DSS") if first == "O" else ("DSS", "DOO")
+    x1 = "DIO" if first == "O" else "DSI"      # coupled with DI in S1
+    x2 = "DOS"                                  # coupled with the in-plane axis in C1
+    x3 = "DSI" if first == "O" else "DIO"      # alone in S2
+    z = np.zeros(5)
+
+    def e(i: int, v: float) -> NDArray[np.float64]:
+        w = z.copy()
+        w[i] = v
+        return w
+
+    rows = []
+    if abs(sL) > 1e-6:
+        rows += [
+            ({a: 1.0}, e(0, 1 / (2 * gm * sL)), e(0, -1 / (2 * gm * sL))),
+            ({x1: 1.0}, e(1, 1 / (2 * gm**2 * sL * cL)), e(1, -1 / (2 * gm**2 * sL * cL))),
+            ({x2: 1.0}, e(2, 1 / (2 * gm**2 * sL * cL)), e(2, -1 / (2 * gm**2 * sL * cL))),
+        ]
+    rows += [
+        ({"DI": 1.0}, e(1, 1 / (2 * gm * cL)), e(1, 1 / (2 * gm * cL))),
+        ({b: 1.0}, e(2, 1 / (2 * gm * cL)), e(2, 1 / (2 * gm * cL))),
+        ({x3: 1.0}, e(3, 1 / (gm**2 * cL**2)), e(3, 1 / (gm**2 * cL**2))),
+        ({ba: 1.0, "DII": -1.0}, e(4, 1 / (gm**2 * cL**2)), e(4, 1 / (gm**2 * cL**2))),
+        (
+            {"DF": 1.0, ab: gm**2 * sL**2, "DII": gm**2 * cL**2 / 2, ba: gm**2 * cL**2 / 2},
+            e(0, 0.5), e(0, 0.5),
+        ),
+    ]
+    return rows
+
+
+def _closed_forms(
+    harmonics: Mapping[str, MountingHarmonics], latitude_rad: float, gamma: float
+) -> dict[str, tuple[Combination, ...]]:
+    sL, cL = float(np.sin(latitude_rad)), float(np.cos(latitude_rad))
+    out: dict[str, tuple[Combination, ...]] = {}
+    for first in ("O", "S"):
+        n, s = f"{first}-Np", f"{first}-Sp"
+        if n not in harmonics or s not in harmonics:
+            continue
+        xn, xs = harmonics[n].fit.values, harmonics[s].fit.values
+        cn, cs = harmonics[n].fit.covariance, harmonics[s].fit.covariance
+        combos = []
+        for terms, wn, ws in _pair_formulas(first, sL, cL, gamma):
+            value = float(wn @ xn + ws @ xs)
+            std = float(np.sqrt(wn @ cn @ wn + ws @ cs @ ws))
+            lead = next(iter(terms))
+            combos.append(
+                Combination(
+                    name=combination_name(list(terms.items())),
+                    terms=dict(terms),
+                    value=value,
+                    std=std,
+                    unit=ENGINEERING_UNIT[lead],
+                )
+            )
+        out[first] = tuple(combos)
+    return out

@@ -1,0 +1,72 @@
+"""Pieces shared by the 1 g tumble procedures: data checks, truth handling, simulated noise."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.errors import DataError, PlanError
+
+
+def require_columns(
+    data: Mapping[str, object], numeric: Sequence[str], text: Sequence[str], *, procedure: str
+) -> dict[str, NDArray]:
+    """Return the named columns as arrays, checking presence, length and finiteness."""
+    missing = [c for c in (*text, *numeric) if c not in data]
+    if missing:
+        raise DataError(
+            f"{procedure} data lacks column(s) {', '.join(missing)}; it needs "
+            f"{', '.join((*text, *numeric))} (found: {', '.join(map(str, data)) or 'none'})"
+        )
+    out: dict[str, NDArray] = {}
+    n = None
+    for c in numeric:
+        try:
+            a = np.asarray(data[c], dtype=float)
+        except (TypeError, ValueError):
+            raise DataError(f'column "{c}" must be numeric') from None
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise DataError(
+                f'column "{c}" has {bad.size} NaN/inf value(s) (first at data row {bad[0] + 1}); '
+                "remove or repair those rows"
+            )
+        out[c] = a
+    for c in text:
+        out[c] = np.asarray(data[c]).astype(str)
+    lengths = {c: len(a) for c, a in out.items()}
+    n = next(iter(lengths.values()))
+    if any(v != n for v in lengths.values()):
+        raise DataError(f"columns have different lengths: {lengths}")
+    if n == 0:
+        raise DataError(f"{procedure} data has no rows")
+    return out
+
+
+def check_samples_per_position(value: object) -> int:
+    """Validate ``samples_per_position`` (a positive integer)."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+        raise PlanError(f"samples_per_position must be a positive integer, got {value!r}")
+    return value
+
+
+def check_no_unknown_keys(params: Mapping[str, object], known: Sequence[str], kind: str) -> None:
+    """Reject misspelt procedure parameters instead of silently using defaults."""
+    unknown = sorted(set(params) - set(known) - {"kind"})
+    if unknown:
+        raise PlanError(
+            f"[procedure] of kind {kind} has unknown parameter(s) {', '.join(unknown)}; "
+            f"known: {', '.join(known)}"
+        )
+
+
+def noise_samples(
+    n: int, sigma: float, rng: np.random.Generator | int | None
+) -> NDArray[np.float64]:
+    """White Gaussian noise of standard deviation ``sigma`` (zero when sigma is 0)."""
+    if not np.isfinite(sigma) or sigma < 0:
+        raise PlanError(f"noise sigma must be finite and >= 0, got {sigma}")
+    gen = np.random.default_rng(rng)
+    return gen.normal(0.0, sigma, size=n) if sigma > 0 else np.zeros(n)

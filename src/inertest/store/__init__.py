@@ -1,0 +1,1 @@
+"""Calibration history database."""

@@ -1,0 +1,22 @@
+"""Shared fixtures: paths to the examples and to ../shared/realdata."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def examples_dir() -> Path:
+    return REPO / "examples"
+
+
+@pytest.fixture
+def realdata_dir() -> Path:
+    path = REPO.parent / "shared" / "realdata"
+    if not path.is_dir():
+        pytest.skip(f"real data folder {path} not present (CI has ../shared beside the checkout)")
+    return path

@@ -1,0 +1,67 @@
+import numpy as np
+import pytest
+import scipy.linalg
+
+from inertest.errors import IdentifiabilityError, InputError
+from inertest.estimation.least_squares import identifiable_combinations, weighted_least_squares
+
+
+def test_full_rank_matches_normal_equations_and_lstsq():
+    rng = np.random.default_rng(1)
+    A = rng.normal(size=(40, 4)) * [1.0, 1e3, 1e-3, 5.0]  # badly scaled columns on purpose
+    y = A @ [1, 2e-3, 3e3, -4] + rng.normal(size=40) * 0.1
+    fit = weighted_least_squares(A, y)
+    x_ref, *_ = np.linalg.lstsq(A, y, rcond=None)
+    np.testing.assert_allclose(fit.x, x_ref, rtol=1e-9)
+    r = y - A @ x_ref
+    s2 = r @ r / (40 - 4)
+    np.testing.assert_allclose(fit.covariance, s2 * np.linalg.inv(A.T @ A), rtol=1e-8)
+    assert fit.dof == 36 and fit.rank == 4 and fit.identifiable.all()
+
+
+def test_known_sigmas_weight_rows():
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(30, 3))
+    s = rng.uniform(0.1, 2.0, size=30)
+    y = A @ [1, 2, 3] + rng.normal(size=30) * s
+    fit = weighted_least_squares(A, y, sigma=s)
+    W = np.diag(1 / s**2)
+    cov = np.linalg.inv(A.T @ W @ A)
+    np.testing.assert_allclose(fit.covariance, cov, rtol=1e-9)
+    np.testing.assert_allclose(fit.x, cov @ A.T @ W @ y, rtol=1e-9)
+    assert not fit.sigma_from_residuals
+
+
+def test_rank_deficient_null_space_and_combinations():
+    rng = np.random.default_rng(3)
+    B = rng.normal(size=(25, 3))
+    A = np.column_stack([B, B[:, 1] - 2 * B[:, 2]])  # x1, x2, x3 mix with x4
+    y = A @ [1.0, 2.0, 3.0, 4.0]
+    fit = weighted_least_squares(A, y, sigma=1.0)
+    assert fit.rank == 3
+    ref = scipy.linalg.null_space(A)
+    assert abs(abs(ref[:, 0] @ fit.null_space[:, 0]) - 1) < 1e-10
+    assert fit.identifiable.tolist() == [True, False, False, False]
+    rows = identifiable_combinations(fit.null_space, [1, 2, 3])
+    # null vector (0, 1, -2, -1): combinations orthogonal to it, in RREF
+    assert rows.shape == (2, 4)
+    for r in rows:
+        assert fit.is_identifiable(r)
+        v, _ = fit.combination(r)
+        assert v == pytest.approx(r @ [1, 2, 3, 4], abs=1e-10)
+    with pytest.raises(IdentifiabilityError):
+        fit.combination([0, 1, 0, 0])
+
+
+def test_bad_input():
+    A = np.ones((3, 2))
+    with pytest.raises(InputError, match="NaN"):
+        weighted_least_squares(A, [1, np.nan, 2])
+    with pytest.raises(InputError, match="do not match"):
+        weighted_least_squares(A, [1, 2])
+    with pytest.raises(IdentifiabilityError, match="zero"):
+        weighted_least_squares(np.zeros((3, 2)), [1, 2, 3])
+    with pytest.raises(IdentifiabilityError, match="degree of freedom"):
+        weighted_least_squares(np.eye(2), [1.0, 2.0])
+    with pytest.raises(InputError, match="positive"):
+        weighted_least_squares(np.eye(2), [1.0, 2.0], sigma=[1.0, 0.0])

@@ -1,0 +1,176 @@
+"""Polar-axis tumble: closed forms of seed 000, general LS, identifiability, Monte Carlo."""
+
+import numpy as np
+import pytest
+
+from inertest.earth import Site
+from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
+from inertest.models.sdf_gyro import COEFFICIENTS, coefficients_from_deg_h
+from inertest.plan import Instrument, Plan
+from inertest.procedures import polar_tumble as pt
+
+TRUTH = dict(DF=1.2, DI=0.85, DO=-0.62, DS=0.31, DIO=0.12, DOS=-0.08, DSI=0.05, DII=0.04,
+             DOO=-0.03, DSS=0.02)
+
+
+def make_plan(mountings=pt.table.MOUNTINGS, positions=16, spp=1, lat=34.246, unit="mA"):
+    spec = pt.PolarTumbleSpec.from_mapping(
+        {"mountings": list(mountings), "positions": positions, "samples_per_position": spp})
+    inst = Instrument(output_unit=unit, scale_factor=12.5 if unit == "mA" else None)
+    return Plan(Site.at(lat), inst, spec)
+
+
+def seed_terms(mounting, L, gm, c):
+    """Fourier terms written out from the seed's measurement equation (gamma = g/g0)."""
+    sL, cL = np.sin(L), np.cos(L)
+    sign = 1.0 if mounting.endswith("Np") else -1.0
+    if mounting.startswith("O"):
+        B0 = (c["DF"] + sign * gm * sL * c["DO"] + gm**2 * sL**2 * c["DOO"]
+              + gm**2 * cL**2 * (c["DII"] + c["DSS"]) / 2)
+        S1 = gm * cL * (c["DI"] + sign * gm * sL * c["DIO"])
+        C1 = gm * cL * (c["DS"] + sign * gm * sL * c["DOS"])
+        S2 = gm**2 * cL**2 * c["DSI"] / 2
+        C2 = gm**2 * cL**2 * (c["DSS"] - c["DII"]) / 2
+    else:
+        B0 = (c["DF"] + sign * gm * sL * c["DS"] + gm**2 * sL**2 * c["DSS"]
+              + gm**2 * cL**2 * (c["DII"] + c["DOO"]) / 2)
+        S1 = gm * cL * (c["DI"] + sign * gm * sL * c["DSI"])
+        C1 = gm * cL * (c["DO"] + sign * gm * sL * c["DOS"])
+        S2 = gm**2 * cL**2 * c["DIO"] / 2
+        C2 = gm**2 * cL**2 * (c["DOO"] - c["DII"]) / 2
+    return [B0, S1, C1, S2, C2]
+
+
+def test_seed000_fourier_terms_match_the_measurement_equation():
+    plan = make_plan()
+    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH))
+    res = pt.fit(plan, data, sigma=1e-3)
+    gm = plan.site.gravity_g
+    for m, h in res.harmonics.items():
+        np.testing.assert_allclose([t.value for t in h.terms],
+                                   seed_terms(m, plan.site.latitude_rad, gm, TRUTH), atol=1e-10)
+
+
+def test_seed000_exact_recovery_without_noise():
+    plan = make_plan()
+    res = pt.fit(plan, pt.simulate(plan, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    assert set(res.coefficients) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
+    for name, e in res.coefficients.items():
+        assert e.value == pytest.approx(TRUTH[name], abs=1e-10)
+    assert len(res.combinations) == 3
+    for c in res.combinations:
+        assert set(c.terms) <= {"DF", "DII", "DOO", "DSS"}
+        assert c.value == pytest.approx(c.evaluate(TRUTH), abs=1e-10)
+    names = [c.name for c in res.combinations]
+    assert names[0].startswith("DF + ") and "DOO - DII" in names and "DSS - DII" in names
+    assert any("not separable" in s for s in res.identification.not_separable)
+
+
+def test_seed000_closed_form_equals_general_least_squares():
+    # With noise, per pair: the closed form and the LS over that pair's data are the same
+    # estimator when the angles are equally spaced (orthogonal harmonics).
+    for pair in ("O", "S"):
+        plan = make_plan(mountings=(f"{pair}-Np", f"{pair}-Sp"), spp=3)
+        data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.01, rng=7)
+        res = pt.fit(plan, data)
+        x = dict(res.coefficients)
+        for cf in res.closed_form[pair]:
+            if len(cf.terms) == 1:
+                (name,) = cf.terms
+                assert cf.value == pytest.approx(x[name].value, abs=1e-10)
+            else:
+                match = [c for c in res.combinations if c.terms.keys() <= cf.terms.keys()
+                         or cf.terms.keys() <= c.terms.keys()]
+                assert match  # the LS reports the combination (possibly in another basis)
+            assert cf.value == pytest.approx(cf.evaluate(TRUTH), abs=6 * cf.std)
+        # Closed-form and LS std agree too (same estimator, same noise estimate).
+        for cf in res.closed_form[pair]:
+            if len(cf.terms) == 1:
+                (name,) = cf.terms
+                assert cf.std == pytest.approx(x[name].std, rel=0.05)
+
+
+def test_one_mounting_determines_only_what_it_can():
+    plan = make_plan(mountings=("O-Np",))
+    res = pt.fit(plan, pt.simulate(plan, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    assert set(res.coefficients) == {"DSI"}  # S2 = cos^2 L DSI / 2 alone
+    assert res.identification.rank == 5
+    assert len(res.combinations) == 4
+    for c in res.combinations:
+        assert c.value == pytest.approx(c.evaluate(TRUTH), abs=1e-10)
+    assert res.closed_form == {}
+
+
+def test_rate_output_unit_and_given_sigma():
+    plan = make_plan(unit="deg/h")
+    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.05, rng=3)
+    res = pt.fit(plan, data, sigma=0.05)
+    assert not res.identification.sigma_from_residuals
+    # For 4 x 16 equally spaced readings DI appears in S1 of every mounting:
+    # S1 = gamma cosL DI + ..., var(S1) = 2 s^2/16, averaged over 4 mountings.
+    gm, cL = plan.site.gravity_g, np.cos(plan.site.latitude_rad)
+    expected = 0.05 * np.sqrt(2 / 16) / np.sqrt(4) / (gm * cL)
+    assert res.coefficients["DI"].std == pytest.approx(expected, rel=1e-9)
+
+
+def test_spacing_warning():
+    plan = make_plan(positions=10)
+    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH))
+    with pytest.warns(InertestWarning, match="not a multiple of 4"):
+        res = pt.fit(plan, data, sigma=1e-3)
+    assert res.coefficients["DI"].value == pytest.approx(TRUTH["DI"], abs=1e-10)
+
+
+def test_bad_data():
+    plan = make_plan()
+    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.01, rng=1)
+    with pytest.raises(DataError, match="lacks column"):
+        pt.fit(plan, {k: v for k, v in data.items() if k != "angle_deg"})
+    bad = dict(data, output=np.where(np.arange(data["output"].size) == 5, np.nan, data["output"]))
+    with pytest.raises(DataError, match="NaN.*row 6"):
+        pt.fit(plan, bad)
+    bad = dict(data, mounting=np.where(data["mounting"] == "O-Np", "O-Up", data["mounting"]))
+    with pytest.raises(DataError, match="O-Up"):
+        pt.fit(plan, bad)
+    few = make_plan(mountings=("O-Np", "O-Sp"), positions=3)
+    with pytest.warns(InertestWarning) as rec:
+        res = pt.fit(few, pt.simulate(few, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    assert any("no Fourier terms for mounting O-Np: 3 distinct" in str(w.message) for w in rec)
+    assert res.harmonics == {} and res.closed_form == {}
+    for c in res.combinations:  # the general LS still says what 3 angles determine
+        assert c.value == pytest.approx(c.evaluate(TRUTH), abs=1e-10)
+    one = {"mounting": np.array(["O-Np"]), "angle_deg": np.array([0.0]), "output": np.ones(1)}
+    with pytest.raises(IdentifiabilityError, match="no degree of freedom"), \
+            pytest.warns(InertestWarning):
+        pt.fit(few, one)
+    with pytest.raises(PlanError, match="cos L"):
+        pt.simulate(make_plan(lat=89.5), coefficients_from_deg_h(TRUTH))
+    with pytest.raises(PlanError, match="unknown parameter"):
+        pt.PolarTumbleSpec.from_mapping({"postions": 8})
+
+
+@pytest.mark.slow
+def test_monte_carlo_reported_std_matches_scatter():
+    """Reported 1-sigma (noise from residuals) vs the scatter over 400 noisy runs, within 20 %."""
+    plan = make_plan(positions=8, spp=2)
+    c = coefficients_from_deg_h(TRUTH)
+    rng = np.random.default_rng(2024)
+    runs, reported = [], []
+    for _ in range(400):
+        res = pt.fit(plan, pt.simulate(plan, c, noise=0.01, rng=rng))
+        vals = [res.coefficients[n].value for n in res.coefficients]
+        vals += [k.value for k in res.combinations]
+        runs.append(vals)
+        reported.append([res.coefficients[n].std for n in res.coefficients]
+                        + [k.std for k in res.combinations])
+    runs, reported = np.array(runs), np.array(reported)
+    ratio = runs.std(axis=0, ddof=1) / np.sqrt(np.mean(reported**2, axis=0))
+    assert np.all(np.abs(ratio - 1) < 0.2), ratio
+    # and the estimates are unbiased to within 4 standard errors of the mean
+    truth = [TRUTH[n] for n in res.coefficients] + [k.evaluate(TRUTH) for k in res.combinations]
+    z = (runs.mean(axis=0) - truth) / (runs.std(axis=0, ddof=1) / np.sqrt(len(runs)))
+    assert np.all(np.abs(z) < 4), z
+
+
+def test_coefficient_order_is_the_design_order():
+    assert COEFFICIENTS[:4] == ("DF", "DI", "DO", "DS")
