@@ -20,7 +20,7 @@ import numpy as np
 import inertest
 from inertest.earth import Site
 from inertest.io.data_file import read_table, write_table
-from inertest.models.sdf_gyro import coefficients_from_deg_h, drift_regressors
+from inertest.models.sdf_gyro import drift_regressors
 from inertest.plan import Instrument, Plan
 from inertest.procedures import polar_tumble
 from inertest.procedures.polar_tumble import PolarTumbleSpec
@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> None:
     spp = max(1, rows // 64)
     plan = Plan(Site.at(34.246), Instrument(output_unit="mA", scale_factor=12.5),
                 PolarTumbleSpec(samples_per_position=spp))
-    truth = coefficients_from_deg_h({"DF": 1.2, "DI": 0.85, "DO": -0.6, "DSI": 0.05})
+    truth = {"DF": 1.2, "DI": 0.85, "DO": -0.6, "DSI": 0.05}
     data = inertest.simulate(plan, truth, noise=0.01, rng=1)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "tumble.csv"

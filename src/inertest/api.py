@@ -21,7 +21,6 @@ from numpy.typing import NDArray
 from inertest.io.data_file import read_table
 from inertest.io.plan_file import load_plan as _load_plan
 from inertest.io.plan_file import load_truth
-from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.plan import Plan
 from inertest.procedures import procedure_module
 
@@ -64,7 +63,7 @@ def fit(
 
 def simulate(
     plan: Plan | PathLike,
-    truth: Mapping[str, float] | PathLike | NDArray[np.float64],
+    truth: Mapping[str, float] | PathLike,
     *,
     noise: float = 0.0,
     rng: np.random.Generator | int | None = None,
@@ -73,16 +72,12 @@ def simulate(
 
     Parameters
     ----------
-    truth : mapping, path or ndarray
-        True coefficients: ``{name: value}`` in deg/h units, a TOML truth file, or the SI vector.
+    truth : mapping or path
+        True coefficients ``{name: value}`` in the procedure's engineering units (deg/h, deg/h/g,
+        deg/h/g^2 for an SDF gyro), or a TOML truth file of them.
     noise : float
         White noise per reading [output unit].
     """
     p = plan if isinstance(plan, Plan) else load_plan(plan)
-    if isinstance(truth, np.ndarray):
-        c = truth
-    elif isinstance(truth, Mapping):
-        c = coefficients_from_deg_h(truth)
-    else:
-        c = load_truth(truth)
-    return procedure_module(p.kind).simulate(p, c, noise=noise, rng=rng)
+    t = truth if isinstance(truth, Mapping) else load_truth(truth)
+    return procedure_module(p.kind).simulate(p, t, noise=noise, rng=rng)

@@ -24,7 +24,7 @@ from inertest.io.data_file import write_table
 from inertest.io.plan_file import read_toml
 from inertest.models.sdf_gyro import COEFFICIENTS
 from inertest.report.html import Section, page, paragraph
-from inertest.report.tumble import result_sections
+from inertest.report.sections import result_sections
 
 
 @dataclass(frozen=True)

@@ -25,9 +25,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.earth import Site
 from inertest.errors import PlanError
-from inertest.units import DEG_PER_H_TO_RAD_PER_S, ELECTRICAL_UNITS, RATE_UNITS
+from inertest.units import (
+    ACCEL_UNITS,
+    COUNT_UNITS,
+    DEG_PER_H_TO_RAD_PER_S,
+    ELECTRICAL_UNITS,
+    RATE_UNITS,
+)
 
-INSTRUMENT_KINDS: tuple[str, ...] = ("sdf-gyro",)
+#: Instrument kinds a plan may name; each procedure says which it accepts.
+INSTRUMENT_KINDS: tuple[str, ...] = (
+    "sdf-gyro", "rate-gyro", "accelerometer", "gyro-triad", "accelerometer-triad", "imu",
+)
 
 
 @dataclass(frozen=True)
@@ -41,8 +50,9 @@ class Instrument:
     serial : str
         Serial number (free text).
     output_unit : str
-        Unit of the recorded output: a rate unit (``deg/h``, ``deg/s``, ``rad/s``) or an
-        electrical unit (``mA``, ``uA``, ``A``, ``V``, ``mV``) of a torque-rebalance loop.
+        Unit of the recorded output: a rate unit (``deg/h``, ``deg/s``, ``rad/s``), an
+        electrical unit (``mA``, ``uA``, ``A``, ``V``, ``mV``) of a torque-rebalance loop, a
+        specific-force unit (``m/s^2``, ``g``, ``mg``, ``ug``) or ``count`` (raw digital output).
     scale_factor : float or None
         Torquer scale factor S_T [deg/h per output unit] for electrical outputs.
     """
@@ -57,12 +67,12 @@ class Instrument:
             raise PlanError(
                 f'unknown instrument kind "{self.kind}"; use one of {", ".join(INSTRUMENT_KINDS)}'
             )
-        known = [*RATE_UNITS, *ELECTRICAL_UNITS]
+        known = [*RATE_UNITS, *ELECTRICAL_UNITS, *ACCEL_UNITS, *COUNT_UNITS]
         if self.output_unit not in known:
             raise PlanError(
                 f'unknown output_unit "{self.output_unit}"; use one of {", ".join(known)}'
             )
-        if self.output_unit in ELECTRICAL_UNITS:
+        if self.kind == "sdf-gyro" and self.output_unit not in RATE_UNITS:
             sf = self.scale_factor
             if sf is None or not np.isfinite(sf) or sf == 0:
                 raise PlanError(
@@ -72,10 +82,18 @@ class Instrument:
 
     @property
     def rad_s_per_output_unit(self) -> float:
-        """Factor from the recorded output to the indicated rate [rad/s per output unit]."""
+        """Factor from the recorded output to the indicated rate [rad/s per output unit].
+
+        A rate output converts by its unit; any other output needs the scale factor
+        [deg/h per output unit].
+        """
         if self.output_unit in RATE_UNITS:
             return RATE_UNITS[self.output_unit]
-        assert self.scale_factor is not None
+        if self.scale_factor is None:
+            raise PlanError(
+                f'output_unit "{self.output_unit}" is not a rate: give [instrument] scale_factor '
+                f"in deg/h per {self.output_unit}"
+            )
         return float(self.scale_factor) * DEG_PER_H_TO_RAD_PER_S
 
     def output_to_rate(self, output: ArrayLike) -> NDArray[np.float64]:

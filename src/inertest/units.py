@@ -44,6 +44,9 @@ RATE_UNITS: dict[str, float] = {
 #: Electrical output units of torque-rebalance loops (need a scale factor in deg/h per unit).
 ELECTRICAL_UNITS: dict[str, float] = {"A": 1.0, "mA": 1e-3, "uA": 1e-6, "V": 1.0, "mV": 1e-3}
 
+#: Raw digital outputs (counts, LSB); the procedure estimates or is given their scale.
+COUNT_UNITS: dict[str, float] = {"count": 1.0}
+
 #: Specific-force units accepted at the edges, with their factor to m/s^2.
 ACCEL_UNITS: dict[str, float] = {
     "m/s^2": 1.0,

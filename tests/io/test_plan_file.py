@@ -2,7 +2,6 @@ import pytest
 
 from inertest.errors import PlanError, UnitError
 from inertest.io.plan_file import load_plan, load_truth
-from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 PLAN = """
 [site]
@@ -34,8 +33,9 @@ def test_plan_defaults_and_truth(tmp_path):
     plan = load_plan(write(tmp_path, PLAN))
     assert plan.site.gravity_m_s2 == pytest.approx(9.8061978, abs=1e-6)
     assert plan.procedure.angles_deg == (0, 45, 90, 135, 180, 225, 270, 315)
-    truth = load_truth(write(tmp_path, "[coefficients]\nDF = 2.0\n", "t.toml"))
-    assert truth[0] == pytest.approx(2.0 * DEG_PER_H_TO_RAD_PER_S)
+    assert load_truth(write(tmp_path, "[coefficients]\nDF = 2.0\n", "t.toml")) == {"DF": 2.0}
+    with pytest.raises(PlanError, match="DF must be a number"):
+        load_truth(write(tmp_path, 'DF = "two"\n', "t2.toml"))
 
 
 @pytest.mark.parametrize(

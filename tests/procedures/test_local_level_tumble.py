@@ -3,7 +3,6 @@ import pytest
 
 from inertest.earth import OMEGA_IE, Site
 from inertest.errors import InertestWarning, InputError
-from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.plan import Instrument, Plan
 from inertest.procedures import local_level_tumble as ll
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
@@ -23,7 +22,7 @@ def make_plan(positions=None, spp=1, lat=34.246):
 def test_seed000_readings_written_out_with_earth_rate():
     # I up (UNW): reading = W sinL + DF + g DI + g^2 DII; I north (NUE): W cosL + DF + g DO + ...
     plan = make_plan(["UNW", "NUE"])
-    d = ll.simulate(plan, coefficients_from_deg_h(TRUTH))
+    d = ll.simulate(plan, TRUTH)
     L, gm = plan.site.latitude_rad, plan.site.gravity_g
     w = OMEGA_IE / DEG_PER_H_TO_RAD_PER_S
     np.testing.assert_allclose(d["output"], [
@@ -34,7 +33,7 @@ def test_seed000_readings_written_out_with_earth_rate():
 
 def test_exact_recovery_and_what_cannot_be_found():
     plan = make_plan()
-    res = ll.fit(plan, ll.simulate(plan, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    res = ll.fit(plan, ll.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DI", "DO", "DS"}
     for n, e in res.coefficients.items():
         assert e.value == pytest.approx(TRUTH[n], abs=1e-10)
@@ -49,7 +48,7 @@ def test_exact_recovery_and_what_cannot_be_found():
 
 def test_unbalanced_plan_warns_and_left_handed_rejected():
     plan = make_plan(["UNW", "USE", "NUE", "NDW", "ENU", "ESD"])
-    d = ll.simulate(plan, coefficients_from_deg_h(TRUTH))
+    d = ll.simulate(plan, TRUTH)
     with pytest.warns(InertestWarning, match="I axis is never both up and down"):
         res = ll.fit(plan, d, sigma=1e-3)
     assert "DI" not in res.coefficients
@@ -63,7 +62,7 @@ def test_unbalanced_plan_warns_and_left_handed_rejected():
 @pytest.mark.slow
 def test_monte_carlo_reported_std_matches_scatter():
     plan = make_plan(spp=2)
-    c = coefficients_from_deg_h(TRUTH)
+    c = TRUTH
     rng = np.random.default_rng(11)
     vals, stds = [], []
     for _ in range(400):

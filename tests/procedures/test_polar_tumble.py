@@ -5,7 +5,7 @@ import pytest
 
 from inertest.earth import Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
-from inertest.models.sdf_gyro import COEFFICIENTS, coefficients_from_deg_h
+from inertest.models.sdf_gyro import COEFFICIENTS
 from inertest.plan import Instrument, Plan
 from inertest.procedures import polar_tumble as pt
 
@@ -43,7 +43,7 @@ def seed_terms(mounting, L, gm, c):
 
 def test_seed000_fourier_terms_match_the_measurement_equation():
     plan = make_plan()
-    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH))
+    data = pt.simulate(plan, TRUTH)
     res = pt.fit(plan, data, sigma=1e-3)
     gm = plan.site.gravity_g
     for m, h in res.harmonics.items():
@@ -53,7 +53,7 @@ def test_seed000_fourier_terms_match_the_measurement_equation():
 
 def test_seed000_exact_recovery_without_noise():
     plan = make_plan()
-    res = pt.fit(plan, pt.simulate(plan, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    res = pt.fit(plan, pt.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
     for name, e in res.coefficients.items():
         assert e.value == pytest.approx(TRUTH[name], abs=1e-10)
@@ -71,7 +71,7 @@ def test_seed000_closed_form_equals_general_least_squares():
     # estimator when the angles are equally spaced (orthogonal harmonics).
     for pair in ("O", "S"):
         plan = make_plan(mountings=(f"{pair}-Np", f"{pair}-Sp"), spp=3)
-        data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.01, rng=7)
+        data = pt.simulate(plan, TRUTH, noise=0.01, rng=7)
         res = pt.fit(plan, data)
         x = dict(res.coefficients)
         for cf in res.closed_form[pair]:
@@ -92,7 +92,7 @@ def test_seed000_closed_form_equals_general_least_squares():
 
 def test_one_mounting_determines_only_what_it_can():
     plan = make_plan(mountings=("O-Np",))
-    res = pt.fit(plan, pt.simulate(plan, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+    res = pt.fit(plan, pt.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DSI"}  # S2 = cos^2 L DSI / 2 alone
     assert res.identification.rank == 5
     assert len(res.combinations) == 4
@@ -103,7 +103,7 @@ def test_one_mounting_determines_only_what_it_can():
 
 def test_rate_output_unit_and_given_sigma():
     plan = make_plan(unit="deg/h")
-    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.05, rng=3)
+    data = pt.simulate(plan, TRUTH, noise=0.05, rng=3)
     res = pt.fit(plan, data, sigma=0.05)
     assert not res.identification.sigma_from_residuals
     # For 4 x 16 equally spaced readings DI appears in S1 of every mounting:
@@ -115,7 +115,7 @@ def test_rate_output_unit_and_given_sigma():
 
 def test_spacing_warning():
     plan = make_plan(positions=10)
-    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH))
+    data = pt.simulate(plan, TRUTH)
     with pytest.warns(InertestWarning, match="not a multiple of 4"):
         res = pt.fit(plan, data, sigma=1e-3)
     assert res.coefficients["DI"].value == pytest.approx(TRUTH["DI"], abs=1e-10)
@@ -123,7 +123,7 @@ def test_spacing_warning():
 
 def test_bad_data():
     plan = make_plan()
-    data = pt.simulate(plan, coefficients_from_deg_h(TRUTH), noise=0.01, rng=1)
+    data = pt.simulate(plan, TRUTH, noise=0.01, rng=1)
     with pytest.raises(DataError, match="lacks column"):
         pt.fit(plan, {k: v for k, v in data.items() if k != "angle_deg"})
     bad = dict(data, output=np.where(np.arange(data["output"].size) == 5, np.nan, data["output"]))
@@ -134,7 +134,7 @@ def test_bad_data():
         pt.fit(plan, bad)
     few = make_plan(mountings=("O-Np", "O-Sp"), positions=3)
     with pytest.warns(InertestWarning) as rec:
-        res = pt.fit(few, pt.simulate(few, coefficients_from_deg_h(TRUTH)), sigma=1e-3)
+        res = pt.fit(few, pt.simulate(few, TRUTH), sigma=1e-3)
     assert any("no Fourier terms for mounting O-Np: 3 distinct" in str(w.message) for w in rec)
     assert res.harmonics == {} and res.closed_form == {}
     for c in res.combinations:  # the general LS still says what 3 angles determine
@@ -144,7 +144,7 @@ def test_bad_data():
             pytest.warns(InertestWarning):
         pt.fit(few, one)
     with pytest.raises(PlanError, match="cos L"):
-        pt.simulate(make_plan(lat=89.5), coefficients_from_deg_h(TRUTH))
+        pt.simulate(make_plan(lat=89.5), TRUTH)
     with pytest.raises(PlanError, match="unknown parameter"):
         pt.PolarTumbleSpec.from_mapping({"postions": 8})
 
@@ -153,7 +153,7 @@ def test_bad_data():
 def test_monte_carlo_reported_std_matches_scatter():
     """Reported 1-sigma (noise from residuals) vs the scatter over 400 noisy runs, within 20 %."""
     plan = make_plan(positions=8, spp=2)
-    c = coefficients_from_deg_h(TRUTH)
+    c = TRUTH
     rng = np.random.default_rng(2024)
     runs, reported = [], []
     for _ in range(400):

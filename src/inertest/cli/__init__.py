@@ -18,8 +18,8 @@ from inertest.errors import InertestError
 #: (module, attribute) of each sub-command, in the order ``inertest --help`` lists them.
 _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.demo", "demo"),
-    ("inertest.cli.tumble", "simulate"),
-    ("inertest.cli.tumble", "fit"),
+    ("inertest.cli.procedure", "simulate"),
+    ("inertest.cli.procedure", "fit"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from inertest.cli.tumble import print_result
+from inertest.cli.procedure import print_result
 from inertest.demo import find_examples, run_campaign, write_campaign_report
 
 

@@ -8,14 +8,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from inertest.earth import Site
 from inertest.errors import PlanError
-from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.plan import Instrument, Plan
-from inertest.procedures import SPECS, procedure_module
+from inertest.procedures import procedure_module
 
 
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
@@ -62,8 +58,7 @@ def plan_from_mapping(doc: Mapping[str, Any], *, source: str = "plan") -> Plan:
     kind = proc_t.get("kind")
     if kind is None:
         raise PlanError(f"{source}: [procedure] needs kind (e.g. \"polar-tumble\")")
-    procedure_module(str(kind))  # clear error for unknown kinds
-    spec = SPECS[str(kind)].from_mapping(proc_t)
+    spec = procedure_module(str(kind)).SPEC.from_mapping(proc_t)
     return Plan(site=site, instrument=instrument, procedure=spec)
 
 
@@ -72,19 +67,22 @@ def load_plan(path: str | os.PathLike[str]) -> Plan:
     return plan_from_mapping(read_toml(path, "plan"), source=f"plan {path}")
 
 
-def load_truth(path: str | os.PathLike[str]) -> NDArray[np.float64]:
-    """Read true drift coefficients [deg/h, deg/h/g, deg/h/g^2] -> vector [rad/s per g^k].
+def load_truth(path: str | os.PathLike[str]) -> dict[str, float]:
+    """Read true coefficients of a virtual instrument, in the procedure's engineering units.
 
-    The file holds ``NAME = value`` pairs, at top level or in a ``[coefficients]`` table.
+    The file holds ``NAME = value`` pairs, at top level or in a ``[coefficients]`` table (for an
+    SDF gyro: DF, DI, ... in deg/h, deg/h/g, deg/h/g^2). Names are checked by the procedure.
     """
     doc = read_toml(path, "truth")
     values = doc.get("coefficients", doc)
     if not isinstance(values, Mapping):
         raise PlanError(f"truth file {path}: [coefficients] must be a table of NAME = value")
-    try:
-        return coefficients_from_deg_h({k: float(v) for k, v in values.items()})
-    except (TypeError, ValueError) as exc:
-        raise PlanError(f"truth file {path}: {exc}") from None
+    out = {}
+    for k, v in values.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise PlanError(f"truth file {path}: {k} must be a number, got {v!r}")
+        out[str(k)] = float(v)
+    return out
 
 
 def _opt_float(v: object) -> float | None:

@@ -1,25 +1,31 @@
 """Test procedures: plan -> observables -> identification -> result.
 
-:data:`PROCEDURES` maps each ``[procedure] kind`` of a plan file to its module, which provides a
-``Spec`` class with ``from_mapping``, and ``fit(plan, data, sigma=None)`` and
-``simulate(plan, coefficients, noise=..., rng=...)`` functions.
+Each procedure is a module listed in :data:`_MODULES` that provides
+
+* ``KIND``: the ``[procedure] kind`` of plan files, and ``SPEC``: its parameter class with
+  ``SPEC.from_mapping(params)``;
+* ``fit(plan, data, *, sigma=None)`` -> a frozen result with ``procedure``, ``identification``
+  (:class:`~inertest.procedures.results.Identification`) and ``to_dict()``;
+* ``simulate(plan, truth, *, noise=0.0, rng=None)`` -> data columns, with ``truth`` a mapping of
+  coefficient names to values in the procedure's engineering units.
 """
 
 from __future__ import annotations
 
+import importlib
 from types import ModuleType
 
 from inertest.errors import PlanError
-from inertest.procedures import local_level_tumble, polar_tumble
 
-PROCEDURES: dict[str, ModuleType] = {
-    polar_tumble.KIND: polar_tumble,
-    local_level_tumble.KIND: local_level_tumble,
-}
-SPECS = {
-    polar_tumble.KIND: polar_tumble.PolarTumbleSpec,
-    local_level_tumble.KIND: local_level_tumble.LocalLevelTumbleSpec,
-}
+_MODULES: tuple[str, ...] = (
+    "polar_tumble",
+    "local_level_tumble",
+)
+
+PROCEDURES: dict[str, ModuleType] = {}
+for _name in _MODULES:
+    _module = importlib.import_module(f"inertest.procedures.{_name}")
+    PROCEDURES[_module.KIND] = _module
 
 
 def procedure_module(kind: str) -> ModuleType:

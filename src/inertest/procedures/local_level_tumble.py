@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from inertest.equipment import level_fixture as fixture
 from inertest.errors import InertestWarning, PlanError
+from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Plan
 from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
@@ -75,6 +76,9 @@ class LocalLevelTumbleSpec:
             fixture.axes_from_directions(*triple)  # validates letters and handedness
             positions.append(tuple(str(t).upper() for t in triple))
         return cls(positions=tuple(positions), samples_per_position=spp)  # type: ignore[arg-type]
+
+
+SPEC = LocalLevelTumbleSpec
 
 
 @dataclass(frozen=True)
@@ -185,12 +189,14 @@ def fit(
 
 def simulate(
     plan: Plan,
-    coefficients_rad_s: NDArray[np.float64],
+    truth: Mapping[str, float],
     *,
     noise: float = 0.0,
     rng: np.random.Generator | int | None = None,
 ) -> dict[str, NDArray]:
     """Readings of a virtual gyro on the plan's local-level tumble (Earth rate included).
+
+    ``truth`` maps coefficient names to values [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
 
     Returns columns ``I_dir``, ``O_dir``, ``S_dir``, ``output`` [output unit].
     """
@@ -200,7 +206,8 @@ def simulate(
     cols = [np.array([p[j] for p in pos]) for j in range(3)]
     axes, _ = _axes(*cols)
     f = fixture.specific_force_ios(axes, plan.site.gravity_m_s2)
-    rate = fixture.input_rate(axes, plan.site.latitude_rad) + model_drift(f, coefficients_rad_s)
+    drift = model_drift(f, coefficients_from_deg_h(truth))
+    rate = fixture.input_rate(axes, plan.site.latitude_rad) + drift
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
 

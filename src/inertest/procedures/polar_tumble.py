@@ -32,11 +32,12 @@ from numpy.typing import NDArray
 from inertest.equipment import polar_axis_table as table
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
-from inertest.models.sdf_gyro import ENGINEERING_UNIT
+from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Instrument, Plan
+from inertest.procedures.identification import combination_name
 from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
-from inertest.procedures.sdf_drift import combination_name, identify_drift
+from inertest.procedures.sdf_drift import identify_drift
 from inertest.procedures.tumble_common import (
     check_no_unknown_keys,
     check_samples_per_position,
@@ -94,6 +95,9 @@ class PolarTumbleSpec:
             raise PlanError("the plan lists no table angles")
         spp = check_samples_per_position(params.get("samples_per_position", 1))
         return cls(mountings=mountings, angles_deg=angles, samples_per_position=spp)
+
+
+SPEC = PolarTumbleSpec
 
 
 @dataclass(frozen=True)
@@ -244,7 +248,7 @@ def fit(
 
 def simulate(
     plan: Plan,
-    coefficients_rad_s: NDArray[np.float64],
+    truth: Mapping[str, float],
     *,
     noise: float = 0.0,
     rng: np.random.Generator | int | None = None,
@@ -255,8 +259,8 @@ def simulate(
     ----------
     plan : Plan
         With a :class:`PolarTumbleSpec`.
-    coefficients_rad_s : ndarray, shape (10,)
-        True drift coefficients [rad/s per g^k] in the order of ``sdf_gyro.COEFFICIENTS``.
+    truth : mapping
+        True drift coefficients by name [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
     noise : float
         Standard deviation of white noise per reading [output unit].
     rng : Generator, int or None
@@ -275,7 +279,7 @@ def simulate(
     mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
     angle_deg = np.tile(ang, len(spec.mountings))
     f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
-    rate = w_in + model_drift(f, coefficients_rad_s)
+    rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
 

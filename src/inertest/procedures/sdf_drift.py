@@ -12,13 +12,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.estimation.least_squares import (
-    LinearFit,
-    identifiable_combinations,
-    weighted_least_squares,
-)
+from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
-from inertest.procedures.results import Combination, Estimate, Identification
+from inertest.procedures.identification import identify
+from inertest.procedures.results import Identification
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 _SQUARES = ("DII", "DOO", "DSS")
@@ -58,68 +55,20 @@ def identify_drift(
         Coefficients, combinations and statements in deg/h, deg/h/g, deg/h/g^2.
     """
     A = drift_regressors(f_ios_g)
-    fit = weighted_least_squares(A, drift_rad_s, sigma=sigma_rad_s)
     k = DEG_PER_H_TO_RAD_PER_S
-    ident = fit.identifiable
-    coefficients = {
-        name: Estimate(name, float(fit.x[i] / k), float(fit.std[i] / k), ENGINEERING_UNIT[name])
-        for i, name in enumerate(COEFFICIENTS)
-        if ident[i]
-    }
-    rest = [i for i in range(len(COEFFICIENTS)) if not ident[i]]
-    order = [COEFFICIENTS.index(n) for n in pivot_order if COEFFICIENTS.index(n) in rest]
-    order += [i for i in rest if i not in order]
-    rows = identifiable_combinations(fit.null_space, rest, pivot_order=order)
-    combinations = tuple(
-        _combination(row, fit, normalize_to) for row in rows if np.count_nonzero(row) > 0
-    )
-    result = Identification(
-        coefficients=coefficients,
-        combinations=combinations,
-        not_separable=_explain_null_space(fit, A, gravity_g),
-        covariance=fit.covariance / k**2,
+    return identify(
+        A,
+        drift_rad_s,
         names=COEFFICIENTS,
-        noise_sigma=float(fit.sigma / k) if fit.sigma_from_residuals else float("nan"),
+        units=ENGINEERING_UNIT,
+        si_per_unit={n: k for n in COEFFICIENTS},
         noise_unit="deg/h",
-        sigma_from_residuals=fit.sigma_from_residuals,
-        dof=fit.dof,
-        rank=fit.rank,
-        residuals=fit.residuals / k,
+        si_per_noise_unit=k,
+        sigma_si=sigma_rad_s,
+        pivot_order=pivot_order,
+        normalize_to=normalize_to,
+        explain=lambda fit, design: _explain_null_space(fit, design, gravity_g),
     )
-    return fit, result
-
-
-def _combination(row: NDArray[np.float64], fit: LinearFit, normalize_to: str | None) -> Combination:
-    if normalize_to is not None:
-        j = COEFFICIENTS.index(normalize_to)
-        if row[j] != 0:
-            row = row / row[j]
-    nz = [i for i in np.flatnonzero(row)]
-    lead = next(i for i in nz if abs(row[i] - 1.0) < 1e-12)
-    ordered = [lead] + [i for i in nz if i != lead]
-    value, std = fit.combination(row)
-    k = DEG_PER_H_TO_RAD_PER_S
-    return Combination(
-        name=combination_name([(COEFFICIENTS[i], float(row[i])) for i in ordered]),
-        terms={COEFFICIENTS[i]: float(row[i]) for i in ordered},
-        value=value / k,
-        std=std / k,
-        unit=ENGINEERING_UNIT[COEFFICIENTS[lead]],
-    )
-
-
-def combination_name(terms: Sequence[tuple[str, float]]) -> str:
-    """Readable name of a weighted sum, e.g. ``"DF + 0.996*DII"`` or ``"DOO - DII"``."""
-    parts = []
-    for j, (name, w) in enumerate(terms):
-        mag = abs(w)
-        sign = "-" if w < 0 else "+"
-        body = name if abs(mag - 1.0) < 1e-12 else f"{mag:.6g}*{name}"
-        if j == 0:
-            parts.append(body if w > 0 else f"-{body}")
-        else:
-            parts.append(f"{sign} {body}")
-    return " ".join(parts)
 
 
 def _explain_null_space(

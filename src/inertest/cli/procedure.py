@@ -1,4 +1,4 @@
-"""``inertest simulate`` and ``inertest fit``."""
+"""``inertest simulate`` and ``inertest fit``: any procedure of a plan file."""
 
 from __future__ import annotations
 
@@ -16,7 +16,8 @@ from inertest.io.atomic import target_directory
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 from inertest.report.html import page
-from inertest.report.tumble import coefficient_rows, result_sections
+from inertest.report.identification import coefficient_rows
+from inertest.report.sections import result_sections
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -73,7 +74,7 @@ def fit(
 
 
 def print_result(result, truth: Mapping[str, float] | None = None) -> None:
-    """Terminal table of a tumble result, then what the test could not determine."""
+    """Terminal table of a procedure's result, then what the test could not determine."""
     ident = result.identification
     header, rows = coefficient_rows(ident, truth)
     print_table(f"{result.procedure}: what the data determine", header, rows)

@@ -1,0 +1,58 @@
+"""Tables of what a linear test determined: estimates, combinations, what it could not find."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from inertest.procedures.results import Identification
+from inertest.report.html import Section, paragraph, table_html
+
+
+def fmt(value: float, std: float | None = None) -> str:
+    """``value +- std`` with the std to two significant digits and the value to match."""
+    if std is None or not np.isfinite(std) or std <= 0:
+        return f"{value:.6g}"
+    digits = max(0, 1 - int(np.floor(np.log10(std))))
+    return f"{value:.{digits}f} ± {std:.2g}"
+
+
+def coefficient_rows(
+    ident: Identification, truth: Mapping[str, float] | None = None
+) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of the estimates (and truth, for simulated data)."""
+    header = ["quantity", "estimate ± std", "unit"] + (["truth", "error/std"] if truth else [])
+    rows = []
+    for name, e in ident.coefficients.items():
+        row = [name, fmt(e.value, e.std), e.unit]
+        if truth is not None:
+            t = float(truth.get(name, 0.0))
+            row += [f"{t:.6g}", f"{(e.value - t) / e.std:+.2f}" if e.std > 0 else "-"]
+        rows.append(row)
+    for c in ident.combinations:
+        row = [c.name, fmt(c.value, c.std), c.unit]
+        if truth is not None:
+            t = c.evaluate(truth)
+            row += [f"{t:.6g}", f"{(c.value - t) / c.std:+.2f}" if c.std > 0 else "-"]
+        rows.append(row)
+    return header, rows
+
+
+def identification_section(
+    title: str, ident: Identification, truth: Mapping[str, float] | None = None
+) -> Section:
+    """Table of what the test determined, and what it could not, with reasons."""
+    header, rows = coefficient_rows(ident, truth)
+    sec = Section(title, [table_html(header, rows)])
+    noise = (
+        f"Noise per reading estimated from the residuals: {ident.noise_sigma:.3g} "
+        f"{ident.noise_unit} ({ident.dof} degrees of freedom, rank {ident.rank} of "
+        f"{len(ident.names)})."
+        if ident.sigma_from_residuals
+        else f"Noise per reading given by the user; rank {ident.rank} of {len(ident.names)}."
+    )
+    sec.parts.append(paragraph(noise))
+    for s in ident.not_separable:
+        sec.parts.append(paragraph("Not determined: " + s, note=True))
+    return sec
