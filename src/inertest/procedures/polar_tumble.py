@@ -35,15 +35,15 @@ from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Instrument, Plan
-from inertest.procedures.identification import combination_name
-from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
-from inertest.procedures.sdf_drift import identify_drift
-from inertest.procedures.tumble_common import (
+from inertest.procedures.checks import (
     check_no_unknown_keys,
     check_samples_per_position,
     noise_samples,
     require_columns,
 )
+from inertest.procedures.identification import combination_name
+from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
+from inertest.procedures.sdf_drift import identify_drift
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 KIND = "polar-tumble"

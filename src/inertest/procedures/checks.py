@@ -1,4 +1,4 @@
-"""Pieces shared by the 1 g tumble procedures: data checks, truth handling, simulated noise."""
+"""Input checks and simulated noise shared by the procedures (columns, plan keys, counts)."""
 
 from __future__ import annotations
 
