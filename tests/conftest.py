@@ -20,3 +20,9 @@ def realdata_dir() -> Path:
     if not path.is_dir():
         pytest.skip(f"real data folder {path} not present (CI has ../shared beside the checkout)")
     return path
+
+
+@pytest.fixture(autouse=True)
+def _private_history_db(tmp_path, monkeypatch):
+    """Every test stores into its own database, never into the user's home."""
+    monkeypatch.setenv("INERTEST_DB", str(tmp_path / "history.db"))

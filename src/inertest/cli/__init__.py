@@ -20,6 +20,7 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.demo", "demo"),
     ("inertest.cli.procedure", "simulate"),
     ("inertest.cli.procedure", "fit"),
+    ("inertest.cli.history", "history"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

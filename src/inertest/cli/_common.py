@@ -22,7 +22,11 @@ def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[objec
         table.add_column(h, justify="left" if i == 0 else "right")
     for r in rows:
         table.add_row(*(str(v) for v in r))
-    Console(soft_wrap=True).print(table)
+    # Piped output (files, pytest) gets a wide console instead of 80 columns, so rows don't wrap.
+    console = Console(soft_wrap=True)
+    if not console.is_terminal:
+        console = Console(soft_wrap=True, width=200)
+    console.print(table)
 
 
 def parse_float_list(text: str, *, name: str, count: int | None = None) -> list[float]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -47,6 +48,15 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         else:
             out[name] = np.asarray(col.to_pylist(), dtype=object).astype(str)
     return out
+
+
+def file_sha256(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file's bytes (hex), read in blocks."""
+    h = hashlib.sha256()
+    with Path(path).open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def write_table(path: str | os.PathLike[str], columns: Mapping[str, NDArray]) -> Path:

@@ -21,7 +21,13 @@ table { border-collapse: collapse; margin: 0.6em 0; }
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 th { background: #eee; } td.l, th.l { text-align: left; }
 .note { background: #fff8e0; border-left: 4px solid #e0b000; padding: 0.4em 0.8em; }
-img { max-width: 100%; } code { background: #f3f3f3; }
+img { max-width: 100%; } code, pre { background: #f3f3f3; }
+pre { padding: 0.5em; overflow-x: auto; font-size: 0.85em; }
+@media print {
+  body { max-width: none; margin: 1cm; font-size: 10pt; }
+  h2 { page-break-after: avoid; } figure, table { page-break-inside: avoid; }
+  pre { white-space: pre-wrap; }
+}
 """
 
 
@@ -60,6 +66,11 @@ def paragraph(text: str, *, note: bool = False) -> str:
     """A paragraph of escaped text; ``note=True`` highlights it."""
     cls = ' class="note"' if note else ""
     return f"<p{cls}>{html.escape(text)}</p>"
+
+
+def preformatted(text: str) -> str:
+    """A ``<pre>`` block of escaped text (plans, file listings)."""
+    return f"<pre>{html.escape(text)}</pre>"
 
 
 @dataclass

@@ -1,0 +1,38 @@
+"""Figures of an instrument's coefficient history."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import datetime
+
+import matplotlib.dates as mdates
+import matplotlib.pyplot as plt
+import numpy as np
+
+from inertest.analysis.coefficient_history import QuantityHistory
+
+
+def history_figure(histories: Sequence[QuantityHistory], times: Sequence[Sequence[datetime]]):
+    """One panel per quantity: value ± 1 sigma per run, mean, ± k * repeatability band."""
+    n = len(histories)
+    cols = 2 if n > 1 else 1
+    rows = int(np.ceil(n / cols))
+    fig, axes = plt.subplots(rows, cols, figsize=(6.2 * cols, 2.6 * rows), squeeze=False)
+    for ax, h, ts in zip(axes.flat, histories, times, strict=False):
+        ax.errorbar(ts, h.values, yerr=h.stds, fmt="o", ms=4, capsize=3, label="run ± 1σ")
+        ax.axhline(h.mean, color="k", lw=0.8, label="mean")
+        if h.repeatability is not None:
+            ax.axhspan(h.mean - h.k * h.repeatability, h.mean + h.k * h.repeatability,
+                       color="0.85", zorder=0, label=f"±{h.k:g}× repeatability")
+        bad = np.flatnonzero(h.flagged)
+        if bad.size:
+            ax.plot([ts[i] for i in bad], h.values[bad], "rx", ms=10, mew=2, label="flagged")
+        ax.set_title(f"{h.name} [{h.unit}]", fontsize=9)
+        ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+        ax.tick_params(axis="x", labelsize=7, rotation=30)
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    axes.flat[0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,316 @@
+"""Storing fit results and reading an instrument's history back.
+
+Writes are single transactions, so a failed fit or a crash stores nothing half-way. SQLite
+databases use WAL journaling, a busy timeout and ``BEGIN IMMEDIATE`` so that concurrent writers
+(two fits at once) queue instead of failing or losing data. The schema is migrated with Alembic
+on open; a database written by a newer inertest (an unknown revision) is refused.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import sqlalchemy as sa
+from alembic import command
+from alembic.config import Config
+from alembic.runtime.migration import MigrationContext
+from alembic.script import ScriptDirectory
+from sqlalchemy import event, select
+from sqlalchemy.engine import Engine, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
+from sqlalchemy.orm import Session, selectinload
+
+from inertest.errors import InertestError
+from inertest.store.schema import EstimateRow, Run
+
+ENV_VAR = "INERTEST_DB"
+_MIGRATIONS = Path(__file__).resolve().parent / "migrations"
+
+
+class StoreError(InertestError):
+    """The history database cannot be used (unreachable, newer schema, unknown serial)."""
+
+
+@dataclass(frozen=True)
+class StoredEstimate:
+    """A coefficient or combination as stored, in engineering units."""
+
+    name: str
+    kind: str
+    value: float
+    std: float
+    unit: str
+    terms: Mapping[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """Everything stored about one fit."""
+
+    serial: str
+    instrument_kind: str
+    procedure: str
+    tested_at: datetime
+    software_version: str
+    latitude_deg: float
+    gravity_m_s2: float
+    plan_text: str
+    data_sha256: str
+    n_observations: int
+    dof: int
+    estimates: tuple[StoredEstimate, ...]
+    result: Mapping[str, Any] = field(repr=False)
+    residual_rms: float | None = None
+    residual_unit: str | None = None
+    noise_sigma: float | None = None
+    noise_unit: str | None = None
+    run_uuid: str = field(default_factory=lambda: str(uuid.uuid4()))
+
+    @classmethod
+    def from_result(
+        cls,
+        result: Mapping[str, Any],
+        *,
+        serial: str,
+        instrument_kind: str,
+        plan_text: str,
+        data_sha256: str,
+        software_version: str,
+        tested_at: datetime | None = None,
+    ) -> RunRecord:
+        """Build from a result's ``to_dict()`` (the ``fit --json`` layout)."""
+        if not serial:
+            raise StoreError(
+                "the plan gives no [instrument] serial; a run cannot be stored without one "
+                "(add serial = \"...\" or use --no-store)"
+            )
+        ests = [
+            StoredEstimate(n, "coefficient", float(e["value"]), float(e["std"]), str(e["unit"]))
+            for n, e in result.get("coefficients", {}).items()
+        ]
+        ests += [
+            StoredEstimate(c["name"], "combination", float(c["value"]), float(c["std"]),
+                           str(c["unit"]), dict(c["terms"]))
+            for c in result.get("combinations", [])
+        ]
+        site = result.get("site", {})
+        noise = result.get("noise", {})
+        rms = result.get("residual_rms", {})
+        sigma = noise.get("sigma")
+        return cls(
+            serial=serial,
+            instrument_kind=instrument_kind,
+            procedure=str(result["procedure"]),
+            tested_at=_utc(tested_at or datetime.now(UTC)),
+            software_version=software_version,
+            latitude_deg=float(site.get("latitude_deg", float("nan"))),
+            gravity_m_s2=float(site.get("gravity_m_s2", float("nan"))),
+            plan_text=plan_text,
+            data_sha256=data_sha256,
+            n_observations=int(result.get("n_observations", 0)),
+            dof=int(result.get("dof", 0)),
+            estimates=tuple(ests),
+            result=result,
+            residual_rms=None if rms.get("value") is None else float(rms["value"]),
+            residual_unit=rms.get("unit"),
+            noise_sigma=None if sigma is None or sigma != sigma else float(sigma),
+            noise_unit=noise.get("unit"),
+        )
+
+
+def default_database_url() -> str:
+    """``sqlite:///`` URL of ``$XDG_DATA_HOME/inertest/history.db`` (``~/.local/share/...``)."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return "sqlite:///" + str(Path(base) / "inertest" / "history.db")
+
+
+def resolve_database_url(db: str | None = None) -> str:
+    """The database URL: ``db`` (a URL or a file path), else ``$INERTEST_DB``, else the default."""
+    value = db or os.environ.get(ENV_VAR) or default_database_url()
+    if "://" not in value:
+        value = "sqlite:///" + str(Path(value).expanduser().resolve())
+    return value
+
+
+class HistoryStore:
+    """The calibration history at ``url`` (created and migrated on first use).
+
+    Parameters
+    ----------
+    url : str
+        SQLAlchemy URL (``sqlite:///path.db``, ``postgresql+psycopg://user:pw@host/db``) or a path.
+    """
+
+    def __init__(self, url: str | None = None) -> None:
+        self.url = resolve_database_url(url)
+        try:
+            parsed = make_url(self.url)
+        except ArgumentError:
+            raise StoreError(f"not a database URL or path: {self.url!r}") from None
+        self._shown = parsed.render_as_string(hide_password=True)
+        if parsed.get_backend_name() == "sqlite" and self.url == resolve_database_url(
+            default_database_url()
+        ):
+            Path(parsed.database or "").parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.engine = _create_engine(self.url, parsed.get_backend_name())
+        except NoSuchModuleError as exc:
+            raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}") from None
+        try:
+            self._migrate()
+        except (OperationalError, DBAPIError) as exc:
+            self.engine.dispose()
+            raise StoreError(
+                f"cannot open the history database {self._shown}: {_reason(exc)}; "
+                f"check --db or ${ENV_VAR}, or use --no-store"
+            ) from None
+        except BaseException:
+            self.engine.dispose()
+            raise
+
+    def _migrate(self) -> None:
+        cfg = Config()
+        cfg.set_main_option("script_location", str(_MIGRATIONS))
+        script = ScriptDirectory.from_config(cfg)
+        known = {rev.revision for rev in script.walk_revisions()}
+        with self.engine.begin() as conn:
+            if conn.dialect.name == "postgresql":
+                # Serialise concurrent first-time migrations.
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(4242001)"))
+            current = MigrationContext.configure(conn).get_current_revision()
+            if current is not None and current not in known:
+                raise StoreError(
+                    f"the history database {self._shown} has schema revision {current}, newer "
+                    f"than this inertest knows ({', '.join(sorted(known))}); upgrade inertest"
+                )
+            cfg.attributes["connection"] = conn
+            command.upgrade(cfg, "head")
+
+    def add(self, record: RunRecord) -> None:
+        """Store one run and its estimates in a single transaction."""
+        run = Run(
+            run_uuid=record.run_uuid,
+            serial=record.serial,
+            instrument_kind=record.instrument_kind,
+            procedure=record.procedure,
+            tested_at=record.tested_at,
+            stored_at=datetime.now(UTC),
+            software_version=record.software_version,
+            latitude_deg=record.latitude_deg,
+            gravity_m_s2=record.gravity_m_s2,
+            plan_text=record.plan_text,
+            data_sha256=record.data_sha256,
+            n_observations=record.n_observations,
+            residual_rms=record.residual_rms,
+            residual_unit=record.residual_unit,
+            noise_sigma=record.noise_sigma,
+            noise_unit=record.noise_unit,
+            dof=record.dof,
+            result_json=json.dumps(record.result, allow_nan=True),
+            estimates=[
+                EstimateRow(name=e.name, kind=e.kind, value=e.value, std=e.std, unit=e.unit,
+                            terms_json=None if e.terms is None else json.dumps(dict(e.terms)))
+                for e in record.estimates
+            ],
+        )
+        try:
+            with Session(self.engine) as session, session.begin():
+                session.add(run)
+        except (OperationalError, DBAPIError) as exc:
+            raise StoreError(f"could not store the run in {self._shown}: {_reason(exc)}") from None
+
+    def serials(self) -> list[str]:
+        """Serial numbers with stored runs."""
+        with Session(self.engine) as session:
+            return list(session.scalars(select(Run.serial).distinct().order_by(Run.serial)))
+
+    def runs(self, serial: str, *, procedure: str | None = None) -> list[RunRecord]:
+        """Stored runs of ``serial`` in time order; an unknown serial is an error."""
+        stmt = (
+            select(Run)
+            .where(Run.serial == serial)
+            .options(selectinload(Run.estimates))
+            .order_by(Run.tested_at, Run.id)
+        )
+        if procedure is not None:
+            stmt = stmt.where(Run.procedure == procedure)
+        with Session(self.engine) as session:
+            rows = list(session.scalars(stmt))
+            out = [_record(r) for r in rows]
+        if not out:
+            known = self.serials()
+            hint = f"known serials: {', '.join(known)}" if known else "the database is empty"
+            raise StoreError(f'no runs stored for serial "{serial}" in {self._shown} ({hint})')
+        return out
+
+    def close(self) -> None:
+        """Release the connection pool."""
+        self.engine.dispose()
+
+
+def _create_engine(url: str, backend: str) -> Engine:
+    if backend != "sqlite":
+        return sa.create_engine(url, pool_pre_ping=True)
+    engine = sa.create_engine(url, connect_args={"timeout": 60})
+
+    @event.listens_for(engine, "connect")
+    def _on_connect(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]
+        # Let SQLAlchemy emit BEGIN itself (pysqlite's implicit transactions are not used).
+        dbapi_connection.isolation_level = None
+        cur = dbapi_connection.cursor()
+        cur.execute("PRAGMA journal_mode=WAL")
+        cur.execute("PRAGMA foreign_keys=ON")
+        cur.close()
+
+    @event.listens_for(engine, "begin")
+    def _on_begin(conn) -> None:  # type: ignore[no-untyped-def]
+        # IMMEDIATE takes the write lock at once: concurrent writers queue (busy timeout)
+        # instead of failing on lock upgrade.
+        conn.exec_driver_sql("BEGIN IMMEDIATE")
+
+    return engine
+
+
+def _record(r: Run) -> RunRecord:
+    return RunRecord(
+        serial=r.serial,
+        instrument_kind=r.instrument_kind,
+        procedure=r.procedure,
+        tested_at=_utc(r.tested_at),
+        software_version=r.software_version,
+        latitude_deg=r.latitude_deg,
+        gravity_m_s2=r.gravity_m_s2,
+        plan_text=r.plan_text,
+        data_sha256=r.data_sha256,
+        n_observations=r.n_observations,
+        dof=r.dof,
+        estimates=tuple(
+            StoredEstimate(e.name, e.kind, e.value, e.std, e.unit,
+                           None if e.terms_json is None else json.loads(e.terms_json))
+            for e in r.estimates
+        ),
+        result=json.loads(r.result_json),
+        residual_rms=r.residual_rms,
+        residual_unit=r.residual_unit,
+        noise_sigma=r.noise_sigma,
+        noise_unit=r.noise_unit,
+        run_uuid=r.run_uuid,
+    )
+
+
+def _utc(t: datetime) -> datetime:
+    # SQLite returns naive datetimes; everything is stored in UTC.
+    return t.replace(tzinfo=UTC) if t.tzinfo is None else t.astimezone(UTC)
+
+
+def _reason(exc: Exception) -> str:
+    orig = getattr(exc, "orig", None)
+    text = str(orig if orig is not None else exc).strip().splitlines()
+    return text[0] if text else type(exc).__name__

@@ -1,0 +1,59 @@
+"""ORM tables of the history database. Change them only together with a new migration."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from sqlalchemy import DateTime, Float, ForeignKey, Integer, String, Text
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
+
+
+class Base(DeclarativeBase):
+    """Declarative base of the history tables."""
+
+
+class Run(Base):
+    """One stored fit: an instrument tested once with one procedure."""
+
+    __tablename__ = "runs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_uuid: Mapped[str] = mapped_column(String(36), unique=True, nullable=False)
+    serial: Mapped[str] = mapped_column(String(200), index=True, nullable=False)
+    instrument_kind: Mapped[str] = mapped_column(String(50), nullable=False)
+    procedure: Mapped[str] = mapped_column(String(80), nullable=False)
+    tested_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    stored_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    software_version: Mapped[str] = mapped_column(String(40), nullable=False)
+    latitude_deg: Mapped[float] = mapped_column(Float, nullable=False)
+    gravity_m_s2: Mapped[float] = mapped_column(Float, nullable=False)
+    plan_text: Mapped[str] = mapped_column(Text, nullable=False)
+    data_sha256: Mapped[str] = mapped_column(String(64), nullable=False)
+    n_observations: Mapped[int] = mapped_column(Integer, nullable=False)
+    residual_rms: Mapped[float | None] = mapped_column(Float)
+    residual_unit: Mapped[str | None] = mapped_column(String(40))
+    noise_sigma: Mapped[float | None] = mapped_column(Float)
+    noise_unit: Mapped[str | None] = mapped_column(String(40))
+    dof: Mapped[int] = mapped_column(Integer, nullable=False)
+    result_json: Mapped[str] = mapped_column(Text, nullable=False)
+    estimates: Mapped[list[EstimateRow]] = relationship(
+        back_populates="run", cascade="all, delete-orphan", order_by="EstimateRow.id"
+    )
+
+
+class EstimateRow(Base):
+    """One coefficient or combination of a run, in engineering units."""
+
+    __tablename__ = "estimates"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    run_id: Mapped[int] = mapped_column(
+        ForeignKey("runs.id", ondelete="CASCADE"), index=True, nullable=False
+    )
+    name: Mapped[str] = mapped_column(String(200), nullable=False)
+    kind: Mapped[str] = mapped_column(String(20), nullable=False)  # coefficient | combination
+    terms_json: Mapped[str | None] = mapped_column(Text)
+    value: Mapped[float] = mapped_column(Float, nullable=False)
+    std: Mapped[float] = mapped_column(Float, nullable=False)
+    unit: Mapped[str] = mapped_column(String(40), nullable=False)
+    run: Mapped[Run] = relationship(back_populates="estimates")

@@ -1,0 +1,47 @@
+"""From stored runs to per-quantity history summaries (numerics in analysis.coefficient_history)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import datetime
+
+from inertest.analysis.coefficient_history import QuantityHistory, summarize
+from inertest.store.history import RunRecord, StoreError
+
+
+def summarize_runs(
+    runs: Sequence[RunRecord], *, names: Sequence[str] | None = None, k: float = 3.0
+) -> list[tuple[QuantityHistory, list[datetime]]]:
+    """Summaries of every quantity (or of ``names``) over ``runs``, with the run times.
+
+    A quantity's unit must be the same in every run; runs without the quantity are skipped.
+    """
+    if not runs:
+        return []
+    t0 = runs[0].tested_at
+    order: list[str] = []
+    series: dict[str, list[tuple[datetime, float, float, str]]] = {}
+    for r in runs:
+        for e in r.estimates:
+            if e.name not in series:
+                order.append(e.name)
+                series[e.name] = []
+            series[e.name].append((r.tested_at, e.value, e.std, e.unit))
+    wanted = list(names) if names else order
+    missing = [n for n in wanted if n not in series]
+    if missing:
+        raise StoreError(
+            f"no stored estimate named {', '.join(missing)}; stored: {', '.join(order)}"
+        )
+    out = []
+    for name in wanted:
+        rows = series[name]
+        units = {u for *_, u in rows}
+        if len(units) > 1:
+            raise StoreError(f"{name} is stored in different units ({', '.join(sorted(units))})")
+        times = [t for t, *_ in rows]
+        t_days = [(t - t0).total_seconds() / 86400.0 for t in times]
+        h = summarize(name, units.pop(), t_days, [v for _, v, _, _ in rows],
+                      [s for _, _, s, _ in rows], k=k)
+        out.append((h, times))
+    return out

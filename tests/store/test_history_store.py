@@ -1,0 +1,102 @@
+"""The history database: round trip, errors, migrations, concurrent writers."""
+
+import multiprocessing as mp
+from datetime import UTC, datetime, timedelta
+
+import pytest
+import sqlalchemy as sa
+from alembic.autogenerate import compare_metadata
+from alembic.runtime.migration import MigrationContext
+
+from inertest.store import HistoryStore, RunRecord, StoreError
+from inertest.store.schema import Base
+
+RESULT = {
+    "procedure": "polar-tumble",
+    "site": {"latitude_deg": 34.246, "gravity_m_s2": 9.7966},
+    "coefficients": {"DI": {"value": 0.85, "std": 0.002, "unit": "deg/h/g"}},
+    "combinations": [{"name": "DOO - DII", "terms": {"DOO": 1.0, "DII": -1.0}, "value": -0.07,
+                      "std": 0.008, "unit": "deg/h/g^2"}],
+    "noise": {"sigma": 0.02, "unit": "deg/h", "source": "residuals"},
+    "residual_rms": {"value": 0.0016, "unit": "mA"},
+    "dof": 311,
+    "n_observations": 320,
+}
+
+
+def record(serial="FG-1", days=0, di=0.85):
+    res = dict(RESULT, coefficients={"DI": {"value": di, "std": 0.002, "unit": "deg/h/g"}})
+    return RunRecord.from_result(
+        res, serial=serial, instrument_kind="sdf-gyro", plan_text="[site]\n",
+        data_sha256="ab" * 32, software_version="0.1.0",
+        tested_at=datetime(2026, 1, 1, tzinfo=UTC) + timedelta(days=days))
+
+
+def test_round_trip_in_time_order(db_url):
+    store = HistoryStore(db_url)
+    store.add(record(days=10, di=0.86))
+    store.add(record(days=0, di=0.85))
+    store.add(record(serial="FG-2"))
+    runs = store.runs("FG-1")
+    assert [r.tested_at.day for r in runs] == [1, 11]
+    assert runs[0].estimates[0].value == 0.85 and runs[0].estimates[0].unit == "deg/h/g"
+    assert runs[0].estimates[1].terms == {"DOO": 1.0, "DII": -1.0}
+    assert runs[1].result["dof"] == 311 and runs[1].noise_sigma == 0.02
+    assert store.serials() == ["FG-1", "FG-2"]
+    with pytest.raises(StoreError, match='no runs stored for serial "FG-9".*FG-1, FG-2'):
+        store.runs("FG-9")
+    store.close()
+
+
+def test_migrations_build_exactly_the_orm_schema(db_url):
+    store = HistoryStore(db_url)
+    with store.engine.connect() as conn:
+        diffs = compare_metadata(MigrationContext.configure(conn), Base.metadata)
+    assert diffs == []
+    store.close()
+
+
+def test_newer_schema_is_refused(db_url):
+    HistoryStore(db_url).close()
+    engine = sa.create_engine(db_url)
+    with engine.begin() as conn:
+        conn.execute(sa.text("UPDATE alembic_version SET version_num = '9999'"))
+    engine.dispose()
+    with pytest.raises(StoreError, match="schema revision 9999, newer than this inertest"):
+        HistoryStore(db_url)
+
+
+def test_unreachable_database_names_the_url_without_password():
+    with pytest.raises(StoreError, match=r"cannot open.*u:\*\*\*@127\.0\.0\.1:1/db") as exc:
+        HistoryStore("postgresql+psycopg://u:secret@127.0.0.1:1/db")
+    assert "secret" not in str(exc.value)
+    with pytest.raises(StoreError, match="cannot open"):
+        HistoryStore("sqlite:////nonexistent-dir/sub/h.db")
+
+
+def test_missing_serial_cannot_be_stored():
+    with pytest.raises(StoreError, match="no \\[instrument\\] serial"):
+        RunRecord.from_result(RESULT, serial="", instrument_kind="sdf-gyro", plan_text="",
+                              data_sha256="", software_version="0")
+
+
+def _writer(url: str, start: int, n: int) -> None:
+    store = HistoryStore(url)
+    for i in range(n):
+        store.add(record(days=start + i))
+    store.close()
+
+
+def test_concurrent_writers_lose_nothing(db_url):
+    ctx = mp.get_context("spawn")
+    procs = [ctx.Process(target=_writer, args=(db_url, k * 100, 15)) for k in range(3)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(120)
+    assert [p.exitcode for p in procs] == [0, 0, 0]
+    store = HistoryStore(db_url)
+    runs = store.runs("FG-1")
+    assert len(runs) == 45 and len({r.run_uuid for r in runs}) == 45
+    assert all(len(r.estimates) == 2 for r in runs)
+    store.close()
