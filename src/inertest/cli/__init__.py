@@ -21,6 +21,7 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.procedure", "simulate"),
     ("inertest.cli.procedure", "fit"),
     ("inertest.cli.history", "history"),
+    ("inertest.cli.modulation", "modulation"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 
 import click
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -17,11 +18,12 @@ def echo_json(obj: object) -> None:
 
 def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
     """Print a table on the terminal (rich); the first column is left-aligned, the rest right."""
-    table = Table(title=title, title_justify="left")
+    # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
+    table = Table(title=escape(title), title_justify="left")
     for i, h in enumerate(header):
-        table.add_column(h, justify="left" if i == 0 else "right")
+        table.add_column(escape(str(h)), justify="left" if i == 0 else "right")
     for r in rows:
-        table.add_row(*(str(v) for v in r))
+        table.add_row(*(escape(str(v)) for v in r))
     # Piped output (files, pytest) gets a wide console instead of 80 columns, so rows don't wrap.
     console = Console(soft_wrap=True)
     if not console.is_terminal:
