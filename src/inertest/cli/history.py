@@ -8,8 +8,7 @@ import click
 
 from inertest.cli._common import echo_json, print_table
 from inertest.io.atomic import target_file
-from inertest.report.history import history_figure
-from inertest.report.identification import fmt
+from inertest.report.history import history_figure, history_rows
 from inertest.store import HistoryStore
 from inertest.store.summary import summarize_runs
 
@@ -51,16 +50,8 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
         return
     click.echo(f"{serial}: {len(runs)} run(s) from {runs[0].tested_at:%Y-%m-%d %H:%M} to "
                f"{runs[-1].tested_at:%Y-%m-%d %H:%M} UTC")
-    rows = []
-    for h, _ in summaries:
-        rep = "-" if h.repeatability is None else f"{h.repeatability:.3g}"
-        trend = ("-" if h.trend_per_day is None
-                 else fmt(h.trend_per_day * 30.0, (h.trend_std_per_day or 0) * 30.0))
-        flagged = ", ".join(str(i + 1) for i in range(h.values.size) if h.flagged[i]) or "-"
-        rows.append([h.name, h.unit, h.values.size, f"{h.mean:.6g}", rep, trend, flagged])
-    print_table(f"history of {serial}",
-                ["quantity", "unit", "runs", "mean", "repeatability (1σ)",
-                 "trend per 30 days", f"runs > {k:g}σ"], rows)
+    header, rows = history_rows([h for h, _ in summaries])
+    print_table(f"history of {serial}", header, rows)
     for h, _ in summaries[:1]:
         for m in h.messages:
             click.echo(f"note: {m}")

@@ -70,3 +70,12 @@ def noise_samples(
         raise PlanError(f"noise sigma must be finite and >= 0, got {sigma}")
     gen = np.random.default_rng(rng)
     return gen.normal(0.0, sigma, size=n) if sigma > 0 else np.zeros(n)
+
+
+def known_sigma(sigma: float | None, si_per_output_unit: float) -> float | None:
+    """A user-given noise level per reading [output unit] in SI; None stays None."""
+    if sigma is None:
+        return None
+    if not np.isfinite(sigma) or sigma <= 0:
+        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+    return float(sigma) * si_per_output_unit

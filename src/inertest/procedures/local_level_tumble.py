@@ -26,10 +26,11 @@ from inertest.plan import Plan
 from inertest.procedures.checks import (
     check_no_unknown_keys,
     check_samples_per_position,
+    known_sigma,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
+from inertest.procedures.results import Identification, LinearTestResult
 from inertest.procedures.sdf_drift import identify_drift
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
@@ -82,7 +83,7 @@ SPEC = LocalLevelTumbleSpec
 
 
 @dataclass(frozen=True)
-class LocalLevelTumbleResult:
+class LocalLevelTumbleResult(LinearTestResult):
     """Outcome of :func:`fit` for a local-level tumble.
 
     Attributes
@@ -108,32 +109,6 @@ class LocalLevelTumbleResult:
     messages: tuple[str, ...] = ()
     procedure: str = KIND
 
-    @property
-    def coefficients(self) -> dict[str, Estimate]:
-        """Individually identifiable coefficients."""
-        return self.identification.coefficients
-
-    @property
-    def combinations(self) -> tuple[Combination, ...]:
-        """Identifiable combinations of the rest."""
-        return self.identification.combinations
-
-    def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary (DESIGN.md's ``fit --json`` layout)."""
-        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
-        d["site"] = {
-            "latitude_deg": self.site_latitude_deg,
-            "gravity_m_s2": self.site_gravity_m_s2,
-        }
-        d.update(self.identification.to_dict())
-        d["residual_rms"] = {
-            "value": float(np.sqrt(np.mean(self.residual_output**2))),
-            "unit": self.output_unit,
-        }
-        d["n_observations"] = int(self.drift_deg_h.size)
-        d["messages"] = list(self.messages)
-        return d
-
 
 def fit(
     plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
@@ -156,11 +131,7 @@ def fit(
     f = fixture.specific_force_ios(axes, site.gravity_m_s2)
     w_in = fixture.input_rate(axes, site.latitude_rad)
     drift = inst.output_to_rate(cols["output"]) - w_in
-    sigma_rad_s = None
-    if sigma is not None:
-        if not np.isfinite(sigma) or sigma <= 0:
-            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-        sigma_rad_s = float(sigma) * inst.rad_s_per_output_unit
+    sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
     messages = _balance_messages(labels)
     for msg in messages:
         warnings.warn(msg, InertestWarning, stacklevel=2)

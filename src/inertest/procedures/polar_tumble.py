@@ -34,15 +34,16 @@ from inertest.errors import DataError, IdentifiabilityError, InertestWarning, Pl
 from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Instrument, Plan
+from inertest.plan import Plan
 from inertest.procedures.checks import (
     check_no_unknown_keys,
     check_samples_per_position,
+    known_sigma,
     noise_samples,
     require_columns,
 )
 from inertest.procedures.identification import combination_name
-from inertest.procedures.results import SCHEMA_VERSION, Combination, Estimate, Identification
+from inertest.procedures.results import Combination, Estimate, Identification, LinearTestResult
 from inertest.procedures.sdf_drift import identify_drift
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
@@ -112,7 +113,7 @@ class MountingHarmonics:
 
 
 @dataclass(frozen=True)
-class PolarTumbleResult:
+class PolarTumbleResult(LinearTestResult):
     """Outcome of :func:`fit` for a polar-axis tumble.
 
     Attributes
@@ -144,34 +145,13 @@ class PolarTumbleResult:
     messages: tuple[str, ...] = ()
     procedure: str = KIND
 
-    @property
-    def coefficients(self) -> dict[str, Estimate]:
-        """Individually identifiable coefficients."""
-        return self.identification.coefficients
-
-    @property
-    def combinations(self) -> tuple[Combination, ...]:
-        """Identifiable combinations of the rest."""
-        return self.identification.combinations
-
     def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary (DESIGN.md's ``fit --json`` layout)."""
-        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
-        d["site"] = {
-            "latitude_deg": self.site_latitude_deg,
-            "gravity_m_s2": self.site_gravity_m_s2,
-        }
-        d.update(self.identification.to_dict())
+        """Versioned JSON-ready dictionary with the Fourier terms and the closed form."""
+        d = super().to_dict()
         d["harmonics"] = {
             m: {t.name: t.to_dict() for t in h.terms} for m, h in self.harmonics.items()
         }
         d["closed_form"] = {k: [c.to_dict() for c in v] for k, v in self.closed_form.items()}
-        d["residual_rms"] = {
-            "value": float(np.sqrt(np.mean(self.residual_output**2))),
-            "unit": self.output_unit,
-        }
-        d["n_observations"] = int(self.angle_deg.size)
-        d["messages"] = list(self.messages)
         return d
 
 
@@ -207,7 +187,7 @@ def fit(
     present = [m for m in table.MOUNTINGS if np.any(mounting == m)]
     f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
     drift = inst.output_to_rate(cols["output"]) - w_in
-    sigma_rad_s = None if sigma is None else _sigma_rad_s(sigma, inst)
+    sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
     messages = _spacing_messages(mounting, angle_deg, present)
     for msg in messages:
         warnings.warn(msg, InertestWarning, stacklevel=2)
@@ -290,12 +270,6 @@ def _check_latitude(latitude_rad: float) -> None:
             f"a polar-axis tumble at latitude {np.degrees(latitude_rad):.2f} deg gives the I axis "
             "almost no gravity (cos L < 0.05); use a local-level tumble near the poles"
         )
-
-
-def _sigma_rad_s(sigma: float, inst: Instrument) -> float:
-    if not np.isfinite(sigma) or sigma <= 0:
-        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-    return float(sigma) * inst.rad_s_per_output_unit
 
 
 def _kinematics(

@@ -120,3 +120,44 @@ class Identification:
             "dof": self.dof,
             "rank": self.rank,
         }
+
+
+class LinearTestResult:
+    """Shared behaviour of procedure results built on an :class:`Identification`.
+
+    A result dataclass that inherits this provides the attributes ``procedure``,
+    ``site_latitude_deg``, ``site_gravity_m_s2``, ``identification``, ``residual_output``,
+    ``output_unit`` and ``messages``; it gets :attr:`coefficients`, :attr:`combinations` and the
+    common part of ``to_dict()`` (DESIGN.md's ``fit --json`` layout).
+    """
+
+    procedure: str
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    residual_output: NDArray[np.float64]
+    output_unit: str
+    messages: tuple[str, ...]
+
+    @property
+    def coefficients(self) -> dict[str, Estimate]:
+        """Individually identifiable coefficients."""
+        return self.identification.coefficients
+
+    @property
+    def combinations(self) -> tuple[Combination, ...]:
+        """Identifiable combinations of the rest."""
+        return self.identification.combinations
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary; procedures add their own keys."""
+        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
+        d["site"] = {"latitude_deg": self.site_latitude_deg, "gravity_m_s2": self.site_gravity_m_s2}
+        d.update(self.identification.to_dict())
+        d["residual_rms"] = {
+            "value": float(np.sqrt(np.mean(self.residual_output**2))),
+            "unit": self.output_unit,
+        }
+        d["n_observations"] = int(self.residual_output.size)
+        d["messages"] = list(self.messages)
+        return d

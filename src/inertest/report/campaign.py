@@ -12,9 +12,8 @@ from datetime import datetime
 from typing import Any
 
 from inertest.analysis.coefficient_history import QuantityHistory
-from inertest.report.history import history_figure
+from inertest.report.history import history_figure, history_rows
 from inertest.report.html import Section, figure_html, page, paragraph, preformatted, table_html
-from inertest.report.identification import fmt
 from inertest.report.sections import result_sections
 
 
@@ -60,16 +59,7 @@ def campaign_page(
     shown = [(h, t) for h, t in history if h.values.size >= 2]
     if shown:
         hist = Section(f"History of {serial}", [])
-        rows = []
-        for h, _ in shown:
-            rep = "-" if h.repeatability is None else f"{h.repeatability:.3g}"
-            trend = ("-" if h.trend_per_day is None
-                     else fmt(h.trend_per_day * 30, (h.trend_std_per_day or 0) * 30))
-            flags = ", ".join(str(i + 1) for i in range(h.values.size) if h.flagged[i]) or "-"
-            rows.append([h.name, h.unit, h.values.size, f"{h.mean:.6g}", rep, trend, flags])
-        hist.parts.append(table_html(
-            ["quantity", "unit", "runs", "mean", "repeatability (1σ)", "trend per 30 days",
-             f"runs beyond {shown[0][0].k:g}σ"], rows))
+        hist.parts.append(table_html(*history_rows([h for h, _ in shown])))
         hist.parts.append(figure_html(history_figure([h for h, _ in shown], [t for _, t in shown]),
                                       "Each quantity over the stored runs (±1σ bars)"))
         sections.append(hist)

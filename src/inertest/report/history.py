@@ -10,6 +10,24 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.analysis.coefficient_history import QuantityHistory
+from inertest.report.identification import fmt
+
+
+def history_rows(
+    histories: Sequence[QuantityHistory],
+) -> tuple[list[str], list[list[object]]]:
+    """Header and rows of the history table: mean, repeatability, trend per 30 days, flags."""
+    k = histories[0].k if histories else 3.0
+    header = ["quantity", "unit", "runs", "mean", "repeatability (1σ)", "trend per 30 days",
+              f"runs beyond {k:g}σ"]
+    rows: list[list[object]] = []
+    for h in histories:
+        rep = "-" if h.repeatability is None else f"{h.repeatability:.3g}"
+        trend = ("-" if h.trend_per_day is None
+                 else fmt(h.trend_per_day * 30.0, (h.trend_std_per_day or 0.0) * 30.0))
+        flags = ", ".join(str(i + 1) for i in range(h.values.size) if h.flagged[i]) or "-"
+        rows.append([h.name, h.unit, h.values.size, f"{h.mean:.6g}", rep, trend, flags])
+    return header, rows
 
 
 def history_figure(histories: Sequence[QuantityHistory], times: Sequence[Sequence[datetime]]):

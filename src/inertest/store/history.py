@@ -31,6 +31,12 @@ from inertest.errors import InertestError
 from inertest.store.schema import EstimateRow, Run
 
 ENV_VAR = "INERTEST_DB"
+#: Columns of ``runs`` that a :class:`RunRecord` carries under the same name.
+_RUN_FIELDS = (
+    "run_uuid", "serial", "instrument_kind", "procedure", "tested_at", "software_version",
+    "latitude_deg", "gravity_m_s2", "plan_text", "data_sha256", "n_observations",
+    "residual_rms", "residual_unit", "noise_sigma", "noise_unit", "dof",
+)
 _MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 
 
@@ -196,23 +202,8 @@ class HistoryStore:
     def add(self, record: RunRecord) -> None:
         """Store one run and its estimates in a single transaction."""
         run = Run(
-            run_uuid=record.run_uuid,
-            serial=record.serial,
-            instrument_kind=record.instrument_kind,
-            procedure=record.procedure,
-            tested_at=record.tested_at,
+            **{f: getattr(record, f) for f in _RUN_FIELDS},
             stored_at=datetime.now(UTC),
-            software_version=record.software_version,
-            latitude_deg=record.latitude_deg,
-            gravity_m_s2=record.gravity_m_s2,
-            plan_text=record.plan_text,
-            data_sha256=record.data_sha256,
-            n_observations=record.n_observations,
-            residual_rms=record.residual_rms,
-            residual_unit=record.residual_unit,
-            noise_sigma=record.noise_sigma,
-            noise_unit=record.noise_unit,
-            dof=record.dof,
             result_json=json.dumps(record.result, allow_nan=True),
             estimates=[
                 EstimateRow(name=e.name, kind=e.kind, value=e.value, std=e.std, unit=e.unit,
@@ -280,28 +271,14 @@ def _create_engine(url: str, backend: str) -> Engine:
 
 def _record(r: Run) -> RunRecord:
     return RunRecord(
-        serial=r.serial,
-        instrument_kind=r.instrument_kind,
-        procedure=r.procedure,
+        **{f: getattr(r, f) for f in _RUN_FIELDS if f != "tested_at"},
         tested_at=_utc(r.tested_at),
-        software_version=r.software_version,
-        latitude_deg=r.latitude_deg,
-        gravity_m_s2=r.gravity_m_s2,
-        plan_text=r.plan_text,
-        data_sha256=r.data_sha256,
-        n_observations=r.n_observations,
-        dof=r.dof,
         estimates=tuple(
             StoredEstimate(e.name, e.kind, e.value, e.std, e.unit,
                            None if e.terms_json is None else json.loads(e.terms_json))
             for e in r.estimates
         ),
         result=json.loads(r.result_json),
-        residual_rms=r.residual_rms,
-        residual_unit=r.residual_unit,
-        noise_sigma=r.noise_sigma,
-        noise_unit=r.noise_unit,
-        run_uuid=r.run_uuid,
     )
 
 
