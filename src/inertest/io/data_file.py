@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 from numpy.typing import NDArray
@@ -46,8 +47,19 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         elif pa.types.is_null(col.type):
             out[name] = np.full(len(col), np.nan)
         else:
-            out[name] = np.asarray(col.to_pylist(), dtype=object).astype(str)
+            out[name] = _text_column(col)
     return out
+
+
+def _text_column(col: pa.ChunkedArray) -> NDArray:
+    """Text column as an array of str (empty cells become "").
+
+    Test data repeat a few labels (mountings, directions), so the distinct values are converted
+    once and indexed, much faster than one Python object per row.
+    """
+    enc = pc.dictionary_encode(pc.fill_null(pc.cast(col, pa.string()), "")).combine_chunks()
+    labels = np.asarray(enc.dictionary.to_pylist(), dtype=str)
+    return labels[enc.indices.to_numpy(zero_copy_only=False)]
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:

@@ -278,9 +278,11 @@ def _kinematics(
     f = np.empty((angle_rad.size, 3))
     w = np.empty(angle_rad.size)
     for m in np.unique(mounting):
-        sel = mounting == m
-        f[sel] = table.specific_force_ios(m, angle_rad[sel], latitude_rad, gravity)
-        w[sel] = table.input_rate(m, angle_rad[sel], latitude_rad)
+        sel = np.flatnonzero(mounting == m)
+        # Rows repeat a few table angles: evaluate each distinct angle once.
+        angles, inverse = np.unique(angle_rad[sel], return_inverse=True)
+        f[sel] = table.specific_force_ios(m, angles, latitude_rad, gravity)[inverse]
+        w[sel] = table.input_rate(m, angles, latitude_rad)[inverse]
     return f, w
 
 
