@@ -1,0 +1,144 @@
+"""Static-base error equations of a north-pointing local-level INS: the linear system.
+
+Seed ``002_1196b4fb2ac75bfc.txt`` (INS error propagation report). States, in SI::
+
+    x = [dVE, dVN, dL, dlambda, phiE, phiN, phiU]      (m/s, m/s, rad, rad, rad, rad, rad)
+
+Inputs (constant or time-varying sources), in SI::
+
+    u = [bE, bN, eE, eN, eU]                            (m/s^2, m/s^2, rad/s, rad/s, rad/s)
+
+Equations (phi: misalignment of the platform / computed frame; drift and bias enter with +, as
+in the source)::
+
+    dVE'     = -g phiN + 2 W sinL dVN + bE
+    dVN'     =  g phiE - 2 W sinL dVE + bN
+    dL'      =  dVN / R
+    dlambda' =  dVE / (R cosL)
+    phiE'    = -dVN / R + W sinL phiN - W cosL phiU + eE
+    phiN'    =  dVE / R - W sinL dL - W sinL phiE + eN
+    phiU'    =  dVE tanL / R + W cosL dL + W cosL phiE + eU
+
+``coriolis=False`` drops the two ``2 W sinL`` terms: the source's simplified model, which has
+no Foucault modulation of the Schuler oscillation.
+
+This module holds only the matrices ``x' = A x + B u``; solutions live in
+:mod:`inertest.analysis.ins_errors` and the rotation-modulation study in
+:mod:`inertest.analysis.rotation_modulation`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.earth import OMEGA_IE, normal_gravity
+from inertest.errors import InputError
+
+#: State names, in order, as used in JSON output and tables.
+STATES: tuple[str, ...] = ("dVE", "dVN", "dL", "dlambda", "phiE", "phiN", "phiU")
+#: SI unit of each state.
+STATE_UNITS: dict[str, str] = {
+    "dVE": "m/s",
+    "dVN": "m/s",
+    "dL": "rad",
+    "dlambda": "rad",
+    "phiE": "rad",
+    "phiN": "rad",
+    "phiU": "rad",
+}
+#: Input (error source) names, in order.
+INPUTS: tuple[str, ...] = ("bE", "bN", "eE", "eN", "eU")
+#: SI unit of each input.
+INPUT_UNITS: dict[str, str] = {
+    "bE": "m/s^2",
+    "bN": "m/s^2",
+    "eE": "rad/s",
+    "eN": "rad/s",
+    "eU": "rad/s",
+}
+
+#: Mean equatorial radius used by default (WGS-84 semi-major axis), m.
+DEFAULT_RADIUS_M = 6378137.0
+
+
+@dataclass(frozen=True)
+class InsSite:
+    """Where and how the error equations are linearised.
+
+    Attributes
+    ----------
+    latitude_rad : float
+        Geodetic latitude L, rad; ``|L| < pi/2`` (the equations contain sec L and tan L).
+    radius_m : float
+        Earth radius R, m.
+    gravity_m_s2 : float
+        Magnitude of gravity g, m/s^2.
+    earth_rate_rad_s : float
+        Earth rate W, rad/s.
+    coriolis : bool
+        Keep the ``2 W sinL`` Coriolis cross-coupling of the velocity errors.
+    """
+
+    latitude_rad: float
+    radius_m: float = DEFAULT_RADIUS_M
+    gravity_m_s2: float = float("nan")
+    earth_rate_rad_s: float = OMEGA_IE
+    coriolis: bool = True
+
+    def __post_init__(self) -> None:
+        lat = float(self.latitude_rad)
+        if not math.isfinite(lat) or abs(lat) >= math.pi / 2 - 1e-9:
+            raise InputError(
+                f"latitude {math.degrees(lat):g} deg is at or beyond +-90 deg: the error "
+                "equations contain sec L and tan L; use a latitude strictly between -90 and 90 deg"
+            )
+        if not (math.isfinite(self.radius_m) and self.radius_m > 0):
+            raise InputError(f"Earth radius must be positive and finite, got {self.radius_m} m")
+        if math.isnan(self.gravity_m_s2):
+            object.__setattr__(self, "gravity_m_s2", float(normal_gravity(lat)))
+        if not (math.isfinite(self.gravity_m_s2) and self.gravity_m_s2 > 0):
+            raise InputError(f"gravity must be positive and finite, got {self.gravity_m_s2} m/s^2")
+        if not (math.isfinite(self.earth_rate_rad_s) and self.earth_rate_rad_s >= 0):
+            raise InputError(f"Earth rate must be finite and >= 0, got {self.earth_rate_rad_s}")
+
+
+def system_matrix(site: InsSite) -> NDArray[np.float64]:
+    """The 7x7 state matrix ``A`` of ``x' = A x + B u`` (module docstring; seed 002)."""
+    lat, r, g, w = site.latitude_rad, site.radius_m, site.gravity_m_s2, site.earth_rate_rad_s
+    s, c, t = math.sin(lat), math.cos(lat), math.tan(lat)
+    k = 2.0 * w * s if site.coriolis else 0.0
+    a = np.zeros((7, 7))
+    # dVE'
+    a[0, 5] = -g
+    a[0, 1] = k
+    # dVN'
+    a[1, 4] = g
+    a[1, 0] = -k
+    # dL', dlambda'
+    a[2, 1] = 1.0 / r
+    a[3, 0] = 1.0 / (r * c)
+    # phiE'
+    a[4, 1] = -1.0 / r
+    a[4, 5] = w * s
+    a[4, 6] = -w * c
+    # phiN'
+    a[5, 0] = 1.0 / r
+    a[5, 2] = -w * s
+    a[5, 4] = -w * s
+    # phiU'
+    a[6, 0] = t / r
+    a[6, 2] = w * c
+    a[6, 4] = w * c
+    return a
+
+
+def input_matrix() -> NDArray[np.float64]:
+    """The 7x5 input matrix ``B``: biases drive dVE, dVN; drifts drive phiE, phiN, phiU."""
+    b = np.zeros((7, 5))
+    b[0, 0] = b[1, 1] = 1.0
+    b[4, 2] = b[5, 3] = b[6, 4] = 1.0
+    return b
