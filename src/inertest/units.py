@@ -33,6 +33,8 @@ G_TO_M_PER_S2 = G0
 MICRO_G_TO_M_PER_S2 = 1e-6 * G0
 MILLI_G_TO_M_PER_S2 = 1e-3 * G0
 PPM_TO_RATIO = 1e-6
+#: International nautical mile, m.
+NAUTICAL_MILE_M = 1852.0
 
 #: Angular-rate units accepted at the edges, with their factor to rad/s.
 RATE_UNITS: dict[str, float] = {

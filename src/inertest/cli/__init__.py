@@ -22,6 +22,7 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.procedure", "fit"),
     ("inertest.cli.history", "history"),
     ("inertest.cli.modulation", "modulation"),
+    ("inertest.cli.ins_errors", "ins_errors"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

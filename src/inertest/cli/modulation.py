@@ -7,11 +7,29 @@ from pathlib import Path
 import click
 import numpy as np
 
+from inertest.analysis import rotation_modulation as rm
 from inertest.analysis import stator_modulation as sm
+from inertest.analysis.ins_error_model import InsSite
 from inertest.cli._common import echo_json, parse_float_list, print_table
-from inertest.io.atomic import target_file
-from inertest.report.modulation import component_figure
-from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_PER_S_TO_RAD_PER_S, HOUR_TO_S
+from inertest.io.atomic import target_file, write_text
+from inertest.report.html import page
+from inertest.report.modulation import (
+    SYSTEM_RESIDUAL_HEADER,
+    SYSTEM_SUMMARY_HEADER,
+    component_figure,
+    system_figure,
+    system_residual_rows,
+    system_sections,
+    system_summary_rows,
+)
+from inertest.units import (
+    ARCSEC_TO_RAD,
+    DEG_PER_H_TO_RAD_PER_S,
+    DEG_PER_S_TO_RAD_PER_S,
+    HOUR_TO_S,
+    MICRO_G_TO_M_PER_S2,
+    PPM_TO_RATIO,
+)
 
 
 @click.group()
@@ -97,3 +115,123 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
                   f"{r['bandwidth_hz']:.3g}"] for r in rows])
     if plot is not None:
         click.echo(f"figure: {plot}")
+
+
+@modulation.command()
+@click.option("--latitude", "latitude_deg", type=float, default=45.0, show_default=True,
+              help="Site latitude [deg].")
+@click.option("--hours", type=float, default=24.0, show_default=True, help="Simulated span [h].")
+@click.option("--step", "step_s", type=float, default=60.0, show_default=True,
+              help="Output step [s] (the propagation is exact; the step only samples it).")
+@click.option("--scheme", type=click.Choice(rm.SCHEMES), default="single-axis",
+              show_default=True, help="Rotation scheme (ignored with --compare).")
+@click.option("--rate-deg-s", type=float, default=6.0, show_default=True,
+              help="Rotation rate [deg/s]: continuous rotation, or the turns between positions.")
+@click.option("--dwell-s", type=float, default=60.0, show_default=True,
+              help="Dwell at each indexing position [s].")
+@click.option("--alternate", is_flag=True,
+              help="single-axis: reverse the direction after every --revolutions turns.")
+@click.option("--revolutions", type=int, default=1, show_default=True)
+@click.option("--heading-deg", type=float, default=0.0, show_default=True,
+              help="Static IMU (scheme none): azimuth of body x from east, CCW [deg].")
+@click.option("--gyro-drift-deg-h", default="0.01,0.01,0.01", show_default=True,
+              help="Constant gyro drift on body X,Y,Z [deg/h].")
+@click.option("--gyro-drift-trend-deg-h-per-h", default="0,0,0", show_default=True,
+              help="Linear drift trend on body X,Y,Z [deg/h per h].")
+@click.option("--accel-bias-ug", default="50,50,50", show_default=True,
+              help="Accelerometer bias on body X,Y,Z [ug]; Z does not enter (no vertical "
+                   "channel).")
+@click.option("--scale-factor-ppm", default="0,0,0", show_default=True,
+              help="Gyro scale-factor errors X,Y,Z [ppm] (couple with mount and Earth rate).")
+@click.option("--accel-scale-factor-ppm", default="0,0,0", show_default=True,
+              help="Accelerometer scale-factor errors X,Y,Z [ppm].")
+@click.option("--gyro-misalignment-arcsec", default="0,0,0,0,0,0", show_default=True,
+              help="Gyro non-orthogonality XY,XZ,YX,YZ,ZX,ZY [arcsec]: entry ij is gyro i's "
+                   "sensitivity to the rate about body axis j.")
+@click.option("--compare", is_flag=True,
+              help="Run every scheme on the same IMU errors and tabulate the errors.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object (SI, with units).")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the figure (format from the suffix: .png, .svg, .pdf).")
+@click.option("--report", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write a self-contained HTML report (figure and tables).")
+def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_deg_s: float,
+           dwell_s: float, alternate: bool, revolutions: int, heading_deg: float,
+           gyro_drift_deg_h: str, gyro_drift_trend_deg_h_per_h: str, accel_bias_ug: str,
+           scale_factor_ppm: str, accel_scale_factor_ppm: str, gyro_misalignment_arcsec: str,
+           compare: bool, as_json: bool, plot: Path | None, report: Path | None) -> None:
+    """IMU on a rotating mount in a static-base INS: navigation errors with and without it."""
+    if not (np.isfinite(hours) and hours > 0):
+        raise click.BadParameter(f"the span must be positive, got {hours} h", param_hint="--hours")
+    span = hours * HOUR_TO_S
+    if not (np.isfinite(step_s) and 0 < step_s <= span):
+        raise click.BadParameter(f"the step must be positive and at most the span ({span:g} s), "
+                                 f"got {step_s} s", param_hint="--step")
+    n = int(np.floor(span / step_s + 1e-9))
+    t = np.append(np.arange(n + 1) * step_s, span) if n * step_s < span - 1e-9 else (
+        np.arange(n + 1) * step_s)
+    site = InsSite(np.radians(latitude_deg))
+    imu = _imu_errors(gyro_drift_deg_h, gyro_drift_trend_deg_h_per_h, accel_bias_ug,
+                      scale_factor_ppm, accel_scale_factor_ppm, gyro_misalignment_arcsec)
+    rate = rate_deg_s * DEG_PER_S_TO_RAD_PER_S
+    heading = np.radians(heading_deg)
+    if compare:
+        runs = rm.compare_schemes(site, imu, t, rate_rad_s=rate, dwell_s=dwell_s,
+                                  heading_rad=heading)
+    else:
+        s = rm.make_scheme(scheme, span, rate_rad_s=rate, dwell_s=dwell_s, heading_rad=heading,
+                           alternate=alternate, revolutions=revolutions)
+        runs = [rm.run_scheme(site, s, imu, t)]
+    if plot is not None:
+        fig = system_figure(runs)
+        with target_file(plot) as tmp:
+            fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=110,
+                        bbox_inches="tight")
+    if report is not None:
+        write_text(report, page("Rotation modulation of a strapdown INS", system_sections(runs),
+                                subtitle=f"latitude {latitude_deg:g} deg, {hours:g} h"))
+    if as_json:
+        common = {"latitude_deg": latitude_deg, "imu": _imu_json(imu),
+                  "vertical_channel": "not modelled"}
+        echo_json({**common, "runs": [r.to_dict() for r in runs]} if compare
+                  else {**common, **runs[0].to_dict()})
+        return
+    print_table(f"INS errors over {hours:g} h at latitude {latitude_deg:g} deg (max |error|; "
+                "vertical channel not modelled)", SYSTEM_SUMMARY_HEADER,
+                system_summary_rows(runs))
+    print_table("what the scheme leaves: equivalent constant IMU errors (mean over one cycle, "
+                "navigation frame; drift trend excluded)", SYSTEM_RESIDUAL_HEADER,
+                system_residual_rows(runs))
+    if plot is not None:
+        click.echo(f"figure: {plot}")
+    if report is not None:
+        click.echo(f"report: {report}")
+
+
+def _imu_errors(drift: str, trend: str, bias: str, sf: str, asf: str,
+                mis: str) -> rm.ImuErrors:
+    vec = lambda text, name: np.array(parse_float_list(text, name=name, count=3))  # noqa: E731
+    off = parse_float_list(mis, name="--gyro-misalignment-arcsec", count=6)
+    m = np.zeros((3, 3))
+    m[[0, 0, 1, 1, 2, 2], [1, 2, 0, 2, 0, 1]] = np.array(off) * ARCSEC_TO_RAD
+    return rm.ImuErrors(
+        gyro_drift=vec(drift, "--gyro-drift-deg-h") * DEG_PER_H_TO_RAD_PER_S,
+        gyro_drift_rate=vec(trend, "--gyro-drift-trend-deg-h-per-h") * DEG_PER_H_TO_RAD_PER_S
+        / HOUR_TO_S,
+        accel_bias=vec(bias, "--accel-bias-ug") * MICRO_G_TO_M_PER_S2,
+        gyro_scale_factor=vec(sf, "--scale-factor-ppm") * PPM_TO_RATIO,
+        accel_scale_factor=vec(asf, "--accel-scale-factor-ppm") * PPM_TO_RATIO,
+        gyro_misalignment=m,
+    )
+
+
+def _imu_json(imu: rm.ImuErrors) -> dict:
+    return {
+        "gyro_drift": {"value": imu.gyro_drift.tolist(), "unit": "rad/s"},
+        "gyro_drift_rate": {"value": imu.gyro_drift_rate.tolist(), "unit": "rad/s^2"},
+        "accel_bias": {"value": imu.accel_bias.tolist(), "unit": "m/s^2"},
+        "gyro_scale_factor": {"value": imu.gyro_scale_factor.tolist(), "unit": "1"},
+        "accel_scale_factor": {"value": imu.accel_scale_factor.tolist(), "unit": "1"},
+        "gyro_misalignment": {"value": imu.gyro_misalignment.tolist(), "unit": "rad"},
+    }
+

@@ -1,4 +1,7 @@
-"""Figures of the stator rotation modulation study."""
+"""Figures of the rotation modulation studies.
+
+Component level: stator rotation of a suspended gyro. System level: a rotating IMU in an INS.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +10,16 @@ from collections.abc import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
+from inertest.analysis.rotation_modulation import SystemRun
 from inertest.analysis.stator_modulation import ModulationRun, drift_gain
-from inertest.units import DEG_PER_H_TO_RAD_PER_S
+from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.units import (
+    ARCSEC_TO_RAD,
+    DEG_PER_H_TO_RAD_PER_S,
+    HOUR_TO_S,
+    MICRO_G_TO_M_PER_S2,
+    NAUTICAL_MILE_M,
+)
 
 
 def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarray | None = None):
@@ -56,3 +67,90 @@ def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarra
     d.grid(alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def system_figure(runs: Sequence[SystemRun]):
+    """INS errors of several rotation schemes on the same IMU: position [nmi], attitude [arcsec].
+
+    Magnitudes on log axes, so that bounded (modulated) and growing (static) errors show on
+    one plot.
+    """
+    fig, ax = plt.subplots(2, 3, figsize=(14, 7.5), sharex=True)
+    panels = [
+        (ax[0, 0], lambda r: r.horizontal_error_m / NAUTICAL_MILE_M, "horizontal position [nmi]"),
+        (ax[0, 1], lambda r: r.north_error_m / NAUTICAL_MILE_M, "latitude error R dL [nmi]"),
+        (ax[0, 2], lambda r: r.east_error_m / NAUTICAL_MILE_M,
+         "longitude error R cosL dλ [nmi]"),
+        (ax[1, 0], lambda r: r.x[:, 4] / ARCSEC_TO_RAD, "tilt φE [arcsec]"),
+        (ax[1, 1], lambda r: r.x[:, 5] / ARCSEC_TO_RAD, "tilt φN [arcsec]"),
+        (ax[1, 2], lambda r: r.x[:, 6] / ARCSEC_TO_RAD, "azimuth φU [arcsec]"),
+    ]
+    for a, value, title in panels:
+        for r in runs:
+            v = np.abs(value(r))
+            a.semilogy(r.t / HOUR_TO_S, np.where(v > 0, v, np.nan), lw=1.0, label=r.scheme.label)
+        a.set_title(f"|{title.split(' [')[0]}|")
+        a.set_ylabel(title)
+        a.grid(alpha=0.3, which="both")
+    for a in ax[1]:
+        a.set_xlabel("time [h]")
+    ax[0, 0].legend(fontsize=8)
+    lat = np.degrees(runs[0].site.latitude_rad)
+    fig.suptitle(f"Static-base INS errors with and without IMU rotation (latitude {lat:g} deg; "
+                 "vertical channel not modelled)")
+    fig.tight_layout()
+    return fig
+
+
+#: Column headers of :func:`system_summary_rows`.
+SYSTEM_SUMMARY_HEADER = ["scheme", "cycle [s]", "horizontal position [m]", "[nmi]",
+                         "φE [arcsec]", "φN [arcsec]", "φU [arcsec]"]
+#: Column headers of :func:`system_residual_rows`.
+SYSTEM_RESIDUAL_HEADER = ["scheme", "bE [ug]", "bN [ug]", "eE [deg/h]", "eN [deg/h]",
+                          "eU [deg/h]"]
+
+
+def system_summary_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
+    """Per scheme: cycle, max horizontal position error, max attitude errors (engineering)."""
+    rows = []
+    for r in runs:
+        s = r.summary()
+        cyc = r.scheme.cycle_s
+        rows.append([r.scheme.label, "-" if np.isinf(cyc) else f"{cyc:.4g}",
+                     f"{s['max_horizontal_position_m']:.4g}",
+                     f"{s['max_horizontal_position_m'] / NAUTICAL_MILE_M:.4g}",
+                     *(f"{s[k] / ARCSEC_TO_RAD:.4g}"
+                       for k in ("max_phiE_rad", "max_phiN_rad", "max_phiU_rad"))])
+    return rows
+
+
+def system_residual_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
+    """Per scheme: the equivalent constant errors it leaves (cycle means), ug and deg/h."""
+    rows = []
+    for r in runs:
+        u = r.cycle_mean_inputs
+        vals = np.r_[u[:2] / MICRO_G_TO_M_PER_S2, u[2:] / DEG_PER_H_TO_RAD_PER_S]
+        rows.append([r.scheme.label, *(f"{v:.3g}" for v in vals)])
+    return rows
+
+
+def system_sections(runs: Sequence[SystemRun]) -> list[Section]:
+    """HTML report sections of the system-level study: figure, error table, what is left."""
+    hours = runs[0].t[-1] / HOUR_TO_S
+    return [
+        Section("Navigation errors with and without IMU rotation", [
+            figure_html(system_figure(runs),
+                        f"INS errors over {hours:g} h, same IMU errors for every scheme"),
+            table_html(SYSTEM_SUMMARY_HEADER, system_summary_rows(runs)),
+            paragraph("Static-base INS error equations (seed 002); the vertical channel is not "
+                      "modelled, so the vertical accelerometer error does not enter.", note=True),
+        ]),
+        Section("What each scheme leaves", [
+            table_html(SYSTEM_RESIDUAL_HEADER, system_residual_rows(runs)),
+            paragraph("Mean navigation-frame error over one whole cycle: the equivalent constant "
+                      "bias and drift the INS integrates as if the IMU were static. Rotation "
+                      "cannot cancel errors along a single rotation axis, scale factor x "
+                      "rotation rate unless the direction alternates, nor the trace of the gyro "
+                      "scale-factor errors on the Earth rate."),
+        ]),
+    ]
