@@ -65,3 +65,18 @@ def test_bad_input():
         weighted_least_squares(np.eye(2), [1.0, 2.0])
     with pytest.raises(InputError, match="positive"):
         weighted_least_squares(np.eye(2), [1.0, 2.0], sigma=[1.0, 0.0])
+
+
+def test_fewer_rows_than_unknowns_returns_the_whole_null_space():
+    # 3 readings of 5 unknowns, one column never excited: the null space has dimension 2 and
+    # must equal scipy's; the unexcited coefficient is not identifiable.
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(3, 5))
+    A[:, 4] = 0.0
+    A[:, 3] = 0.0
+    fit = weighted_least_squares(A, rng.normal(size=3), sigma=1.0)
+    expected = scipy.linalg.null_space(A)
+    assert fit.null_space.shape == (5, 2)
+    # Same subspace: projections onto each other's complement vanish.
+    assert np.allclose(expected - fit.null_space @ (fit.null_space.T @ expected), 0, atol=1e-12)
+    assert not fit.identifiable[3] and not fit.identifiable[4]

@@ -19,5 +19,5 @@ def test_empty_cells_become_nan_and_unknown_suffix(tmp_path):
     p = tmp_path / "d.csv"
     p.write_text("angle_deg,output\n0,1.0\n90,\n")
     assert np.isnan(read_table(p)["output"][1])
-    with pytest.raises(DataError, match="use .csv or .parquet"):
+    with pytest.raises(DataError, match="use .csv, .parquet or .h5"):
         read_table(tmp_path / "d.xlsx")

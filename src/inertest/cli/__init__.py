@@ -23,6 +23,8 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.history", "history"),
     ("inertest.cli.modulation", "modulation"),
     ("inertest.cli.ins_errors", "ins_errors"),
+    ("inertest.cli.apply", "apply"),
+    ("inertest.cli.thermal", "thermal"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

@@ -145,7 +145,8 @@ def weighted_least_squares(
     # Column scaling makes the rank decision independent of the units of each column.
     norms = np.linalg.norm(Aw, axis=0)
     scale = np.where(norms > 0, norms, 1.0)
-    U, s_val, Vt = np.linalg.svd(Aw / scale, full_matrices=False)
+    # Full V when there are fewer rows than unknowns, so that Vt[rank:] spans the whole null space.
+    U, s_val, Vt = np.linalg.svd(Aw / scale, full_matrices=n < p)
     if s_val.size == 0 or s_val[0] == 0:
         raise IdentifiabilityError("the design matrix is zero: the data determine nothing")
     rank = int(np.sum(s_val > rcond * s_val[0]))

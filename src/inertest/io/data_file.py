@@ -1,4 +1,4 @@
-"""Tabular data files (CSV, Parquet) <-> dictionaries of numpy columns, via pyarrow."""
+"""Tabular data files (CSV, Parquet via pyarrow; HDF5 via h5py) <-> dicts of numpy columns."""
 
 from __future__ import annotations
 
@@ -16,20 +16,23 @@ from numpy.typing import NDArray
 
 from inertest.errors import DataError
 from inertest.io.atomic import target_file
+from inertest.io.hdf5_table import HDF5_SUFFIXES, read_hdf5_table, write_hdf5_table
 
 _SUFFIXES = (".csv", ".parquet", ".pq")
 
 
 def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
-    """Read a CSV or Parquet file into ``{column: ndarray}``.
+    """Read a CSV, Parquet or HDF5 file into ``{column: ndarray}``.
 
     Numeric columns become float arrays (empty cells -> NaN, so the procedures can name them);
     text columns become arrays of str.
     """
     p = Path(path)
     suffix = p.suffix.lower()
+    if suffix in HDF5_SUFFIXES:
+        return read_hdf5_table(p)
     if suffix not in _SUFFIXES:
-        raise DataError(f"data file {p}: unknown format {suffix!r}; use .csv or .parquet")
+        raise DataError(f"data file {p}: unknown format {suffix!r}; use .csv, .parquet or .h5")
     if not p.exists():
         raise FileNotFoundError(2, "no such file", str(p))
     try:
@@ -71,12 +74,22 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
     return h.hexdigest()
 
 
-def write_table(path: str | os.PathLike[str], columns: Mapping[str, NDArray]) -> Path:
-    """Write columns to CSV or Parquet (by suffix), atomically."""
+def write_table(
+    path: str | os.PathLike[str],
+    columns: Mapping[str, NDArray],
+    units: Mapping[str, str] | None = None,
+) -> Path:
+    """Write columns to CSV, Parquet or HDF5 (by suffix), atomically.
+
+    ``units`` (column -> unit) is stored as HDF5 dataset attributes; CSV and Parquet callers put
+    units in the column names.
+    """
     p = Path(path)
     suffix = p.suffix.lower()
+    if suffix in HDF5_SUFFIXES:
+        return write_hdf5_table(p, columns, units)
     if suffix not in _SUFFIXES:
-        raise DataError(f"output file {p}: unknown format {suffix!r}; use .csv or .parquet")
+        raise DataError(f"output file {p}: unknown format {suffix!r}; use .csv, .parquet or .h5")
     table = pa.table({k: np.asarray(v) for k, v in columns.items()})
     with target_file(p) as tmp:
         if suffix == ".csv":

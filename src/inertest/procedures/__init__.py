@@ -20,6 +20,9 @@ from inertest.errors import PlanError
 _MODULES: tuple[str, ...] = (
     "polar_tumble",
     "local_level_tumble",
+    "ferraris",
+    "triad_multiposition",
+    "accelerometer_multipoint",
 )
 
 PROCEDURES: dict[str, ModuleType] = {}

@@ -1,0 +1,90 @@
+"""``inertest thermal``: temperature compensation of a gyro's scale factor or bias (seed 003)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from inertest.analysis.thermal import QUANTITIES, fit_thermal, simulate_thermal
+from inertest.cli._common import echo_json, print_table
+from inertest.io.atomic import target_directory, target_file
+from inertest.io.data_file import read_table, write_table
+from inertest.report.html import page
+from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
+
+_FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+
+
+@click.group()
+def thermal() -> None:
+    """Scale factor and bias against temperature: polynomial and BP-network compensation."""
+
+
+@thermal.command()
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Data file to write (.csv, .parquet, .h5).")
+@click.option("--cycles", type=int, default=4, show_default=True, help="Temperature cycles.")
+@click.option("--t-min-c", type=float, default=-40.0, show_default=True)
+@click.option("--t-max-c", type=float, default=60.0, show_default=True)
+@click.option("--ramp-c-per-min", type=float, default=1.0, show_default=True)
+@click.option("--lag-s", type=float, default=600.0, show_default=True,
+              help="Time constant of the coil behind the temperature sensor [s].")
+@click.option("--noise-ppm", type=float, default=3.0, show_default=True)
+@click.option("--noise-deg-h", type=float, default=0.01, show_default=True)
+@click.option("--seed", type=int, default=None, help="Random seed for the noise.")
+def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_per_min: float,
+             lag_s: float, noise_ppm: float, noise_deg_h: float, seed: int | None) -> None:
+    """Simulate temperature cycles of a FOG whose coil lags its temperature sensor."""
+    data = simulate_thermal(cycles=cycles, t_min_c=t_min_c, t_max_c=t_max_c,
+                            ramp_c_per_min=ramp_c_per_min, lag_s=lag_s, noise_ppm=noise_ppm,
+                            noise_deg_h=noise_deg_h, rng=seed)
+    write_table(output, data, {"time_s": "s", "temperature_c": "degC", "bias_deg_h": "deg/h",
+                                   "coil_temperature_c": "degC"})
+    click.echo(f"wrote {len(data['cycle'])} rows ({cycles} cycles) to {output}")
+
+
+@thermal.command()
+@click.argument("data", type=_FILE)
+@click.option("--quantity", type=click.Choice(list(QUANTITIES)), default="scale_factor",
+              show_default=True, help="scale_factor (column scale_factor) or bias (bias_deg_h).")
+@click.option("--validation-cycles", type=int, default=1, show_default=True,
+              help="Last cycles held out for validation.")
+@click.option("--max-degree", type=int, default=5, show_default=True)
+@click.option("--no-rate", is_flag=True, help="Temperature only (no temperature-rate input).")
+@click.option("--hidden", type=int, default=10, show_default=True,
+              help="Neurons of the network's hidden layer.")
+@click.option("--max-iter", type=int, default=3000, show_default=True)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the figure (PNG).")
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Write a self-contained HTML report into this folder.")
+def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_rate: bool,
+        hidden: int, max_iter: int, as_json: bool, plot: Path | None,
+        report_dir: Path | None) -> None:
+    """Fit the compensation models to the temperature cycles in DATA."""
+    result = fit_thermal(read_table(data), quantity=quantity,
+                         validation_cycles=validation_cycles, max_degree=max_degree,
+                         use_rate=not no_rate, hidden=hidden, max_iter=max_iter)
+    if plot is not None:
+        fig = thermal_figure(result)
+        with target_file(plot) as tmp:
+            fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+    if report_dir is not None:
+        html = page(f"Temperature compensation: {quantity}",
+                    thermal_sections(result, title=f"{quantity} compensation"),
+                    subtitle=f"data: {data}")
+        with target_directory(report_dir) as tmp:
+            (tmp / "index.html").write_text(html, encoding="utf-8")
+    if as_json:
+        echo_json(result.to_dict())
+        return
+    header, rows = summary_rows(result)
+    print_table(f"thermal compensation of the {quantity}", header, rows)
+    for m in result.messages:
+        click.echo(f"warning: {m}", err=True)
+    if plot is not None:
+        click.echo(f"figure: {plot}")
+    if report_dir is not None:
+        click.echo(f"report: {report_dir / 'index.html'}")

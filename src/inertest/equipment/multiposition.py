@@ -1,0 +1,96 @@
+"""Static multi-position orientation sets of a triad on a turntable or cube fixture.
+
+A position is written as the local directions (E, W, N, S, U, D; S = south) of the triad's
+reference axes x, y, z, e.g. ``"UEN"`` = x up, y east, z north, optionally followed by a tilt
+about one body axis: ``"UEN/z+45"`` = from ``UEN``, turned +45 deg (right-handed) about the body
+z axis. The attitude is the matrix ``C_nb`` (columns: body axes in ENU), so the specific force
+felt at rest is ``f_b = C_nb^T (0, 0, g)``.
+
+Schemes (``scheme_positions``):
+
+* ``"6"``: each axis up and down (``UEN, DWN, NUE, SDE, ENU, WND``); the classical six-position
+  method (IEEE Std 1293-2018 annex on multi-position tests): ``b = (f_up + f_down)/2`` and column
+  ``j`` of ``S = K (I + M)`` is ``(f_up - f_down)/(2 g)`` with ``j`` up.
+* ``"12"``: seed ``003_f374f866dfe7c99f.txt`` sec. 1.1 calibrates the accelerometers by a
+  "twelve-position method" but does not list the positions (it cites its reference [2]); inertest
+  uses the twelve positions in which gravity lies along a cube *edge* diagonal, i.e. each
+  axis-up/axis-down attitude tilted +-45 deg about a horizontal body axis: every pair of sensor
+  axes is excited together, the information is the same for all three axes
+  (``sum f f^T = 4 g^2 I``) and ``sum f = 0``, so bias and ``S`` are uncorrelated.
+* ``"24"``: the 24 rotations of the cube (each axis up and down at four headings, as the level
+  fixture of the tumble tests): for an accelerometer the six gravity directions four times each.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from inertest.earth import DIRECTIONS_ENU
+from inertest.equipment.level_fixture import all_positions
+from inertest.errors import InputError
+
+SCHEMES = ("6", "12", "24")
+SIX = ("UEN", "DWN", "NUE", "SDE", "ENU", "WND")
+TWELVE = (
+    "UEN/z+45", "UEN/z-45", "DWN/z+45", "DWN/z-45",
+    "NUE/x+45", "NUE/x-45", "SDE/x+45", "SDE/x-45",
+    "ENU/y+45", "ENU/y-45", "WND/y+45", "WND/y-45",
+)
+_LABEL = re.compile(r"^([EWNSUD]{3})(?:/([xyz])([+-]\d+(?:\.\d*)?))?$")
+
+
+def scheme_positions(scheme: str) -> tuple[str, ...]:
+    """Position labels of a named scheme (``"6"``, ``"12"`` or ``"24"``)."""
+    if scheme == "6":
+        return SIX
+    if scheme == "12":
+        return TWELVE
+    if scheme == "24":
+        return tuple("".join(p) for p in all_positions())
+    raise InputError(f'unknown multi-position scheme "{scheme}"; use one of {", ".join(SCHEMES)} '
+                     "or list the positions")
+
+
+def attitude(label: str) -> NDArray[np.float64]:
+    """``C_nb`` (3, 3) of a position label; columns are the body x, y, z axes in ENU.
+
+    Raises
+    ------
+    InputError
+        Malformed label, axes not along three different local directions, or left-handed.
+    """
+    m = _LABEL.match(str(label).strip())
+    if m is None:
+        raise InputError(
+            f'position "{label}" is not of the form "UEN" (directions of x, y, z among E, W, N, '
+            'S, U, D) or "UEN/z+45" (then a tilt in degrees about a body axis)'
+        )
+    cols = np.column_stack([DIRECTIONS_ENU[c] for c in m.group(1)])
+    if not np.allclose(cols.T @ cols, np.eye(3)):
+        raise InputError(f'position "{label}": x, y, z must point along three different axes of '
+                         "E/W, N/S, U/D")
+    if np.linalg.det(cols) < 0:
+        raise InputError(f'position "{label}" is left-handed (x cross y must equal z)')
+    if m.group(2):
+        tilt = Rotation.from_rotvec(np.radians(float(m.group(3))) * np.eye(3)["xyz".index(
+            m.group(2))])
+        cols = cols @ tilt.as_matrix()
+    return cols
+
+
+def attitudes(labels: object) -> NDArray[np.float64]:
+    """``C_nb`` for each label, shape (n, 3, 3) (computed once per distinct label)."""
+    arr = np.asarray(labels, dtype=str)
+    uniq, inverse = np.unique(arr, return_inverse=True)
+    table = np.stack([attitude(u) for u in uniq]) if uniq.size else np.zeros((0, 3, 3))
+    return table[inverse.ravel()]
+
+
+def specific_force_body(labels: object, gravity_m_s2: float) -> NDArray[np.float64]:
+    """Specific force on the body axes at rest [m/s^2], shape (n, 3): ``C_nb^T (0, 0, g)``."""
+    C = attitudes(labels)
+    return C[:, 2, :] * float(gravity_m_s2)

@@ -1,0 +1,732 @@
+"""Ferraris calibration of an IMU (accelerometer and gyro triads) without a turntable.
+
+The session (:mod:`inertest.equipment.ferraris_session`): six static faces, each axis up
+(``x_p``) and down (``x_a``), and three hand-made turns of ``rotation_deg`` about x, y, z
+(Ferraris et al., 1995, Sensors and Materials 7(5) 311-330; ``imucal.FerrarisCalibration``).
+
+Output models (seed ``003_f374f866dfe7c99f.txt``, eq. (1), written for the raw output)::
+
+    acc:  raw_a = A_a f + b_a,                      A_a = K_a (I + M_a),  b_a = A_a B_a
+    gyro: raw_g = A_g w + b_g + G f,                A_g = K_g (I + M_g),  b_g = A_g B_g
+
+``f`` specific force [m/s^2] and ``w`` rate [rad/s] on the case axes defined by its faces,
+``K`` diagonal scale factors, ``M`` misalignment (zero diagonal, ``M_ij`` = axis i's sensitivity
+to input along j), ``B`` the input-referred biases, ``G`` the gyro g-sensitivity (optional).
+
+Solution (closed form, every coefficient from the parts that determine it):
+
+* ``A_a e_j = (u(j_p) - u(j_a)) / (2 g)``: column j from the up/down difference of face means;
+* ``b_a,i = (u_i(i_p) + u_i(i_a)) / 2``: each bias **only from the two faces where axis i is
+  vertical** (not from the plain mean of all six faces, as the issue asks);
+* ``b_g,i`` likewise from the gyro means of faces ``i_p``, ``i_a`` (this also cancels the
+  vertical Earth rate and the diagonal g-sensitivity);
+* ``G e_j = (m(j_p) - m(j_a)) / (2 g)`` (gyro means m; raw per m/s^2 of calibrated acceleration),
+  when ``g_sensitivity = true``;
+* ``A_g (theta e_j + E_j) = W_j``: ``W_j`` the integral over turn j of ``raw_g - b_g - G a_cal``,
+  ``theta = rotation_deg`` and ``E_j = W_ie sin L T_j u_j`` the vertical Earth rate over the turn
+  (``u_j`` the up direction from the calibrated accelerometers, ``T_j`` the turn's duration):
+  without it the scale factors would be off by ``W_ie sin L T / theta`` (89 ppm for a 10 s turn
+  at 50 deg latitude; set ``earth_rate = false`` to compare with tools that ignore it).
+
+Why only the vertical faces for the bias (hand-placed faces are never level). A face tilted by
+``t`` (rad, perpendicular to its axis) changes the reading of a *horizontal* axis k by
+``K_k g t_k`` -- first order -- but the reading of the *vertical* axis only by ``K g (1 - cos t)``
+-- second order. With tilts of 1 deg: the plain six-face mean puts up to
+``g sin(1 deg) * 4/6 = 11.6 mg`` into a bias; the vertical-face estimate at most
+``g (1 - cos 1 deg) / 2 = 0.076 mg`` (2 deg: 0.30 mg; scale factor ``(1 - cos t)/2`` = 76 ppm at
+1 deg). Modelling the tilts themselves is not possible from six faces: with the frame fixed,
+``A`` (9) + ``b`` (3) + two tilt angles per face (12) = 24 unknowns minus 3 for the frame = 21
+against 18 face readings. What six faces do show is the *disagreement* of the tilts of each face
+pair: the six off-axis pair sums ``(u_k(i_p) + u_k(i_a))/2 - b_k`` (k != i) are the redundancy
+of the design (they are the fit's residuals). Their size gives the tilt scatter ``tau``
+(``E[d^2] = g^2 tau^2 / 2``), which enters the misalignment uncertainty (std >= ``tau/sqrt 2``):
+the misalignments are defined only as well as the faces were set.
+
+Uncertainty: first-order propagation (numerical Jacobian of the closed form) of the covariance
+of the face means (within-face sample variance / n), of the face tilt scatter (above) and of the
+turn integrals (static noise of each gyro axis times sqrt(n) / rate). The white-noise model
+underestimates the uncertainty if the noise is strongly correlated in time; the Monte Carlo test
+confirms it for white noise and random tilts.
+
+Identifiability: the design is exactly the one above -- each axis up and down determines its
+accelerometer column, bias and gyro bias (and G column); each turn its gyro column. A missing
+part raises :class:`~inertest.errors.IdentifiabilityError` naming the coefficients it would
+determine; faces or turns that change the wrong axis, or a turn of the wrong sign, raise
+:class:`~inertest.errors.DataError` naming the likely mislabelling.
+
+Not modelled: the horizontal Earth rate (the heading is unknown): during a turn it rotates with
+the body and averages out except over the rests at either end (``W_ie cos L`` x rest: 15 ppm of
+360 deg for 2 s at 50 deg latitude); in ``G`` it is up to ``W_ie cos L`` per g (9.7 deg/h/g at
+50 deg: below the noise of a MEMS session, not of a FOG triad). Nor the wobble of a hand turn.
+
+Results (units of :mod:`~inertest.procedures.triad_common`): ``Ka_*`` [count/(m/s^2)], ``Kg_*``
+[count/(rad/s)] (``1`` with a ppm deviation when the raw unit is physical), misalignments
+``Ma_ij``, ``Mg_ij`` [urad; arcsec in the JSON ``triads`` block], biases ``Ba_*`` [mg], ``Bg_*``
+[deg/h], g-sensitivity ``Gg_ij`` [deg/h/g], and the ``calibration`` block.
+
+Data columns: ``part`` (x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot; other labels are
+ignored), ``acc_x``, ``acc_y``, ``acc_z`` [acc_unit], ``gyr_x``, ``gyr_y``, ``gyr_z``
+[gyr_unit], one row per sample at ``sample_rate_hz``; other columns are ignored.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from inertest.earth import OMEGA_IE, earth_rate_enu
+from inertest.equipment import ferraris_session as session
+from inertest.errors import DataError, IdentifiabilityError, PlanError
+from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
+from inertest.plan import Plan
+from inertest.procedures import triad_common as tc
+from inertest.procedures.checks import check_no_unknown_keys, require_columns
+from inertest.procedures.results import Estimate, Identification
+from inertest.units import (
+    ACCEL_UNITS,
+    COUNT_UNITS,
+    DEG_PER_H_TO_RAD_PER_S,
+    DEG_TO_RAD,
+    G0,
+    MILLI_G_TO_M_PER_S2,
+    RATE_UNITS,
+)
+
+KIND = "ferraris"
+ACC_COLUMNS = ("acc_x", "acc_y", "acc_z")
+GYR_COLUMNS = ("gyr_x", "gyr_y", "gyr_z")
+_OFF = tuple((i, j) for i in range(3) for j in range(3) if i != j)
+
+
+def _prefixed(names: tuple[str, ...], letter: str) -> tuple[str, ...]:
+    """``K_x`` -> ``Ka_x`` (accelerometer) or ``Kg_x`` (gyro): one IMU result holds both."""
+    return tuple(f"{n[0]}{letter}{n[1:]}" for n in names)
+
+
+ACC_NAMES = _prefixed(tc.parameter_names(False), "a")
+GYR_NAMES = _prefixed(tc.parameter_names(False), "g")
+G_NAMES = _prefixed(tc.G_SENSITIVITY_NAMES, "g")
+#: Tolerance of the calibrated face gravity check [m/s^2] (10 mg): a face whose |a| misses g by
+#: more moved during the recording or is mislabelled (tilt and MEMS noise give < 1 mg).
+FACE_GRAVITY_TOLERANCE_M_S2 = 10e-3 * G0
+
+
+@dataclass(frozen=True)
+class FerrarisSpec:
+    """Parameters of a Ferraris session (``[procedure]`` table).
+
+    Attributes
+    ----------
+    sample_rate_hz : float
+        Sample rate of the recording [Hz] (the turns are integrated with it).
+    rotation_deg : float
+        Signed angle of each turn about its +axis (right-handed) [deg]; -360 for clockwise turns.
+    acc_unit, gyr_unit : str
+        Units of the raw columns: ``count`` or a specific-force / rate unit.
+    g_sensitivity : bool
+        Estimate the gyro g-sensitivity ``G`` from the faces (default false).
+    earth_rate : bool
+        Remove the vertical Earth rate ``W_ie sin L`` integrated over each turn (default true;
+        the vertical is found from the accelerometers during the turn, the latitude from the
+        plan's site). Simulation: include the Earth rate.
+    face_duration_s, turn_duration_s, rest_s : float
+        Simulation only: time on each face, duration of each turn and rest before and after it.
+    """
+
+    kind: ClassVar[str] = KIND
+    sample_rate_hz: float
+    rotation_deg: float = 360.0
+    acc_unit: str = "count"
+    gyr_unit: str = "count"
+    g_sensitivity: bool = False
+    earth_rate: bool = True
+    face_duration_s: float = 5.0
+    turn_duration_s: float = 4.0
+    rest_s: float = 1.0
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> FerrarisSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        known = ("sample_rate_hz", "rotation_deg", "acc_unit", "gyr_unit", "g_sensitivity",
+                 "earth_rate", "face_duration_s", "turn_duration_s", "rest_s")
+        check_no_unknown_keys(params, known, KIND)
+        if "sample_rate_hz" not in params:
+            raise PlanError("ferraris needs [procedure] sample_rate_hz (sample rate in Hz)")
+        kw: dict[str, object] = {}
+        for key in ("sample_rate_hz", "face_duration_s", "turn_duration_s"):
+            if key in params:
+                kw[key] = _positive(params[key], key)
+        if "rest_s" in params:
+            v = params["rest_s"]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+                raise PlanError(f"rest_s must be a number >= 0, got {v!r}")
+            kw["rest_s"] = float(v)
+        if "rotation_deg" in params:
+            v = params["rotation_deg"]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or abs(v) < 90:
+                raise PlanError(
+                    "rotation_deg must be the signed turn angle in deg (e.g. 360 or -360), "
+                    f"got {v!r}"
+                )
+            kw["rotation_deg"] = float(v)
+        acc_units = [*COUNT_UNITS, *ACCEL_UNITS]
+        gyr_units = [*COUNT_UNITS, *RATE_UNITS]
+        for key, allowed in (("acc_unit", acc_units), ("gyr_unit", gyr_units)):
+            if key in params:
+                if params[key] not in allowed:
+                    raise PlanError(
+                        f"{key} {params[key]!r} unknown; use one of {', '.join(allowed)}"
+                    )
+                kw[key] = str(params[key])
+        for key in ("g_sensitivity", "earth_rate"):
+            if key in params:
+                if not isinstance(params[key], bool):
+                    raise PlanError(f"{key} must be true or false, got {params[key]!r}")
+                kw[key] = params[key]
+        return cls(**kw)  # type: ignore[arg-type]
+
+    @property
+    def acc_scale(self) -> tc.ScaleUnit:
+        """How the accelerometer scale factors are reported (``count/(m/s^2)`` or ``1``)."""
+        return tc.scale_unit(self.acc_unit, "accelerometer")
+
+    @property
+    def gyr_scale(self) -> tc.ScaleUnit:
+        """How the gyro scale factors are reported (``count/(rad/s)`` or ``1``)."""
+        return tc.scale_unit(self.gyr_unit, "gyroscope")
+
+
+SPEC = FerrarisSpec
+
+
+def _positive(v: object, key: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+        raise PlanError(f"{key} must be a positive number, got {v!r}")
+    return float(v)
+
+
+@dataclass(frozen=True)
+class FaceStats:
+    """Per-part statistics of the recording (raw units).
+
+    Attributes
+    ----------
+    acc_mean, gyr_mean : ndarray, shape (6, 3)
+        Mean raw output on each face (order of ``session.FACE_LABELS``).
+    acc_std, gyr_std : ndarray, shape (6, 3)
+        Sample standard deviation on each face.
+    n_face : ndarray, shape (6,)
+        Samples per face.
+    turn_gyr_integral, turn_acc_integral : ndarray, shape (3, 3)
+        Row j: sum of the raw samples of turn j divided by the sample rate [raw unit x s].
+    n_turn : ndarray, shape (3,)
+        Samples per turn.
+    """
+
+    acc_mean: NDArray[np.float64]
+    gyr_mean: NDArray[np.float64]
+    acc_std: NDArray[np.float64]
+    gyr_std: NDArray[np.float64]
+    n_face: NDArray[np.float64]
+    turn_gyr_integral: NDArray[np.float64]
+    turn_acc_integral: NDArray[np.float64]
+    n_turn: NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class FerrarisResult(tc.TriadResult):
+    """Outcome of :func:`fit` for a Ferraris session (a :class:`~.triad_common.TriadResult`).
+
+    Attributes
+    ----------
+    identification : Identification
+        Scale factors ``Ka_*`` [count/(m/s^2), or 1 for a physical raw unit], ``Kg_*``
+        [count/(rad/s) or 1], misalignments ``Ma_ij``, ``Mg_ij`` [urad], input-referred biases
+        ``Ba_*`` [mg], ``Bg_*`` [deg/h] and, if asked, ``Gg_ij`` [deg/h/g]; the residuals are
+        the six off-axis face-pair sums [acc_unit].
+    calibration : ImuCalibration
+        ``calibrated = matrix @ (raw - offset)`` (gyro: ``raw - G @ a_cal - offset``), SI.
+    triads : tuple of TriadEstimates
+        The same estimates per triad (JSON ``"triads"``, misalignments also in arcsec).
+    stats : FaceStats
+    face_gravity_error_m_s2 : ndarray, shape (6,)
+        ``|a_cal| - g`` of each face mean after calibration [m/s^2].
+    turn_angle_deg : ndarray, shape (3, 3)
+        Row j: calibrated rotation vector over turn j without the Earth rate [deg].
+    tilt_scatter_deg : float
+        Estimated standard deviation of the face tilts from the pair disagreement [deg].
+    rotation_deg : float
+        The plan's turn angle [deg].
+    """
+
+    stats: FaceStats = field(repr=False)
+    face_gravity_error_m_s2: NDArray[np.float64] = field(repr=False)
+    turn_angle_deg: NDArray[np.float64] = field(repr=False)
+    tilt_scatter_deg: float
+    rotation_deg: float
+    procedure: str = KIND
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary with the calibration block and the checks."""
+        d = super().to_dict()
+        d["calibration"] = self.calibration.to_dict()
+        d["checks"] = {
+            "face_gravity_error": {
+                "values": dict(zip(session.FACE_LABELS,
+                                   (self.face_gravity_error_m_s2 / MILLI_G_TO_M_PER_S2).tolist(),
+                                   strict=True)),
+                "tolerance": FACE_GRAVITY_TOLERANCE_M_S2 / MILLI_G_TO_M_PER_S2,
+                "unit": "mg",
+            },
+            "turn_angle": {
+                "values": dict(zip(session.TURN_LABELS, self.turn_angle_deg.tolist(),
+                                   strict=True)),
+                "expected": self.rotation_deg,
+                "unit": "deg",
+            },
+            "face_tilt_scatter": {"value": self.tilt_scatter_deg, "unit": "deg"},
+        }
+        return d
+
+
+# ---------------------------------------------------------------------------------------------
+# reduction
+
+
+def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
+    """Means, spreads and turn integrals of each part; errors name missing or empty parts."""
+    cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, ("part",), procedure=KIND)
+    part = np.char.lower(np.char.strip(cols["part"]))
+    acc = np.column_stack([cols[c] for c in ACC_COLUMNS])
+    gyr = np.column_stack([cols[c] for c in GYR_COLUMNS])
+    _check_parts_present(part, spec)
+    fs = spec.sample_rate_hz
+    am, gm, asd, gsd, nf = [], [], [], [], []
+    for label in session.FACE_LABELS:
+        sel = part == label
+        n = int(sel.sum())
+        if n < 2:
+            raise IdentifiabilityError(
+                f"face {label} has {n} sample(s); record at least 2 (a few seconds) at rest"
+            )
+        am.append(acc[sel].mean(axis=0))
+        gm.append(gyr[sel].mean(axis=0))
+        asd.append(acc[sel].std(axis=0, ddof=1))
+        gsd.append(gyr[sel].std(axis=0, ddof=1))
+        nf.append(n)
+    tg, ta, nt = [], [], []
+    for label in session.TURN_LABELS:
+        sel = part == label
+        tg.append(gyr[sel].sum(axis=0) / fs)
+        ta.append(acc[sel].sum(axis=0) / fs)
+        nt.append(int(sel.sum()))
+    return FaceStats(np.array(am), np.array(gm), np.array(asd), np.array(gsd),
+                     np.array(nf, float), np.array(tg), np.array(ta), np.array(nt, float))
+
+
+def _check_parts_present(part: NDArray, spec: FerrarisSpec) -> None:
+    present = set(np.unique(part).tolist())
+    for a in AXES:
+        others = [b for b in AXES if b != a]
+        for s, word, sign in (("p", "up", "+g"), ("a", "down", "-g")):
+            if f"{a}_{s}" not in present:
+                raise IdentifiabilityError(
+                    f"no rows with part {a}_{s}: without the face with {a} {word} the "
+                    f"accelerometer's {a} column (Ka_{a}, Ma_{others[0]}{a}, Ma_{others[1]}{a}) "
+                    f"and the biases Ba_{a}, Bg_{a} cannot be found (axis {a} must be seen up "
+                    f"and down); record the {a}_{s} face ({a} axis {word}, acc_{a} reading {sign})"
+                )
+        if f"{a}_rot" not in present:
+            raise IdentifiabilityError(
+                f"no rows with part {a}_rot: without a turn about {a} the gyro's {a} column "
+                f"(Kg_{a}, Mg_{others[0]}{a}, Mg_{others[1]}{a}) cannot be found; record a turn "
+                f"of {spec.rotation_deg:g} deg about the {a} axis labelled {a}_rot"
+            )
+
+
+def _check_labels(stats: FaceStats, spec: FerrarisSpec) -> None:
+    """Catch swapped faces, mislabelled axes and a wrong turn sign before solving."""
+    diff = stats.acc_mean[0::2] - stats.acc_mean[1::2]  # row j: u(j_p) - u(j_a)
+    norms = np.linalg.norm(diff, axis=1)
+    for j, a in enumerate(AXES):
+        k = int(np.argmax(np.abs(diff[j])))
+        if norms[j] < 0.5 * norms.max():
+            raise IdentifiabilityError(
+                f"faces {a}_p and {a}_a give nearly the same specific force ({norms[j]:.4g} "
+                f"against {norms.max():.4g} {spec.acc_unit} for the other axes): the {a} axis "
+                f"was not turned over, so Ka_{a} and the {a} column cannot be found; record "
+                f"{a}_p with {a} up and {a}_a with {a} down"
+            )
+        if k != j:
+            raise DataError(
+                f"faces {a}_p/{a}_a change acc_{AXES[k]} most ({diff[j, k]:.6g} {spec.acc_unit}) "
+                f"and acc_{a} only by {diff[j, j]:.6g}: the faces or the acc columns are "
+                f"mislabelled; {a}_p must be the face with +{a} up (acc_{a} reading +g)"
+            )
+        if diff[j, j] < 0:
+            raise DataError(
+                f"acc_{a} reads less on {a}_p than on {a}_a ({diff[j, j]:.6g} {spec.acc_unit}): "
+                f"the faces {a}_p and {a}_a are swapped ({a}_p is the face where acc_{a} reads +g)"
+            )
+    theta = spec.rotation_deg
+    w = stats.turn_gyr_integral - stats.n_turn[:, None] / spec.sample_rate_hz * _face_gyro_bias(
+        stats.gyr_mean)
+    for j, a in enumerate(AXES):
+        k = int(np.argmax(np.abs(w[j])))
+        if k != j:
+            raise DataError(
+                f"turn {a}_rot turned mostly gyr_{AXES[k]} ({w[j, k]:.6g} {spec.gyr_unit} s "
+                f"against {w[j, j]:.6g} on gyr_{a}): the turn or the gyro columns are mislabelled"
+            )
+        if w[j, j] * theta < 0:
+            raise DataError(
+                f"turn {a}_rot integrates to the opposite sign of rotation_deg = {theta:g} on "
+                f"gyr_{a}: set rotation_deg = {-theta:g} if the turns were made the other way "
+                "(negative = clockwise about the +axis), or fix the labels"
+            )
+
+
+def _face_gyro_bias(gyr_mean: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gyro bias i from the two faces where axis i is vertical [raw]."""
+    return np.array([(gyr_mean[2 * i, i] + gyr_mean[2 * i + 1, i]) / 2 for i in range(3)])
+
+
+# ---------------------------------------------------------------------------------------------
+# closed-form solution
+
+
+def _solve(
+    acc_mean: NDArray[np.float64], gyr_mean: NDArray[np.float64],
+    turn_gyr: NDArray[np.float64], turn_acc: NDArray[np.float64], turn_s: NDArray[np.float64],
+    gravity: float, theta_rad: float, with_g: bool, omega_up: float,
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """``A_a, b_a, A_g, b_g, G, E`` from the part statistics (see the module docstring).
+
+    ``E`` row j: vertical Earth-rate angle over turn j on the body axes [rad],
+    ``omega_up T_j u_j`` with ``u_j`` the mean calibrated specific-force direction (up).
+    The horizontal Earth rate turns with the body during a turn and mostly cancels; it is not
+    modelled (the heading is unknown).
+    """
+    A_a = (acc_mean[0::2] - acc_mean[1::2]).T / (2.0 * gravity)
+    b_a = np.array([(acc_mean[2 * i, i] + acc_mean[2 * i + 1, i]) / 2 for i in range(3)])
+    b_g = _face_gyro_bias(gyr_mean)
+    if with_g:
+        G = (gyr_mean[0::2] - gyr_mean[1::2]).T / (2.0 * gravity)
+    else:
+        G = np.zeros((3, 3))
+    cal_a = np.linalg.inv(A_a)
+    acc_int = (turn_acc - turn_s[:, None] * b_a) @ cal_a.T  # integral of a_cal, row per turn
+    W = turn_gyr - turn_s[:, None] * b_g - acc_int @ G.T
+    up = acc_int / np.linalg.norm(acc_int, axis=1, keepdims=True)
+    E = omega_up * turn_s[:, None] * up
+    # A_g Theta = W^T with Theta's column j the body angle of turn j: theta e_j + E_j.
+    A_g = np.linalg.solve((theta_rad * np.eye(3) + E.T).T, W).T
+    return A_a, b_a, A_g, b_g, G, E
+
+
+def _parameters(
+    A_a: NDArray, b_a: NDArray, A_g: NDArray, b_g: NDArray, G: NDArray, with_g: bool,
+    spec: FerrarisSpec,
+) -> tuple[NDArray, NDArray]:
+    """triad_common parameter vectors ``[S.ravel(), b, (G.ravel())]`` in raw SI."""
+    ra, rg = spec.acc_scale.raw_si_per_raw, spec.gyr_scale.raw_si_per_raw
+    p_a = tc.stack_parameters(A_a * ra, b_a * ra)
+    p_g = tc.stack_parameters(A_g * rg, b_g * rg, G * rg if with_g else None)
+    return p_a, p_g
+
+
+def _pack(s: FaceStats) -> NDArray[np.float64]:
+    return np.concatenate([s.acc_mean.ravel(), s.gyr_mean.ravel(),
+                           s.turn_gyr_integral.ravel(), s.turn_acc_integral.ravel()])
+
+
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -> FerrarisResult:
+    """Calibrate the accelerometer and gyro triads from a Ferraris session.
+
+    Parameters
+    ----------
+    plan : Plan
+        ``[site] gravity`` (or normal gravity at the latitude) and a :class:`FerrarisSpec`.
+    data : mapping
+        Columns ``part``, ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit].
+    sigma : None
+        Not used: the noise of every axis is estimated from the static faces.
+    """
+    if sigma is not None:
+        raise PlanError(
+            "ferraris estimates the noise of every axis from the static faces; do not give sigma"
+        )
+    spec: FerrarisSpec = plan.procedure
+    g = plan.site.gravity_m_s2
+    stats = part_stats(data, spec)
+    _check_labels(stats, spec)
+    theta = spec.rotation_deg * DEG_TO_RAD
+    fs = spec.sample_rate_hz
+    turn_s = stats.n_turn / fs
+    with_g = spec.g_sensitivity
+
+    omega_up = OMEGA_IE * np.sin(plan.site.latitude_rad) if spec.earth_rate else 0.0
+
+    def solve(x: NDArray[np.float64]) -> tuple[NDArray, ...]:
+        return _solve(x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:45].reshape(3, 3),
+                      x[45:54].reshape(3, 3), turn_s, g, theta, with_g, omega_up)
+
+    x0 = _pack(stats)
+    A_a, b_a, A_g, b_g, G, E = solve(x0)
+    cal_a = np.linalg.inv(A_a)
+
+    # Redundancy: off-axis pair sums in specific force (face tilt disagreement) [m/s^2].
+    half_sum = ((stats.acc_mean[0::2] + stats.acc_mean[1::2]) / 2 - b_a) @ cal_a.T
+    resid_raw = np.array([(stats.acc_mean[2 * i, k] + stats.acc_mean[2 * i + 1, k]) / 2 - b_a[k]
+                          for i, k in _OFF])
+    d_off = np.array([half_sum[i, k] for i, k in _OFF])
+    noise_var = np.array([
+        (stats.acc_std[2 * i, k] ** 2 / stats.n_face[2 * i]
+         + stats.acc_std[2 * i + 1, k] ** 2 / stats.n_face[2 * i + 1]) / 4 / A_a[k, k] ** 2
+        for i, k in _OFF])
+    tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - noise_var)) / g**2)
+
+    # Input covariance: face means (noise), face tilts (on the acc means), turn integrals.
+    n = x0.size
+    cov = np.zeros((n, n))
+    var_a = (stats.acc_std**2 / stats.n_face[:, None]).ravel()
+    var_g = (stats.gyr_std**2 / stats.n_face[:, None]).ravel()
+    cov[np.arange(18), np.arange(18)] = var_a
+    cov[np.arange(18, 36), np.arange(18, 36)] = var_g
+    for f, (_, axis, _) in enumerate(session.FACES):
+        P = np.eye(3)
+        P[axis, axis] = 0.0
+        sl = slice(3 * f, 3 * f + 3)
+        cov[sl, sl] += g**2 * tau2 * A_a @ P @ A_a.T
+    # Static noise per sample (pooled over the faces) integrated over each turn's samples.
+    pooled_g = np.sqrt(np.mean(stats.gyr_std**2, axis=0))
+    pooled_a = np.sqrt(np.mean(stats.acc_std**2, axis=0))
+    for j in range(3):
+        idx = 36 + 3 * j + np.arange(3)
+        cov[idx, idx] = stats.n_turn[j] * pooled_g**2 / fs**2
+        idx = 45 + 3 * j + np.arange(3)
+        cov[idx, idx] = stats.n_turn[j] * pooled_a**2 / fs**2
+
+    def params(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.concatenate(_parameters(*solve(x)[:5], with_g, spec))
+
+    # Covariance of both triads' SI parameters (cross terms kept: the gyro uses the acc).
+    p0 = params(x0)
+    J = _jacobian(params, x0, np.sqrt(np.diag(cov)))
+    cov_p = J @ cov @ J.T
+    sa, sg = spec.acc_scale, spec.gyr_scale
+    n_a = 12
+
+    def engineering(p: NDArray) -> NDArray:
+        return np.concatenate([tc.engineering(p[:n_a], "accelerometer", sa),
+                               tc.engineering(p[n_a:], "gyroscope", sg)])
+
+    values = engineering(p0)
+    Je = _jacobian(engineering, p0, np.sqrt(np.clip(np.diag(cov_p), 0.0, None)))
+    cov_out = Je @ cov_p @ Je.T
+    std = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
+    triads = (
+        tc.TriadEstimates.from_parameters(p0[:n_a], cov_p[:n_a, :n_a], sensor="accelerometer",
+                                          scale=sa),
+        tc.TriadEstimates.from_parameters(p0[n_a:], cov_p[n_a:, n_a:], sensor="gyroscope",
+                                          scale=sg),
+    )
+
+    names = ACC_NAMES + GYR_NAMES + (G_NAMES if with_g else ())
+    ua, ug = tc.units_of("accelerometer", sa), tc.units_of("gyroscope", sg, with_g)
+    units = tuple(ua.values()) + tuple(ug.values())
+    coefficients = {
+        nm: Estimate(nm, float(v), float(s), u)
+        for nm, v, s, u in zip(names, values, std, units, strict=True)
+    }
+    not_sep: tuple[str, ...] = (
+        "accelerometer misalignments Ma_ij vs. face tilts: half the difference of the off-axis "
+        "tilts of each up/down face pair enters like a misalignment (six faces cannot separate "
+        "them); the misalignments refer to the faces as set, and the tilt scatter "
+        f"({np.degrees(np.sqrt(tau2)):.2g} deg from the pair disagreement) is in their std",
+    )
+    if not with_g:
+        not_sep += ("gyro g-sensitivity: not estimated (set g_sensitivity = true to estimate it "
+                    "from the up/down faces)",)
+    # The residuals of the design are the six off-axis pair sums (face tilt disagreement).
+    resid_rms = float(np.sqrt(np.mean(resid_raw**2)))
+    ident = Identification(
+        coefficients=coefficients, combinations=(), not_separable=not_sep,
+        covariance=cov_out, names=names, noise_sigma=resid_rms, noise_unit=spec.acc_unit,
+        sigma_from_residuals=True, dof=6, rank=len(names), residuals=resid_raw,
+    )
+
+    calibration = ImuCalibration(
+        accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
+        gyroscope=TriadCalibration(np.linalg.inv(A_g), b_g, unit="rad/s",
+                                   raw_unit=spec.gyr_unit, g_sensitivity=G if with_g else None),
+    )  # in the recorded raw units: the same as tc.calibration_from_parameters
+    face_acc = (stats.acc_mean - b_a) @ cal_a.T
+    face_err = np.linalg.norm(face_acc, axis=1) - g
+    acc_int = (stats.turn_acc_integral - turn_s[:, None] * b_a) @ cal_a.T
+    W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T
+    turn_angle = (W @ np.linalg.inv(A_g).T - E) / DEG_TO_RAD  # the turn without Earth rate
+    messages = []
+    bad = np.flatnonzero(np.abs(face_err) > FACE_GRAVITY_TOLERANCE_M_S2)
+    for f in bad:
+        messages.append(
+            f"face {session.FACE_LABELS[f]}: calibrated |a| misses g by "
+            f"{face_err[f] / MILLI_G_TO_M_PER_S2:.3g} mg (more than "
+            f"{FACE_GRAVITY_TOLERANCE_M_S2 / MILLI_G_TO_M_PER_S2:g} mg): did the IMU move on it?"
+        )
+    return FerrarisResult(
+        site_latitude_deg=plan.site.latitude_deg,
+        site_gravity_m_s2=g,
+        identification=ident,
+        calibration=calibration,
+        triads=triads,
+        stats=stats,
+        face_gravity_error_m_s2=face_err,
+        turn_angle_deg=turn_angle,
+        tilt_scatter_deg=float(np.sqrt(tau2) / DEG_TO_RAD),
+        rotation_deg=spec.rotation_deg,
+        residual_output=resid_raw,
+        output_unit=spec.acc_unit,
+        messages=tuple(messages),
+    )
+
+
+def _jacobian(func, x0: NDArray[np.float64], scale: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Central-difference Jacobian with steps of 1e-3 of each input's standard deviation.
+
+    The map is smooth (ratios and a 3x3 inverse); steps far below the input spread keep the
+    truncation error negligible against the propagated uncertainty.
+    """
+    f0 = func(x0)
+    J = np.zeros((f0.size, x0.size))
+    for k in range(x0.size):
+        h = 1e-3 * scale[k] if scale[k] > 0 else 1e-6 * max(1.0, abs(x0[k]))
+        xp, xm = x0.copy(), x0.copy()
+        xp[k] += h
+        xm[k] -= h
+        J[:, k] = (func(xp) - func(xm)) / (2 * h)
+    return J
+
+
+# ---------------------------------------------------------------------------------------------
+# simulation
+
+
+def _model_from_truth(
+    truth: Mapping[str, float], spec: FerrarisSpec
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """``A_a`` [raw per m/s^2], ``b_a``, ``A_g`` [raw per rad/s], ``b_g``, ``G`` [raw per m/s^2]."""
+    known = set(ACC_NAMES + GYR_NAMES + G_NAMES) | {"face_tilt_deg", "acc_noise", "gyr_noise"}
+    unknown = sorted(set(truth) - known)
+    if unknown:
+        raise PlanError(
+            f"truth has unknown name(s) {', '.join(unknown)}; ferraris knows "
+            "Ka_x.., Ma_xy.. [urad], Ba_x.. [mg], Kg_x.., Mg_xy.., Bg_x.. [deg/h], "
+            "Gg_xx.. [deg/h/g], face_tilt_deg, acc_noise, gyr_noise"
+        )
+
+    mats = []
+    for letter, sensor, scale, b_si in (
+        ("a", "accelerometer", spec.acc_scale, MILLI_G_TO_M_PER_S2),
+        ("g", "gyroscope", spec.gyr_scale, DEG_PER_H_TO_RAD_PER_S),
+    ):
+        K = []
+        for a in AXES:
+            key = f"K{letter}_{a}"
+            if key in truth:
+                K.append(float(truth[key]))
+            elif scale.nominal is not None:
+                K.append(scale.nominal)
+            else:
+                raise PlanError(f"truth needs {key} (the {sensor} scale factor in {scale.unit})")
+        M = np.zeros((3, 3))
+        for i, j in _OFF:
+            M[i, j] = float(truth.get(f"M{letter}_{AXES[i]}{AXES[j]}", 0.0)) * tc.URAD_TO_RAD
+        # raw unit per input SI unit (the scale is in raw-SI per SI; divide by raw-SI per raw)
+        A = np.diag(np.array(K) * scale.si_per_unit / scale.raw_si_per_raw) @ (np.eye(3) + M)
+        B = np.array([float(truth.get(f"B{letter}_{a}", 0.0)) for a in AXES]) * b_si
+        mats += [A, A @ B]
+    Gi = np.array([float(truth.get(nm, 0.0)) for nm in G_NAMES]).reshape(3, 3)
+    G = mats[2] @ (Gi * DEG_PER_H_TO_RAD_PER_S / G0)
+    return mats[0], mats[1], mats[2], mats[3], G
+
+
+def simulate(
+    plan: Plan,
+    truth: Mapping[str, float],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """A virtual Ferraris session: six faces (random tilts if asked), three turns.
+
+    ``truth``: ``Ka_*`` [count/(m/s^2) or 1], ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``
+    [count/(rad/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], ``Gg_ij`` [deg/h/g] (the units of
+    the fit's result), and
+    ``face_tilt_deg`` (std of each face's random tilt about each horizontal axis, default 0),
+    ``acc_noise``, ``gyr_noise`` (white noise per sample in the raw units; default ``noise``,
+    which must then not be given).
+    Scale factors may be left out when the raw unit is not ``count`` (nominal scale 1).
+    With ``earth_rate`` (plan), the Earth rate at the site is included (faces at heading 0).
+
+    Returns columns ``part``, ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
+    """
+    spec: FerrarisSpec = plan.procedure
+    gen = np.random.default_rng(rng)
+    A_a, b_a, A_g, b_g, G = _model_from_truth(truth, spec)
+    g = plan.site.gravity_m_s2
+    fs = spec.sample_rate_hz
+    tilt = float(truth.get("face_tilt_deg", 0.0)) * DEG_TO_RAD
+    if noise and ("acc_noise" in truth or "gyr_noise" in truth):
+        raise PlanError(
+            "the truth gives acc_noise/gyr_noise and a noise level was given as well; "
+            "give it in one place only"
+        )
+    s_a = float(truth.get("acc_noise", noise))
+    s_g = float(truth.get("gyr_noise", noise))
+    if min(s_a, s_g, tilt) < 0:
+        raise PlanError("noise levels and face_tilt_deg must be >= 0")
+    n_face = int(round(spec.face_duration_s * fs))
+    parts, f_all, w_all = [], [], []
+    w_ie = earth_rate_enu(plan.site.latitude_rad) if spec.earth_rate else np.zeros(3)
+    for label, axis, sign in session.FACES:
+        t = gen.normal(0.0, tilt, 3) if tilt > 0 else None
+        f = session.face_specific_force(axis, sign, g, t)
+        parts += [label] * n_face
+        f_all.append(np.tile(f, (n_face, 1)))
+        w_earth = session.face_attitude(axis, sign).T @ w_ie
+        w_all.append(np.tile(w_earth, (n_face, 1)))
+    for label, axis in session.TURNS:
+        w = session.turn_rate_profile(axis, spec.rotation_deg * DEG_TO_RAD,
+                                      spec.turn_duration_s, fs, spec.rest_s)
+        # Turn in the axis-up face about the vertical axis: the specific force stays on it;
+        # the Earth rate turns the other way in the body (C_bn(t) = R_axis(phi)^T C_bn(0)).
+        f = session.face_specific_force(axis, +1, g)
+        phi = np.cumsum(w[:, axis]) / fs
+        rotvec = np.zeros((len(w), 3))
+        rotvec[:, axis] = -phi
+        w_earth = Rotation.from_rotvec(rotvec).apply(session.face_attitude(axis, +1).T @ w_ie)
+        parts += [label] * len(w)
+        f_all.append(np.tile(f, (len(w), 1)))
+        w_all.append(w + w_earth)
+    f_b = np.vstack(f_all)
+    w_b = np.vstack(w_all)
+    n = len(parts)
+    acc = f_b @ A_a.T + b_a
+    gyr = w_b @ A_g.T + b_g + f_b @ G.T
+    if s_a > 0:
+        acc = acc + gen.normal(0.0, s_a, acc.shape)
+    if s_g > 0:
+        gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
+    out: dict[str, NDArray] = {"part": np.array(parts), "t_s": np.arange(n) / fs}
+    for k in range(3):
+        out[ACC_COLUMNS[k]] = acc[:, k]
+    for k in range(3):
+        out[GYR_COLUMNS[k]] = gyr[:, k]
+    return out
+

@@ -1,0 +1,392 @@
+"""Static multi-position calibration of an accelerometer triad (6, 12, 24 or listed positions).
+
+Seed ``003_f374f866dfe7c99f.txt`` sec. 1.1: the accelerometer triad of the IMU is calibrated by a
+twelve-position method; the output model is the triad model of eq. (1)::
+
+    raw = S f + b,     S = K (I + M)                     (per reading, f at rest = C_nb^T (0,0,g))
+
+with ``f`` the specific force on the fixture-defined reference axes [m/s^2] (from the position's
+known attitude, :mod:`inertest.equipment.multiposition`), ``S`` a general 3x3 matrix [raw per
+m/s^2] and ``b`` the bias [raw]. The model is linear in the 12 unknowns (``S`` row-wise, ``b``),
+solved by least squares axis by axis (each output with its own noise level) and decomposed into
+3 scale factors ``K_i = S_ii``, 6 misalignments ``M_ij = S_ij / S_ii`` (reference frame = the
+fixture's axes, so all six are identifiable; see :mod:`inertest.procedures.triad_common`) and
+input-referred biases ``B = S^-1 b``. Identifiability: each output needs the specific force to
+span all three reference axes *and* to vary along each (up and down), i.e. the design
+``[f^T, 1]`` of rank 4; otherwise the error names the scale factor / misalignment that is lost
+and the position that would restore it.
+
+Data columns: ``position`` (label as in the plan, e.g. ``UEN`` or ``UEN/z+45``), ``output_x``,
+``output_y``, ``output_z`` [instrument output unit], one row per reading.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.equipment import multiposition as mp
+from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
+from inertest.estimation.least_squares import weighted_least_squares
+from inertest.models.triad import AXES, ImuCalibration
+from inertest.plan import Plan
+from inertest.procedures.checks import (
+    check_no_unknown_keys,
+    check_samples_per_position,
+    known_sigma,
+    noise_samples,
+    require_columns,
+)
+from inertest.procedures.triad_common import (
+    BIAS_NAMES,
+    MISALIGNMENT_NAMES,
+    SCALE_NAMES,
+    URAD_TO_RAD,
+    ScaleUnit,
+    TriadResult,
+    bias_unit,
+    calibration_from_parameters,
+    scale_unit,
+    stack_parameters,
+    triad_identification,
+)
+
+KIND = "triad-multiposition"
+OUTPUT_COLUMNS = tuple(f"output_{a}" for a in AXES)
+_DIRECTION_LABEL = {(0, 1): "E", (0, -1): "W", (1, 1): "N", (1, -1): "S", (2, 1): "U",
+                    (2, -1): "D"}
+
+
+@dataclass(frozen=True)
+class TriadMultipositionSpec:
+    """Parameters of a multi-position plan (``[procedure]`` table).
+
+    Attributes
+    ----------
+    positions : tuple of str
+        Position labels (see :mod:`inertest.equipment.multiposition`); in a plan file either a
+        scheme ``positions = "12"`` (``"6"``, ``"12"``, ``"24"``) or a list of labels.
+    samples_per_position : int
+        Readings per position (for simulation).
+    nominal_scale_factor : float or None
+        Nominal ``K`` [scale unit] for count outputs, to report ppm deviations (physical outputs
+        have nominal 1).
+    """
+
+    kind: ClassVar[str] = KIND
+    positions: tuple[str, ...] = mp.TWELVE
+    samples_per_position: int = 1
+    nominal_scale_factor: float | None = None
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> TriadMultipositionSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        check_no_unknown_keys(params, ("positions", "samples_per_position",
+                                       "nominal_scale_factor"), KIND)
+        spp = check_samples_per_position(params.get("samples_per_position", 1))
+        raw = params.get("positions", "12")
+        if isinstance(raw, (str, int)) and not isinstance(raw, bool):
+            positions = mp.scheme_positions(str(raw))
+        elif isinstance(raw, list) and raw:
+            positions = tuple(str(p) for p in raw)
+            for p in positions:
+                mp.attitude(p)  # validates each label
+        else:
+            raise PlanError('positions must be "6", "12", "24" or a list such as ["UEN", "DWN"]')
+        nominal = params.get("nominal_scale_factor")
+        if nominal is not None:
+            if isinstance(nominal, bool) or not isinstance(nominal, (int, float)) or not (
+                    np.isfinite(nominal) and nominal > 0):
+                raise PlanError(f"nominal_scale_factor must be a positive number, got {nominal!r}")
+            nominal = float(nominal)
+        return cls(positions=positions, samples_per_position=spp, nominal_scale_factor=nominal)
+
+
+SPEC = TriadMultipositionSpec
+
+
+@dataclass(frozen=True, kw_only=True)
+class TriadMultipositionResult(TriadResult):
+    """Outcome of :func:`fit`.
+
+    Attributes
+    ----------
+    position : ndarray of str
+        Position label of each row.
+    specific_force : ndarray, shape (n, 3)
+        Specific force on the reference axes [m/s^2].
+    output, fitted : ndarray, shape (n, 3)
+        Recorded and model output [output unit].
+    noise_per_axis : dict
+        Noise per reading of each output [output unit] (from residuals unless given).
+    six_position : dict
+        Closed-form six-position estimates (bias [output unit], S columns [output unit per
+        m/s^2]) when the data hold the six axis-up/down positions; else empty.
+    """
+
+    position: NDArray = field(repr=False)
+    specific_force: NDArray[np.float64] = field(repr=False)
+    output: NDArray[np.float64] = field(repr=False)
+    fitted: NDArray[np.float64] = field(repr=False)
+    noise_per_axis: dict[str, float]
+    six_position: dict[str, list[float]]
+
+    def to_dict(self) -> dict[str, object]:
+        """Triad layout plus noise per axis and the closed-form six-position values."""
+        d = super().to_dict()
+        d["noise_per_axis"] = {k: {"value": v, "unit": self.output_unit}
+                               for k, v in self.noise_per_axis.items()}
+        if self.six_position:
+            d["six_position_closed_form"] = self.six_position
+        return d
+
+
+def _scale(plan: Plan) -> ScaleUnit:
+    inst = plan.instrument
+    if inst.kind not in ("accelerometer-triad", "imu"):
+        raise PlanError(f'{KIND} calibrates an accelerometer triad: set [instrument] kind = '
+                        f'"accelerometer-triad" (or "imu"), not "{inst.kind}"')
+    su = scale_unit(inst.output_unit, "accelerometer")
+    if su.unit != "1" and inst.output_unit != "count":
+        raise PlanError(f'output_unit "{inst.output_unit}" is not a specific-force unit; use '
+                        'count, m/s^2, g, mg or ug')
+    nominal = plan.procedure.nominal_scale_factor
+    if nominal is not None and su.nominal is None:
+        su = ScaleUnit(su.unit, su.si_per_unit, su.raw_si_per_raw, nominal)
+    return su
+
+
+def check_identifiable(f: NDArray[np.float64], labels: NDArray) -> None:
+    """Raise :class:`IdentifiabilityError` unless ``[f^T, 1]`` has rank 4, saying what is lost.
+
+    Parameters
+    ----------
+    f : ndarray, shape (n, 3)
+        Specific force on the reference axes [m/s^2].
+    labels : ndarray of str
+        Position of each row (for the message).
+    """
+    distinct = np.unique(labels)
+    A = np.column_stack([f / np.max(np.abs(f)), np.ones(len(f))])
+    _, s, vt = np.linalg.svd(A, full_matrices=True)
+    rank = int(np.sum(s > 1e-9 * s[0]))
+    if rank == 4:
+        return
+    msgs = []
+    for v in vt[rank:]:
+        d, c = v[:3], v[3]
+        if np.linalg.norm(d) < 1e-9:  # pragma: no cover - the ones column is never zero
+            continue
+        d = d / np.linalg.norm(d)
+        j = int(np.argmax(np.abs(d)))
+        axis = AXES[j]
+        col = ", ".join(f"S_{a}{axis}" for a in AXES)
+        lost = f"K_{axis} and the misalignments M_x{axis}/M_y{axis}/M_z{axis} ({col})"
+        if abs(c) < 1e-6:
+            msgs.append(
+                f"{lost} cannot be found: no position puts specific force along {axis} "
+                f"(direction {np.round(d, 3).tolist()}); add positions with {axis} up and down "
+                f"(e.g. {_axis_positions(j)})")
+        else:
+            msgs.append(
+                f"{lost} cannot be separated from the biases: the specific force along {axis} "
+                f"is the same in every position; add the opposite position (e.g. "
+                f"{_axis_positions(j)}) so {axis} is both up and down")
+    raise IdentifiabilityError(
+        f"{len(distinct)} distinct position(s) ({', '.join(distinct[:8])}) do not determine the "
+        f"12 triad parameters (rank {rank} of 4 per output): " + "; ".join(msgs))
+
+
+def _axis_positions(j: int) -> str:
+    return {0: "UEN and DWN", 1: "NUE and SDE", 2: "ENU and WND"}[j]
+
+
+def _check_labels(S: NDArray[np.float64]) -> None:
+    """Mislabelled axes: each output must respond mostly, and positively, to its own axis."""
+    for i, a in enumerate(AXES):
+        row = np.abs(S[i])
+        j = int(np.argmax(row))
+        if j != i:
+            raise DataError(
+                f"output_{a} responds mostly to specific force along {AXES[j]} (|S_{a}{AXES[j]}| "
+                f"= {row[j]:.4g} > |S_{a}{a}| = {row[i]:.4g}): the output columns or the position "
+                f"labels are mislabelled; swap output_{a} and output_{AXES[j]} or fix the "
+                "mounting")
+        if S[i, i] < 0:
+            raise DataError(
+                f"output_{a} has a negative scale factor (S_{a}{a} = {S[i, i]:.4g}): the {a} "
+                f"sensor points opposite to the reference {a} axis; negate output_{a} or check "
+                "the sign of the mounting")
+
+
+def six_position_closed_form(
+    labels: NDArray, output: NDArray[np.float64], gravity_m_s2: float
+) -> dict[str, list[float]]:
+    """Classical six-position formulas where the data hold ``UEN, DWN, NUE, SDE, ENU, WND``.
+
+    ``b = (f_up + f_down) / 2`` (mean over the three axes' pairs) and column ``j`` of ``S`` is
+    ``(f_up - f_down) / (2 g)`` with axis ``j`` up (IEEE Std 1293-2018; Titterton & Weston,
+    *Strapdown Inertial Navigation Technology*, 2nd ed., sec. 8.3.2).
+
+    Returns
+    -------
+    dict
+        ``{"bias": [3] (output unit), "S": 3x3 (output unit per m/s^2)}``; empty without the six.
+    """
+    means = {}
+    for p in mp.SIX:
+        sel = labels == p
+        if not np.any(sel):
+            return {}
+        means[p] = output[sel].mean(axis=0)
+    pairs = [("UEN", "DWN"), ("NUE", "SDE"), ("ENU", "WND")]
+    S = np.column_stack([(means[u] - means[d]) / (2 * gravity_m_s2) for u, d in pairs])
+    b = np.mean([(means[u] + means[d]) / 2 for u, d in pairs], axis=0)
+    return {"bias": b.tolist(), "S": S.tolist()}
+
+
+def fit(
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+) -> TriadMultipositionResult:
+    """Bias, scale factors and misalignment of an accelerometer triad from static positions.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site (local gravity), instrument (``accelerometer-triad``) and a
+        :class:`TriadMultipositionSpec`.
+    data : mapping
+        Columns ``position``, ``output_x``, ``output_y``, ``output_z`` [output unit].
+    sigma : float, optional
+        Known noise per reading [output unit], same for each axis; else from the residuals.
+
+    Raises
+    ------
+    IdentifiabilityError
+        The positions do not excite every axis both ways (message names the lost coefficients
+        and the positions to add), or too few readings to estimate the noise.
+    DataError
+        An output responds mostly to another axis or with negative sign (mislabelled axes).
+    """
+    su = _scale(plan)
+    cols = require_columns(data, OUTPUT_COLUMNS, ("position",), procedure=KIND)
+    labels = np.char.strip(cols["position"])
+    try:
+        f = mp.specific_force_body(labels, plan.site.gravity_m_s2)
+    except InputError as exc:
+        raise DataError(f"column position: {exc}") from None
+    check_identifiable(f, labels)
+    out = np.column_stack([cols[c] for c in OUTPUT_COLUMNS])
+    y = out * su.raw_si_per_raw
+    sig = known_sigma(sigma, su.raw_si_per_raw)
+    if sig is None and len(f) <= 4:
+        raise IdentifiabilityError(
+            f"{len(f)} readings leave no degree of freedom for the noise of each output (4 "
+            "unknowns per output): record more readings or positions, or give --sigma")
+    A = np.column_stack([f, np.ones(len(f))])
+    S = np.zeros((3, 3))
+    b = np.zeros(3)
+    cov = np.zeros((12, 12))
+    resid = np.zeros_like(y)
+    noise = {}
+    dofs = []
+    for i, a in enumerate(AXES):
+        lf = weighted_least_squares(A, y[:, i], sigma=sig)
+        S[i], b[i] = lf.x[:3], lf.x[3]
+        idx = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
+        cov[np.ix_(idx, idx)] = lf.covariance
+        resid[:, i] = lf.residuals
+        noise[f"output_{a}"] = float((lf.sigma if sig is None else sig) / su.raw_si_per_raw)
+        dofs.append(lf.dof)
+    _check_labels(S)
+    p = stack_parameters(S, b)
+    pooled = float(np.sqrt(np.mean(np.square(list(noise.values())))))
+    est, ident = triad_identification(
+        p, cov, sensor="accelerometer", scale=su,
+        noise_sigma=pooled if sig is None else float("nan"), noise_unit=plan.instrument.output_unit,
+        sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
+        residuals=(resid / su.raw_si_per_raw).ravel())
+    messages = _messages(est.misalignment)
+    for m in messages:
+        warnings.warn(m, InertestWarning, stacklevel=2)
+    calib = calibration_from_parameters(p, sensor="accelerometer", scale=su,
+                                        raw_unit=plan.instrument.output_unit)
+    return TriadMultipositionResult(
+        procedure=KIND,
+        site_latitude_deg=plan.site.latitude_deg,
+        site_gravity_m_s2=plan.site.gravity_m_s2,
+        identification=ident,
+        calibration=ImuCalibration(accelerometer=calib),
+        triads=(est,),
+        residual_output=(resid / su.raw_si_per_raw).ravel(),
+        output_unit=plan.instrument.output_unit,
+        messages=tuple(messages),
+        position=labels,
+        specific_force=f,
+        output=out,
+        fitted=out - resid / su.raw_si_per_raw,
+        noise_per_axis=noise,
+        six_position=six_position_closed_form(labels, out, plan.site.gravity_m_s2),
+    )
+
+
+def _messages(misalignment: Mapping[str, object]) -> list[str]:
+    big = [k for k, e in misalignment.items() if abs(e.value) > 0.05 / URAD_TO_RAD]  # type: ignore[attr-defined]
+    if big:
+        return [f"misalignment {', '.join(big)} exceed 50 mrad: the small-angle model K (I + M) "
+                "is only approximate; check the mounting and the position labels"]
+    return []
+
+
+def truth_model(truth: Mapping[str, float], su: ScaleUnit
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``S`` [raw SI per m/s^2] and ``b`` [raw SI] from truth names in engineering units.
+
+    ``K_x..K_z`` [scale unit; default 1 for physical outputs], ``M_ij`` [urad], ``B_x..B_z``
+    [mg, input-referred, so ``b = S B``].
+    """
+    names = (*SCALE_NAMES, *MISALIGNMENT_NAMES, *BIAS_NAMES)
+    unknown = sorted(set(truth) - set(names))
+    if unknown:
+        raise PlanError(f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
+                        f"{', '.join(names)}")
+    missing = [k for k in SCALE_NAMES if k not in truth]
+    if missing and su.nominal is None:
+        raise PlanError(f"truth needs the scale factors {', '.join(missing)} in {su.unit}")
+    K = np.array([float(truth.get(k, su.nominal or 1.0)) for k in SCALE_NAMES]) * su.si_per_unit
+    M = np.zeros((3, 3))
+    for i, a in enumerate(AXES):
+        for j, c in enumerate(AXES):
+            if i != j:
+                M[i, j] = float(truth.get(f"M_{a}{c}", 0.0)) * URAD_TO_RAD
+    S = np.diag(K) @ (np.eye(3) + M)
+    _, b_si = bias_unit("accelerometer")
+    B = np.array([float(truth.get(k, 0.0)) for k in BIAS_NAMES]) * b_si
+    return S, S @ B
+
+
+def simulate(
+    plan: Plan,
+    truth: Mapping[str, float],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Readings of a virtual accelerometer triad at the plan's positions.
+
+    ``truth``: ``K_i`` [scale unit], ``M_ij`` [urad], ``B_i`` [mg]; ``noise`` per reading
+    [output unit]. Returns columns ``position``, ``output_x``, ``output_y``, ``output_z``.
+    """
+    su = _scale(plan)
+    spec: TriadMultipositionSpec = plan.procedure
+    labels = np.array([p for p in spec.positions for _ in range(spec.samples_per_position)])
+    f = mp.specific_force_body(labels, plan.site.gravity_m_s2)
+    S, b = truth_model(truth, su)
+    raw = (f @ S.T + b) / su.raw_si_per_raw
+    raw = raw + noise_samples(raw.size, noise, rng).reshape(raw.shape)
+    return {"position": labels, **{c: raw[:, i] for i, c in enumerate(OUTPUT_COLUMNS)}}

@@ -1,0 +1,135 @@
+"""Figures and report sections of the accelerometer tests.
+
+Dividing-head multipoint test of a single pendulous accelerometer, and static multi-position
+calibration of an accelerometer triad.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from inertest.models.triad import AXES
+from inertest.procedures.accelerometer_multipoint import AccelerometerMultipointResult
+from inertest.procedures.triad_multiposition import TriadMultipositionResult
+from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.identification import fmt, identification_section
+
+
+def multipoint_figure(result: AccelerometerMultipointResult):
+    """Per mounting: model error ``E/K1 - aI`` [ug] vs head angle with the fit, and residuals.
+
+    Removing the ideal response ``K1 aI`` shows the bias, nonlinearity, cross-coupling and
+    misalignment harmonics that the test separates.
+    """
+    ms = list(np.unique(result.mounting))
+    k1 = result.coefficients["K1"].value
+    ideal = k1 * result.specific_force_g[:, 0]
+    fig, axes = plt.subplots(2, len(ms), figsize=(3.8 * len(ms), 5.4), squeeze=False,
+                             sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    for j, m in enumerate(ms):
+        sel = result.mounting == m
+        t = result.angle_deg[sel]
+        order = np.argsort(t, kind="stable")
+        err = (result.output[sel] - ideal[sel]) / k1 * 1e6
+        model = (result.fitted[sel] - ideal[sel]) / k1 * 1e6
+        ax, axr = axes[0, j], axes[1, j]
+        ax.plot(t, err, ".", ms=3, label="measured")
+        ax.plot(t[order], model[order], "-", lw=1, label="model")
+        ax.set_title(f"mounting {m}")
+        ax.grid(alpha=0.3)
+        axr.plot(t, result.residual_output[sel], ".", ms=3)
+        axr.axhline(0, color="k", lw=0.6)
+        axr.set_xlabel("head angle θ [deg]")
+        axr.grid(alpha=0.3)
+        if j == 0:
+            ax.set_ylabel("E/K1 − aI [µg]")
+            axr.set_ylabel(f"residual [{result.output_unit}]")
+            ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def multipoint_sections(
+    result: AccelerometerMultipointResult, truth: Mapping[str, float] | None = None, *,
+    title: str,
+) -> list[Section]:
+    """Estimates (general least squares), Fourier terms and closed forms per mounting, figure."""
+    sec = identification_section(f"{title}: general least squares over all mountings",
+                                 result.identification, truth)
+    four = Section(f"{title}: Fourier analysis per mounting", [])
+    if result.fourier:
+        names = ["B0", "S1", "C1", "S2", "C2", "S3", "C3"]
+        rows = [[m, *(f"{v['harmonics'][n]:.6g}" for n in names)]  # type: ignore[index]
+                for m, v in result.fourier.items()]
+        four.parts.append(table_html(["mounting", *(f"{n} [{result.output_unit}]" for n in names)],
+                                     rows))
+        for m, v in result.fourier.items():
+            cf = {**v.get("coefficients", {}), **v.get("combinations", {})}  # type: ignore[dict-item]
+            if cf:
+                four.parts.append(paragraph(f"Closed forms of mounting {m} (IEEE Std 1293 "
+                                            "multipoint): K1 = (C1 − 3 C3)/γ, K3 = 4 C3/(K1 γ³), "
+                                            "misalignment from S1, cross-coupling from S2:"))
+                four.parts.append(table_html(
+                    ["quantity", "value", "unit"],
+                    [[k, f"{x['value']:.6g}", x["unit"]] for k, x in cf.items()]))
+    else:
+        four.parts.append(paragraph("No mounting has 8+ equally spaced positions over 360 deg; "
+                                    "the Fourier closed forms do not apply.", note=True))
+    four.parts.append(figure_html(multipoint_figure(result),
+                                  "Output less the ideal K1·aI against head angle per "
+                                  "mounting, with residuals"))
+    for msg in result.messages:
+        four.parts.append(paragraph("Warning: " + msg, note=True))
+    return [sec, four]
+
+
+def triad_residual_figure(result: TriadMultipositionResult):
+    """Residual of each output per position."""
+    labels, inverse = np.unique(result.position, return_inverse=True)
+    fig, ax = plt.subplots(figsize=(max(6, 0.4 * labels.size), 3.6))
+    resid = result.output - result.fitted
+    for i, a in enumerate(AXES):
+        ax.plot(inverse + (i - 1) * 0.15, resid[:, i], ".", ms=4, label=f"output_{a}")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xticks(np.arange(labels.size), labels, rotation=90, fontsize=7)
+    ax.set_xlabel("position (directions of x, y, z; /axis±deg = tilt)")
+    ax.set_ylabel(f"residual [{result.output_unit}]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def triad_sections(
+    result: TriadMultipositionResult, truth: Mapping[str, float] | None = None, *, title: str,
+) -> list[Section]:
+    """Estimates with uncertainty, the calibration matrix/offset and residuals per position."""
+    sec = identification_section(f"{title}: scale factor, misalignment, bias",
+                                 result.identification, truth)
+    sec.parts.append(paragraph(
+        "Model raw = K (I + M) f + K (I + M) B: K_i scale factor, M_ij sensitivity of sensor i to "
+        "specific force along the fixture's reference axis j (all six angles, since the fixture "
+        "fixes the reference frame), B input-referred bias."))
+    est = result.triads[0]
+    if est.scale_ppm:
+        sec.parts.append(table_html(
+            ["scale factor", "deviation from nominal ± std [ppm]"],
+            [[k, fmt(e.value, e.std)] for k, e in est.scale_ppm.items()]))
+    cal = result.calibration.accelerometer
+    if cal is not None:
+        sec.parts.append(paragraph(f"Calibration: calibrated [m/s²] = matrix @ (raw − offset), "
+                                   f"raw in {cal.raw_unit}."))
+        sec.parts.append(table_html(
+            ["row", "matrix x", "matrix y", "matrix z", "offset"],
+            [[a, *(f"{v:.9g}" for v in cal.matrix[i]), f"{cal.offset[i]:.6g}"]
+             for i, a in enumerate(AXES)]))
+    sec.parts.append(table_html(
+        ["output", f"noise per reading [{result.output_unit}]"],
+        [[k, f"{v:.4g}"] for k, v in result.noise_per_axis.items()]))
+    sec.parts.append(figure_html(triad_residual_figure(result), "Residuals per position"))
+    for msg in result.messages:
+        sec.parts.append(paragraph("Warning: " + msg, note=True))
+    return [sec]

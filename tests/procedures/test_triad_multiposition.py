@@ -1,0 +1,183 @@
+"""Static multi-position calibration of an accelerometer triad (seed 003 sec. 1.1)."""
+
+import numpy as np
+import pytest
+
+from inertest.earth import Site
+from inertest.equipment import multiposition as mp
+from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
+from inertest.models.triad import TriadCalibration
+from inertest.plan import Instrument, Plan
+from inertest.procedures import triad_multiposition as tm
+
+TRUTH = {"K_x": 1671.2, "K_y": 1669.8, "K_z": 1672.5, "M_xy": 850.0, "M_xz": -420.0,
+         "M_yx": 310.0, "M_yz": 1200.0, "M_zx": -640.0, "M_zy": 95.0, "B_x": 12.5,
+         "B_y": -8.3, "B_z": 21.0}
+
+
+def make_plan(positions="12", spp=1, unit="count", kind="accelerometer-triad", nominal=None):
+    params = {"positions": positions, "samples_per_position": spp}
+    if nominal is not None:
+        params["nominal_scale_factor"] = nominal
+    spec = tm.TriadMultipositionSpec.from_mapping(params)
+    return Plan(Site.at(34.246), Instrument(kind=kind, output_unit=unit), spec)
+
+
+@pytest.mark.parametrize("scheme", ["6", "12", "24"])
+def test_exact_recovery(scheme):
+    plan = make_plan(scheme)
+    r = tm.fit(plan, tm.simulate(plan, TRUTH), sigma=1.0)
+    for k, e in r.coefficients.items():
+        assert e.value == pytest.approx(TRUTH[k], rel=1e-10, abs=1e-8), k
+    assert r.coefficients["M_xy"].unit == "urad" and r.coefficients["B_x"].unit == "mg"
+
+
+def test_calibration_inverts_the_simulated_triad():
+    plan = make_plan("12")
+    data = tm.simulate(plan, TRUTH)
+    r = tm.fit(plan, data, sigma=1.0)
+    raw = np.column_stack([data[c] for c in tm.OUTPUT_COLUMNS])
+    f = mp.specific_force_body(data["position"], plan.site.gravity_m_s2)
+    cal = TriadCalibration.from_dict(r.to_dict()["calibration"]["accelerometer"])
+    np.testing.assert_allclose(cal.apply(raw), f, atol=1e-9)
+
+
+def test_physical_output_unit_gives_ppm_against_nominal_one():
+    truth = {"K_x": 1.0002, "K_y": 0.9995, "K_z": 1.0, "M_yz": 100.0, "B_z": 2.0}
+    plan = make_plan("6", unit="g")
+    r = tm.fit(plan, tm.simulate(plan, truth), sigma=1e-6)
+    ppm = r.triads[0].scale_ppm
+    assert ppm["K_x"].value == pytest.approx(200.0, abs=1e-6)
+    assert ppm["K_y"].value == pytest.approx(-500.0, abs=1e-6)
+    cal = r.calibration.accelerometer
+    # calibrated [m/s^2] = matrix @ (raw [g] - offset [g])
+    raw_up_z = np.array([0.0, 0.9995 * 100e-6, 1.0]) * plan.site.gravity_g
+    raw_up_z = raw_up_z + np.array([0.0, 0.9995 * 100e-6 * 2e-3, 2e-3])
+    np.testing.assert_allclose(cal.apply(raw_up_z)[0], [0, 0, plan.site.gravity_m_s2], atol=1e-9)
+
+
+def test_six_position_closed_form_equals_least_squares_and_textbook_formula():
+    plan = make_plan("6", spp=4)
+    data = tm.simulate(plan, TRUTH, noise=3.0, rng=7)
+    r = tm.fit(plan, data)
+    g = plan.site.gravity_m_s2
+    cf = r.six_position
+    raw = np.column_stack([data[c] for c in tm.OUTPUT_COLUMNS])
+    up = raw[data["position"] == "UEN"].mean(axis=0)
+    down = raw[data["position"] == "DWN"].mean(axis=0)
+    # textbook: column x of S = (f_up - f_down) / (2 g)
+    np.testing.assert_allclose(np.array(cf["S"])[:, 0], (up - down) / (2 * g), rtol=1e-12)
+    S_ls = r.calibration.accelerometer.forward
+    np.testing.assert_allclose(np.array(cf["S"]), S_ls, rtol=1e-10)
+    np.testing.assert_allclose(cf["bias"], r.calibration.accelerometer.offset, rtol=1e-10)
+
+
+def test_noise_free_bias_and_scale_by_hand():
+    truth = {"K_x": 1000.0, "K_y": 2000.0, "K_z": 500.0, "B_x": 1.0, "B_y": -2.0, "B_z": 3.0}
+    plan = make_plan("6")
+    r = tm.fit(plan, tm.simulate(plan, truth), sigma=1.0)
+    g, mg = plan.site.gravity_m_s2, 9.80665e-3
+    # f_up = K (g + B), f_down = K (-g + B): bias = K B, scale = (f_up - f_down) / (2 g)
+    np.testing.assert_allclose(r.six_position["bias"], [1000 * mg, 2000 * -2 * mg, 500 * 3 * mg],
+                               rtol=1e-12)
+    np.testing.assert_allclose(np.diag(r.six_position["S"]), [1000, 2000, 500], rtol=1e-12)
+    assert g > 9.79
+
+
+def test_axis_never_excited_names_the_lost_coefficients_and_the_fix():
+    plan = make_plan(["UEN", "DWN", "NUE", "SDE"])
+    with pytest.raises(IdentifiabilityError, match=r"K_z and the misalignments.*no position puts "
+                       r"specific force along z.*ENU and WND"):
+        tm.fit(plan, tm.simulate(plan, TRUTH), sigma=1.0)
+
+
+def test_axis_only_up_cannot_separate_scale_from_bias():
+    # z tilted 45 deg from up in every position: f_z = g/sqrt(2) always, so z's column of S
+    # acts like a bias
+    plan = make_plan(["ENU/x+45", "ENU/x-45", "ENU/y+45", "ENU/y-45"], spp=2)
+    with pytest.raises(IdentifiabilityError, match=r"K_z .*cannot be separated from the biases"
+                       r".*ENU and WND"):
+        tm.fit(plan, tm.simulate(plan, TRUTH), sigma=1.0)
+
+
+def test_duplicate_positions_only():
+    plan = make_plan(["UEN"], spp=10)
+    with pytest.raises(IdentifiabilityError, match=r"1 distinct position\(s\) \(UEN\)"):
+        tm.fit(plan, tm.simulate(plan, TRUTH, noise=1.0, rng=1))
+
+
+def test_too_few_readings_for_the_noise():
+    plan = make_plan(["UEN/z+45", "NUE/x+45", "ENU/y+45", "DWN/z-45"])
+    data = tm.simulate(plan, TRUTH)
+    with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
+        tm.fit(plan, data)
+    r = tm.fit(plan, data, sigma=1.0)  # four well-chosen positions suffice with a known noise
+    assert r.coefficients["K_z"].value == pytest.approx(TRUTH["K_z"], rel=1e-10)
+
+
+def test_swapped_output_columns_are_reported_as_mislabelled():
+    plan = make_plan("12")
+    data = tm.simulate(plan, TRUTH, noise=1.0, rng=3)
+    data["output_x"], data["output_y"] = data["output_y"], data["output_x"]
+    with pytest.raises(DataError, match="output_x responds mostly to specific force along y.*"
+                       "swap output_x and output_y"):
+        tm.fit(plan, data)
+
+
+def test_negated_output_is_reported_as_sign_flip():
+    plan = make_plan("12")
+    data = tm.simulate(plan, TRUTH, noise=1.0, rng=3)
+    data["output_z"] = -data["output_z"]
+    with pytest.raises(DataError, match="output_z has a negative scale factor.*negate output_z"):
+        tm.fit(plan, data)
+
+
+def test_plan_errors():
+    with pytest.raises(InputError, match='unknown multi-position scheme "8"'):
+        make_plan("8")
+    with pytest.raises(InputError, match="left-handed"):
+        make_plan(["UNE"])
+    with pytest.raises(PlanError, match='kind = "accelerometer-triad"'):
+        tm.simulate(make_plan(kind="gyro-triad"), TRUTH)
+    with pytest.raises(PlanError, match="needs the scale factors K_x"):
+        tm.simulate(make_plan(), {"B_x": 1.0})
+    with pytest.raises(PlanError, match="unknown name.*K1"):
+        tm.simulate(make_plan(), {**TRUTH, "K1": 1.0})
+    plan = make_plan()
+    data = tm.simulate(plan, TRUTH)
+    data["position"] = data["position"].astype("<U12")
+    data["position"][0] = "UEX"
+    with pytest.raises(DataError, match="column position"):
+        tm.fit(plan, data)
+
+
+def test_json_has_calibration_block_and_engineering_units():
+    plan = make_plan("12", spp=3, nominal=1670.7)
+    d = tm.fit(plan, tm.simulate(plan, TRUTH, noise=2.0, rng=4)).to_dict()
+    acc = d["calibration"]["accelerometer"]
+    assert np.shape(acc["matrix"]) == (3, 3) and len(acc["offset"]) == 3
+    assert acc["unit"] == "m/s^2" and acc["raw_unit"] == "count"
+    t = d["triads"]["accelerometer"]
+    assert t["scale_factor_ppm"]["K_x"]["unit"] == "ppm"
+    assert t["misalignment_arcsec"]["M_xy"]["value"] == pytest.approx(
+        t["misalignment"]["M_xy"]["value"] * 0.206264806, rel=1e-8)
+    assert set(d["noise_per_axis"]) == {"output_x", "output_y", "output_z"}
+    cov = d["triads"]["accelerometer"]["covariance"]
+    i = cov["names"].index("M_xy")
+    assert np.sqrt(cov["matrix"][i][i]) == pytest.approx(t["misalignment"]["M_xy"]["std"])
+
+
+@pytest.mark.slow
+def test_monte_carlo_reported_std_matches_scatter():
+    plan = make_plan("12", spp=2)
+    rng = np.random.default_rng(11)
+    names = ("K_x", "M_xy", "M_zx", "B_y", "B_z")
+    est, std = [], []
+    for _ in range(400):
+        r = tm.fit(plan, tm.simulate(plan, TRUTH, noise=2.0, rng=rng))
+        est.append([r.coefficients[n].value for n in names])
+        std.append([r.coefficients[n].std for n in names])
+    ratio = np.std(est, axis=0, ddof=1) / np.mean(std, axis=0)
+    assert np.all(np.abs(ratio - 1) < 0.2), dict(zip(names, ratio, strict=True))
+    z = (np.mean(est, axis=0) - [TRUTH[n] for n in names]) / (np.mean(std, axis=0) / 20)
+    assert np.all(np.abs(z) < 4)
