@@ -25,6 +25,7 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.ins_errors", "ins_errors"),
     ("inertest.cli.apply", "apply"),
     ("inertest.cli.thermal", "thermal"),
+    ("inertest.cli.allan", "allan"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

@@ -1,0 +1,149 @@
+"""``inertest allan``: Allan-family deviations and IEEE 952 noise terms of one data column."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import click
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
+
+from inertest.cli._common import echo_json, print_table
+from inertest.errors import InputError
+from inertest.io.atomic import target_file
+from inertest.io.raw_samples import RAW_DTYPES, read_samples
+from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
+from inertest.noise.identification import identify_noise
+from inertest.report.noise import allan_figure, deviation_rows, noise_rows
+from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
+
+# Column unit -> (factor to SI, SI rate unit of the deviation, instrument kind).
+_UNITS: dict[str, tuple[float, str, str | None]] = {
+    **{u: (f, "rad/s", "gyro") for u, f in RATE_UNITS.items()},
+    **{u: (f, "m/s^2", "accelerometer") for u, f in ACCEL_UNITS.items()},
+    "1": (1.0, "1", None),
+}
+_ANGLE_UNITS: dict[str, tuple[float, str, str | None]] = {
+    "rad": (1.0, "rad/s", "gyro"),
+    "deg": (DEG_TO_RAD, "rad/s", "gyro"),
+    "arcsec": (ARCSEC_TO_RAD, "rad/s", "gyro"),
+    "m/s": (1.0, "m/s^2", "accelerometer"),
+    "1": (1.0, "1", None),
+}
+_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+
+
+def _scaled(r: DeviationResult, f: float) -> DeviationResult:
+    return dataclasses.replace(r, dev=r.dev * f, dev_lo=r.dev_lo * f, dev_hi=r.dev_hi * f)
+
+
+def _stat_unit(stat: str, rate_unit: str) -> str:
+    """Unit of a statistic: the rate unit, except TDEV (rate unit x s: an angle, a velocity)."""
+    if stat != "tdev":
+        return rate_unit
+    return {"rad/s": "rad", "m/s^2": "m/s", "1": "s"}.get(rate_unit, f"{rate_unit}*s")
+
+
+def _tau_option(text: str) -> str | list[float]:
+    if text in ("octave", "decade", "all"):
+        return text
+    try:
+        return [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise click.BadParameter(
+            f"expected octave, decade, all or comma-separated seconds, got {text!r}",
+            param_hint="--taus",
+        ) from None
+
+
+@click.command()
+@click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--column", default=None,
+              help="Column to analyse (tables; index for a 2-D .npy). Optional if only one.")
+@click.option("--rate", "rate_hz", type=float, required=True, help="Sample rate [Hz].")
+@click.option("--input", "data_type", type=click.Choice(["rate", "angle"]), default="rate",
+              show_default=True, help="Rate samples, or integrated angle/velocity samples.")
+@click.option("--unit", default=None,
+              help="Unit of the column: rate rad/s, deg/s, deg/h, m/s^2, g, mg, ug; angle rad, "
+                   "deg, arcsec, m/s; or 1 (dimensionless). Default rad/s (angle: rad).")
+@click.option("--taus", default="octave", show_default=True,
+              help="octave, decade, all, or taus in seconds T1,T2,...")
+@click.option("--stats", default="oadev", show_default=True,
+              help=f"Comma-separated statistics: {', '.join(STATISTICS)}.")
+@click.option("--dtype", type=click.Choice(RAW_DTYPES), default=None,
+              help="Sample type of a raw binary file (.bin/.raw).")
+@click.option("--no-noise-id", is_flag=True, help="Skip the IEEE 952 noise-term fit.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the figure (.png, .svg or .pdf).")
+def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: str | None,
+          taus: str, stats: str, dtype: str | None, no_noise_id: bool, as_json: bool,
+          plot: Path | None) -> None:
+    """Allan, modified Allan, time, Hadamard and total deviations of DATA (NIST SP 1065).
+
+    Fits the IEEE Std 952-1997 noise terms (quantization, random walk, bias instability, rate
+    random walk, rate ramp) to the overlapping Allan variance unless --no-noise-id.
+    """
+    table = _ANGLE_UNITS if data_type == "angle" else _UNITS
+    unit = unit or ("rad" if data_type == "angle" else "rad/s")
+    if unit not in table:
+        raise InputError(f"unknown --unit {unit!r} for {data_type} input; use one of "
+                         f"{', '.join(table)}")
+    factor, si_unit, instrument = table[unit]
+    if plot is not None and plot.suffix.lower() not in _FORMATS:
+        raise InputError(f"--plot {plot}: unknown figure format; name it .png, .svg or .pdf")
+    names = [s.strip() for s in stats.split(",") if s.strip()]
+    bad = [s for s in names if s not in STATISTICS]
+    if bad or not names:
+        raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
+                         f"from {', '.join(STATISTICS)}")
+    want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
+    samples = read_samples(data, column, dtype=dtype)
+    console = Console(stderr=True)
+    with Progress(TextColumn("allan"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
+                  console=console,
+                  transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task("allan", total=None)
+        res = deviations(samples, rate_hz, want, _tau_option(taus), data_type,
+                         progress=lambda d, t: bar.update(task, completed=d, total=t))
+    res = {k: _scaled(v, factor) for k, v in res.items()}
+    model = None
+    if not no_noise_id:
+        model = identify_noise(res["oadev"], instrument=instrument)
+    shown = {k: res[k] for k in names}
+    if plot is not None:
+        fig = allan_figure(shown, model, unit=si_unit, title=f"{data.name}")
+        with target_file(plot) as tmp:
+            fig.savefig(tmp, format=_FORMATS[plot.suffix.lower()], dpi=110, bbox_inches="tight")
+    if as_json:
+        grid = sorted({float(t) for r in shown.values() for t in r.taus})
+        out: dict[str, object] = {"tau": grid, "unit": si_unit, "rate_hz": rate_hz,
+                                  "input": data_type, "samples": int(len(samples))}
+        for k, r in shown.items():
+            pos = {float(t): i for i, t in enumerate(r.taus)}
+
+            def col(a: np.ndarray, pos: dict[float, int] = pos) -> list[float | int | None]:
+                return [a[pos[t]].item() if t in pos else None for t in grid]
+
+            out[k] = col(r.dev)
+            out[f"{k}_lo"] = col(r.dev_lo)
+            out[f"{k}_hi"] = col(r.dev_hi)
+            out[f"{k}_n"] = col(r.n)
+            out[f"{k}_edf"] = col(r.edf)
+        out["units"] = {k: _stat_unit(k, si_unit) for k in shown}
+        out["confidence"] = next(iter(shown.values())).confidence
+        out["noise_terms"] = model.to_dict() if model is not None else None
+        echo_json(out)
+        return
+    header, rows = deviation_rows(shown)
+    print_table(f"{data.name}: deviations [{si_unit}] ({math.floor(len(samples)):d} samples "
+                f"at {rate_hz:g} Hz)", header, rows)
+    if model is not None:
+        header, rows = noise_rows(model)
+        print_table("noise terms (IEEE Std 952-1997, fitted to the overlapping Allan variance)",
+                    header, rows)
+    if plot is not None:
+        click.echo(f"figure: {plot}")

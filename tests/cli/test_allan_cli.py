@@ -1,0 +1,128 @@
+"""``inertest allan`` through ``main(argv)``: formats, JSON layout, figure, bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pytest
+
+from inertest.cli import main
+from inertest.io.data_file import write_table
+from inertest.noise.deviations import deviations
+from inertest.noise.identification import simulate_noise
+
+
+@pytest.fixture
+def gyro():
+    return simulate_noise(20_000, 50.0, n_rw=1e-4, rng=2)
+
+
+def _json(capsys):
+    return json.loads(capsys.readouterr().out)
+
+
+def test_csv_json_layout_and_values(tmp_path, capsys, gyro):
+    path = tmp_path / "gyro.csv"
+    pacsv.write_csv(pa.table({"t": np.arange(gyro.size) / 50.0, "gyro_x": gyro}), path)
+    assert main(["allan", str(path), "--column", "gyro_x", "--rate", "50",
+                 "--stats", "oadev,mdev,totdev", "--json"]) == 0
+    out = _json(capsys)
+    ref = deviations(gyro, 50.0, ["oadev", "mdev", "totdev"])
+    assert out["unit"] == "rad/s"
+    assert out["units"] == {"oadev": "rad/s", "mdev": "rad/s", "totdev": "rad/s"}
+    np.testing.assert_allclose(out["tau"], ref["oadev"].taus)
+    for k in ("oadev", "mdev", "totdev"):
+        got = np.array([np.nan if v is None else v for v in out[k]])
+        np.testing.assert_allclose(got[: ref[k].dev.size], ref[k].dev, rtol=1e-12)
+        assert len(out[f"{k}_lo"]) == len(out["tau"])
+    n = out["noise_terms"]["terms"]["N"]
+    assert n["resolved"] and n["unit"] == "deg/sqrt(h)"
+    assert n["value_si"] == pytest.approx(1e-4, rel=0.05)
+    assert out["noise_terms"]["terms"]["R"]["value"] is None
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".f32", ".bin", ".parquet", ".h5"])
+def test_formats_give_the_same_result(tmp_path, capsys, gyro, suffix):
+    y32 = gyro.astype(np.float32)
+    path = tmp_path / f"g{suffix}"
+    extra = []
+    if suffix == ".npy":
+        np.save(path, y32)
+    elif suffix in (".f32", ".bin"):
+        y32.astype("<f4").tofile(path)
+        extra = ["--dtype", "float32"] if suffix == ".bin" else []
+    else:
+        write_table(path, {"gyro_x": y32.astype(float)})
+        extra = ["--column", "gyro_x"]
+    assert main(["allan", str(path), "--rate", "50", "--taus", "0.02,0.2,2", "--json",
+                 "--no-noise-id", *extra]) == 0
+    out = _json(capsys)
+    ref = deviations(y32.astype(float), 50.0, ["oadev"], [0.02, 0.2, 2.0])["oadev"]
+    np.testing.assert_allclose(out["oadev"], ref.dev, rtol=1e-12)
+    assert out["noise_terms"] is None
+
+
+def test_units_and_angle_input(tmp_path, capsys, gyro):
+    deg_s = np.degrees(gyro)
+    np.save(tmp_path / "r.npy", deg_s)
+    assert main(["allan", str(tmp_path / "r.npy"), "--rate", "50", "--unit", "deg/s",
+                 "--taus", "0.02,2", "--json", "--no-noise-id"]) == 0
+    a = _json(capsys)["oadev"]
+    angle = np.concatenate(([0.0], np.cumsum(gyro) / 50.0))  # rad
+    np.save(tmp_path / "a.npy", angle)
+    assert main(["allan", str(tmp_path / "a.npy"), "--rate", "50", "--input", "angle",
+                 "--taus", "0.02,2", "--json", "--no-noise-id"]) == 0
+    b = _json(capsys)["oadev"]
+    np.testing.assert_allclose(a, b, rtol=1e-9)
+    assert a[0] == pytest.approx(1e-4 * math.sqrt(50.0), rel=0.05)
+
+
+@pytest.mark.parametrize("fmt", ["png", "svg", "pdf"])
+def test_plot_written(tmp_path, capsys, gyro, fmt):
+    np.save(tmp_path / "g.npy", gyro)
+    fig = tmp_path / f"allan.{fmt}"
+    assert main(["allan", str(tmp_path / "g.npy"), "--rate", "50", "--stats", "oadev,hdev",
+                 "--plot", str(fig)]) == 0
+    assert fig.stat().st_size > 1000
+    text = capsys.readouterr().out
+    assert "noise terms" in text and "deg/sqrt(h)" in text
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--rate", "0"], "positive sampling rate"),
+        (["--rate", "-1"], "positive sampling rate"),
+        (["--rate", "50", "--stats", "oadev,avar"], "unknown statistic 'avar'"),
+        (["--rate", "50", "--taus", "0.03"], "not a multiple"),
+        (["--rate", "50", "--taus", "fortnight"], "--taus"),
+        (["--rate", "50", "--unit", "furlong/s"], "unknown --unit"),
+        (["--rate", "50", "--plot", "x.gif"], "figure format"),
+    ],
+)
+def test_bad_input_one_line_no_output(tmp_path, capsys, gyro, args, words):
+    np.save(tmp_path / "g.npy", gyro)
+    status = main(["allan", str(tmp_path / "g.npy"), *args])
+    err = capsys.readouterr().err
+    assert status != 0
+    assert words in err and "Traceback" not in err
+    assert not (tmp_path / "x.gif").exists()
+
+
+def test_bad_data_files(tmp_path, capsys):
+    np.save(tmp_path / "nan.npy", np.r_[np.ones(10), np.nan, np.ones(10)])
+    assert main(["allan", str(tmp_path / "nan.npy"), "--rate", "1"]) != 0
+    assert "NaN" in capsys.readouterr().err
+    np.save(tmp_path / "short.npy", np.ones(2))
+    assert main(["allan", str(tmp_path / "short.npy"), "--rate", "1"]) != 0
+    assert "at least 3" in capsys.readouterr().err
+    (tmp_path / "raw.bin").write_bytes(b"\0" * 40)
+    assert main(["allan", str(tmp_path / "raw.bin"), "--rate", "1"]) != 0
+    assert "--dtype" in capsys.readouterr().err
+    pacsv.write_csv(pa.table({"a": [1.0, 2.0], "b": [3.0, 4.0]}), tmp_path / "t.csv")
+    assert main(["allan", str(tmp_path / "t.csv"), "--rate", "1", "--column", "c"]) != 0
+    assert "no column 'c'" in capsys.readouterr().err
