@@ -94,7 +94,7 @@ def propagate(
     x0: ArrayLike | None = None,
     u: ArrayLike | None = None,
 ) -> NDArray[np.float64]:
-    """Exact state history (n, 7) at times t (s, t[0] may be > 0, measured from the initial state at t=0) for initial state x0 (7,) and constant input u (5,), SI.
+    """Exact state history (n, 7) for initial errors ``x0`` and constant sources ``u``, SI.
 
     Parameters
     ----------
@@ -113,7 +113,7 @@ def propagate(
     -------
     ndarray, shape (n, 7)
         States at the times ``t``, SI.
-    """  # noqa: E501 (the one-line summary is the interface other modules quote)
+    """
     x0a = np.zeros(_NX) if x0 is None else _vector(x0, _NX, "x0")
     ua = np.zeros(_NU) if u is None else _vector(u, _NU, "u")
     return propagate_many(site, t, x0=x0a[None, :], u=ua[None, :])[0]
