@@ -17,7 +17,7 @@ from inertest.demo import find_examples, run_campaign, write_campaign_report
               default=Path("inertest-report"), show_default=True,
               help="Where to write the HTML report.")
 def demo(examples_dir: Path | None, report_dir: Path) -> None:
-    """Simulate a virtual floated gyro on both 1 g tumble tests, fit, print and report."""
+    """Simulate the example campaign (examples/demo.toml), fit each test, print and report."""
     folder = examples_dir if examples_dir is not None else find_examples()
     tests = run_campaign(folder / "demo.toml")
     for t in tests:
