@@ -23,6 +23,8 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.history", "history"),
     ("inertest.cli.modulation", "modulation"),
     ("inertest.cli.ins_errors", "ins_errors"),
+    ("inertest.cli.gyro_calibration", "nav_simulate"),
+    ("inertest.cli.gyro_calibration", "nav_calibrate"),
     ("inertest.cli.apply", "apply"),
     ("inertest.cli.thermal", "thermal"),
     ("inertest.cli.allan", "allan"),

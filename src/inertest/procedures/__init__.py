@@ -20,6 +20,8 @@ from inertest.errors import PlanError
 _MODULES: tuple[str, ...] = (
     "polar_tumble",
     "local_level_tumble",
+    "gyro_rate_table",
+    "gyro_triad_rotation",
     "ferraris",
     "triad_multiposition",
     "accelerometer_multipoint",

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from inertest.report import accelerometer, ferraris, tumble
+from inertest.report import accelerometer, ferraris, gyro_triad, tumble
 from inertest.report.html import Section
 from inertest.report.identification import identification_section
 
@@ -18,6 +18,8 @@ SectionBuilder = Callable[..., list[Section]]
 SECTION_BUILDERS: dict[str, SectionBuilder] = {
     "polar-tumble": tumble.polar_tumble_sections,
     "local-level-tumble": tumble.local_level_sections,
+    "gyro-rate-table": gyro_triad.rate_table_sections,
+    "gyro-triad-rotation": gyro_triad.rotation_sections,
     "ferraris": ferraris.ferraris_sections,
     "accelerometer-multipoint": accelerometer.multipoint_sections,
     "triad-multiposition": accelerometer.triad_sections,

@@ -1,0 +1,476 @@
+"""Rate-table test of one gyro axis: scale factor, asymmetry, nonlinearity and bias.
+
+The gyro is a single-axis gyro or one axis of a triad.
+
+The gyro's input axis is set along the table axis ``a`` (fixed in the local-level frame) and the
+table turns at commanded rates ``w_t`` in both directions. The input rate is the table rate plus
+the Earth rate along the axis, ``w_in = w_t + W_ie . a``. The output at each rate (mean over the
+dwell) follows the least-squares straight line of the scale-factor test of IEEE Std 952-1997
+(interferometric FOG test procedure)::
+
+    E = K (w_in + B)                      (least squares over all rates: K and bias B)
+
+Scale-factor asymmetry (terms as defined in IEEE Std 528, inertial sensor terminology, and
+IEEE Std 952): the scale factors of the positive and negative rates,
+from ``E = K+ w_t [w_t > 0] + K- w_t [w_t < 0] + c``, as ``(K+ - K-) / ((K+ + K-)/2)`` in ppm.
+Nonlinearity (same sources): the largest deviation of the per-rate mean output from the
+straight line, as ppm of the full-scale output ``|K| max |w_t|``. With ``fit_k2`` the
+second-order coefficient of ``E = K (w_in + K2 w_t^2) + c`` (relative scale-factor change per
+unit rate) is fitted as well. All terms are fitted together; the reported K is
+``(K+ + K-)/2`` (the least-squares slope for a symmetric set of rates) when both directions'
+scale factors are determined.
+
+Data columns: ``rate_deg_s`` (commanded table rate [deg/s], signed, one row per reading) and
+``output`` (the gyro's mean output over the dwell [output unit; count/s for pulse outputs]).
+
+Closed forms (used by the tests as independent references): from a pair of opposite rates
+``+-w``, ``K = (E+ - E-) / (2 w)`` and ``B = (E+ + E-) / (2 K) - W_ie . a``.
+
+Identifiability: K and B need one non-zero rate and a second distinct rate; the asymmetry needs
+both directions (an error otherwise) and, beside a single pair ``+-w``, a second rate of one sign
+or a zero-rate reading (else K+, K- and the bias are not separable); the nonlinearity and K2 need
+at least three distinct rates.
+
+Output units: a rate output (``deg/h``, ``deg/s``, ``rad/s``) gives a dimensionless K (unit
+``"1"``); any other output (``count`` read as count/s, ``V``, ``mA``) gives K in
+``<unit>/(deg/s)`` (``count/deg`` for pulses). The bias is always reported in deg/h.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.equipment import rate_table as table
+from inertest.errors import IdentifiabilityError, PlanError
+from inertest.plan import Instrument, Plan
+from inertest.procedures.checks import (
+    check_no_unknown_keys,
+    known_sigma,
+    noise_samples,
+    require_columns,
+)
+from inertest.procedures.results import Estimate, Identification, LinearTestResult
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, RATE_UNITS
+
+KIND = "gyro-rate-table"
+#: Instrument kinds a gyro rate-table test accepts.
+GYRO_KINDS = ("rate-gyro", "gyro-triad", "imu", "sdf-gyro")
+#: Names a truth file may give (engineering units: K unit, deg/h, ppm, ppm/(deg/s)).
+TRUTH_NAMES = ("K", "B", "asymmetry", "K2")
+PPM = 1e-6
+
+
+def raw_rate_per_si(output_unit: str) -> float:
+    """Raw output per SI rate unit: ``1/RATE_UNITS[u]`` for rate outputs, 1 otherwise.
+
+    A rate output is converted to rad/s (its scale factor is then dimensionless); pulse counts
+    (read as count/s) and electrical outputs stay in their own unit.
+    """
+    return 1.0 / RATE_UNITS[output_unit] if output_unit in RATE_UNITS else 1.0
+
+
+def scale_factor_unit(output_unit: str) -> tuple[str, float]:
+    """Engineering unit of a gyro scale factor and its SI value [raw SI unit per rad/s].
+
+    ``("1", 1.0)`` for rate outputs; ``("count/deg", 180/pi)`` for pulses (count/s per deg/s);
+    ``("<u>/(deg/s)", 180/pi)`` for electrical outputs.
+    """
+    if output_unit in RATE_UNITS:
+        return "1", 1.0
+    if output_unit == "count":
+        return "count/deg", 1.0 / DEG_TO_RAD
+    return f"{output_unit}/(deg/s)", 1.0 / DEG_TO_RAD
+
+
+def raw_rate_unit(output_unit: str) -> str:
+    """Unit of a raw rate reading: ``count/s`` for pulse outputs, the output unit otherwise."""
+    return "count/s" if output_unit == "count" else output_unit
+
+
+def check_gyro(instrument: Instrument, kind: str) -> None:
+    """Only gyros (single axis, triad, IMU) can be tested on a rate table."""
+    if instrument.kind not in GYRO_KINDS:
+        raise PlanError(
+            f'{kind} tests a gyro, but [instrument] kind is "{instrument.kind}"; use one of '
+            f"{', '.join(GYRO_KINDS)}"
+        )
+
+
+@dataclass(frozen=True)
+class GyroRateTableSpec:
+    """Parameters of a rate-table plan (``[procedure]`` table).
+
+    Attributes
+    ----------
+    rates_deg_s : tuple of float
+        Commanded table rates [deg/s], signed (positive: right-handed about the table axis).
+    samples_per_rate : int
+        Readings (dwell means) recorded at each rate (for simulation).
+    table_axis : str or tuple of float
+        Direction of the table axis (= the gyro's input axis) in ENU: a letter (E, W, N, S, U,
+        D) or a vector. Default ``"U"`` (vertical table).
+    fit_k2 : bool
+        Also fit the second-order scale-factor coefficient K2.
+    """
+
+    kind: ClassVar[str] = KIND
+    rates_deg_s: tuple[float, ...] = (-100.0, -30.0, -10.0, -1.0, 1.0, 10.0, 30.0, 100.0)
+    samples_per_rate: int = 1
+    table_axis: str | tuple[float, ...] = "U"
+    fit_k2: bool = False
+
+    @property
+    def axis_enu(self) -> NDArray[np.float64]:
+        """Unit vector of the table axis in ENU."""
+        return table.direction_vector(self.table_axis)
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> GyroRateTableSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        check_no_unknown_keys(
+            params, ("rates_deg_s", "samples_per_rate", "table_axis", "fit_k2"), KIND
+        )
+        raw = params.get("rates_deg_s", list(cls.rates_deg_s))
+        if not isinstance(raw, list) or not raw:
+            raise PlanError("rates_deg_s must be a non-empty list of table rates in deg/s")
+        try:
+            rates = tuple(float(r) for r in raw)
+        except (TypeError, ValueError):
+            raise PlanError(f"rates_deg_s must be numbers, got {raw!r}") from None
+        if not all(np.isfinite(rates)):
+            raise PlanError("rates_deg_s must be finite")
+        spr = params.get("samples_per_rate", 1)
+        if not isinstance(spr, int) or isinstance(spr, bool) or spr < 1:
+            raise PlanError(f"samples_per_rate must be a positive integer, got {spr!r}")
+        axis = params.get("table_axis", "U")
+        axis = axis if isinstance(axis, str) else tuple(axis)  # type: ignore[arg-type]
+        table.direction_vector(axis)  # validate now, not at fit time
+        k2 = params.get("fit_k2", False)
+        if not isinstance(k2, bool):
+            raise PlanError(f"fit_k2 must be true or false, got {k2!r}")
+        return cls(rates_deg_s=rates, samples_per_rate=spr, table_axis=axis, fit_k2=k2)
+
+
+SPEC = GyroRateTableSpec
+
+
+@dataclass(frozen=True)
+class GyroRateTableResult(LinearTestResult):
+    """Outcome of :func:`fit` for a rate-table test.
+
+    Attributes
+    ----------
+    identification : Identification
+        ``K`` [K unit], ``B`` [deg/h] (Earth rate removed), and when determined ``K_pos``,
+        ``K_neg`` [K unit], ``asymmetry`` [ppm], ``K2`` [ppm/(deg/s)].
+    nonlinearity_ppm : float or None
+        Largest deviation of a per-rate mean from the straight line [ppm of full scale]; None
+        when fewer than three distinct rates were run.
+    nonlinearity_noise_ppm : float or None
+        Noise of a per-rate mean residual at the worst rate [ppm of full scale]: deviations of
+        this size are noise, not nonlinearity.
+    pairs : tuple of dict
+        Closed-form K and B from each pair of opposite rates (``rate_deg_s``, ``K``, ``B``).
+    rate_deg_s, output, fitted : ndarray
+        Commanded rate, reading and model value per row (output unit).
+    line_deviation : ndarray
+        Reading minus the straight line per row (output unit): the nonlinearity's raw material.
+    earth_rate_deg_h : float
+        Earth rate along the table axis that was removed [deg/h].
+    """
+
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    nonlinearity_ppm: float | None
+    nonlinearity_noise_ppm: float | None
+    pairs: tuple[dict[str, float], ...]
+    scale_unit: str
+    rate_deg_s: NDArray[np.float64] = field(repr=False)
+    output: NDArray[np.float64] = field(repr=False)
+    fitted: NDArray[np.float64] = field(repr=False)
+    line_deviation: NDArray[np.float64] = field(repr=False)
+    earth_rate_deg_h: float
+    residual_output: NDArray[np.float64] = field(repr=False)
+    output_unit: str = "deg/h"
+    messages: tuple[str, ...] = ()
+    procedure: str = KIND
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary with nonlinearity and the closed-form pairs."""
+        d = super().to_dict()
+        d["nonlinearity"] = (
+            None if self.nonlinearity_ppm is None else {
+                "value": self.nonlinearity_ppm, "noise_floor": self.nonlinearity_noise_ppm,
+                "unit": "ppm of full scale"}
+        )
+        d["closed_form_pairs"] = [
+            {"rate_deg_s": p["rate_deg_s"], "K": {"value": p["K"], "unit": self.scale_unit},
+             "B": {"value": p["B"], "unit": "deg/h"}} for p in self.pairs
+        ]
+        d["earth_rate_along_axis"] = {"value": self.earth_rate_deg_h, "unit": "deg/h"}
+        return d
+
+
+@dataclass(frozen=True)
+class _SubFit:
+    """One linear sub-model: parameters ``x = P y`` with noise ``sigma`` per row (raw SI)."""
+
+    x: NDArray[np.float64]
+    P: NDArray[np.float64]
+    sigma: float
+    residuals: NDArray[np.float64]
+
+
+def _solve(A: NDArray[np.float64], y: NDArray[np.float64], sigma: float | None) -> _SubFit:
+    P = np.linalg.pinv(A)
+    x = P @ y
+    r = y - A @ x
+    dof = A.shape[0] - np.linalg.matrix_rank(A)
+    if sigma is None:
+        if dof <= 0:
+            raise IdentifiabilityError(
+                f"{A.shape[0]} readings leave no degree of freedom to estimate the noise; add "
+                "readings (samples_per_rate) or give the noise level (--sigma)"
+            )
+        s = float(np.sqrt(r @ r / dof))
+    else:
+        s = sigma
+    return _SubFit(x=x, P=P, sigma=s, residuals=r)
+
+
+def complex_step_jacobian(
+    fun: Callable[[NDArray], NDArray], x: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Jacobian of ``fun`` at ``x`` by the complex step (exact to rounding for analytic ``fun``).
+
+    Squire & Trapp, SIAM Review 40(1), 1998, doi:10.1137/S003614459631241X.
+    """
+    x = np.asarray(x, dtype=float)
+    cols = []
+    for k in range(x.size):
+        h = 1e-20 * max(abs(x[k]), 1e-300)
+        xc = x.astype(complex)
+        xc[k] += 1j * h
+        cols.append(np.imag(fun(xc)) / h)
+    return np.column_stack(cols)
+
+
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+        ) -> GyroRateTableResult:
+    """Scale factor, bias, asymmetry and nonlinearity from rate-table readings.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site (latitude), instrument (a gyro) and a :class:`GyroRateTableSpec` (table axis).
+    data : mapping
+        Columns ``rate_deg_s`` (commanded table rate [deg/s], signed) and ``output`` (mean
+        output at that rate [output unit; count/s for pulse outputs]).
+    sigma : float, optional
+        Known noise per reading [output unit]; estimated from the residuals when omitted.
+
+    Raises
+    ------
+    IdentifiabilityError
+        All rates have one sign ("add negative rates"), no non-zero rate, too few distinct rates
+        for what was asked.
+    """
+    check_gyro(plan.instrument, KIND)
+    spec: GyroRateTableSpec = plan.procedure
+    cols = require_columns(data, ("rate_deg_s", "output"), (), procedure=KIND)
+    inst = plan.instrument
+    rate_t = cols["rate_deg_s"] * DEG_TO_RAD
+    per_si = raw_rate_per_si(inst.output_unit)
+    y = cols["output"] / per_si  # rad/s for rate outputs, raw otherwise
+    sig = None if sigma is None else known_sigma(sigma, 1.0 / per_si)
+    _check_rates(cols["rate_deg_s"])
+    w_e = table.earth_rate_along(spec.axis_enu, plan.site.latitude_rad)
+    w_in = rate_t + w_e
+    k_unit, k_si = scale_factor_unit(inst.output_unit)
+    distinct = np.unique(cols["rate_deg_s"])
+    messages: list[str] = []
+    not_sep: list[str] = []
+
+    # Straight line E = K w_in + c (IEEE 952): nonlinearity is measured from it.
+    line = _solve(np.column_stack([w_in, np.ones_like(w_in)]), y, sig)
+    if spec.fit_k2 and distinct.size < 3:
+        raise IdentifiabilityError(
+            f"K2 needs at least three distinct table rates, got {distinct.size} "
+            f"({', '.join(f'{r:g}' for r in distinct)} deg/s); add rates (e.g. a larger "
+            "and a smaller magnitude) or set fit_k2 = false"
+        )
+    # Full model: E = K+ w_t [w_t > 0] + K- w_t [w_t < 0] [+ c2 w_t^2] + c, with
+    # K = (K+ + K-)/2, B = c/K - W_ie.a and K2 = c2/K. When the rates do not separate K+ from
+    # K-, the symmetric model E = K w_in [+ c2 w_t^2] + c stands in (no asymmetry).
+    quad = [rate_t**2] if spec.fit_k2 else []
+    one = np.ones_like(rate_t)
+    A_as = np.column_stack([np.where(rate_t > 0, rate_t, 0.0), np.where(rate_t < 0, rate_t, 0.0),
+                            *quad, one])
+    asymmetric = bool(np.linalg.matrix_rank(A_as) == A_as.shape[1])
+    names = ["K", "B", *(["K2"] if spec.fit_k2 else [])]
+    if asymmetric:
+        names += ["K_pos", "K_neg", "asymmetry"]
+        main = _solve(A_as, y, sig)
+    else:
+        main = _solve(np.column_stack([rate_t, *quad, one]), y, sig)
+        need = "a third rate of one sign" if spec.fit_k2 else "a second rate of each sign"
+        not_sep.append(
+            "asymmetry (K_pos, K_neg): the rates run do not separate the two directions' scale "
+            f"factors from the bias{' and K2' if spec.fit_k2 else ''}; add {need} or a "
+            "zero-rate reading"
+        )
+
+    def engineering(x: NDArray) -> NDArray:
+        kp, kn = (x[0], x[1]) if asymmetric else (x[0], x[0])
+        k = 0.5 * (kp + kn)
+        out = [k / k_si, (x[-1] / k - w_e) / DEG_PER_H_TO_RAD_PER_S]
+        if spec.fit_k2:
+            out.append(x[-2] / k * DEG_TO_RAD / PPM)  # 1/(rad/s) -> ppm/(deg/s)
+        if asymmetric:
+            out += [kp / k_si, kn / k_si, (kp - kn) / k / PPM]
+        return np.array(out)
+
+    values = engineering(main.x)
+    J = complex_step_jacobian(engineering, main.x)
+    G = J @ main.P * main.sigma
+    cov = G @ G.T
+    std = np.sqrt(np.diag(cov))
+    k_of = {"K": k_unit, "K_pos": k_unit, "K_neg": k_unit}
+    units = {**k_of, "B": "deg/h", "K2": "ppm/(deg/s)", "asymmetry": "ppm"}
+    coefficients = {
+        n: Estimate(n, float(values[i]), float(std[i]), units[n]) for i, n in enumerate(names)
+    }
+    K = values[0] * k_si
+
+    # Nonlinearity: per-rate mean residual of the straight line, ppm of full-scale output.
+    fitted = y - main.residuals
+    nl = nl_noise = None
+    if distinct.size >= 3:
+        inv = np.unique(cols["rate_deg_s"], return_inverse=True)[1]
+        counts = np.bincount(inv)
+        mean_res = np.bincount(inv, line.residuals) / counts
+        fs = abs(K) * np.max(np.abs(rate_t))
+        worst = int(np.argmax(np.abs(mean_res)))
+        nl = float(np.max(np.abs(mean_res)) / fs / PPM)
+        nl_noise = float(main.sigma / np.sqrt(counts[worst]) / fs / PPM)
+    else:
+        not_sep.append(
+            "nonlinearity: a straight line through two distinct rates leaves no deviation to "
+            "measure; add at least one more rate"
+        )
+
+    pairs = _closed_form_pairs(cols["rate_deg_s"], y, w_e, k_si)
+    ident = Identification(
+        coefficients=coefficients,
+        combinations=(),
+        not_separable=tuple(not_sep),
+        covariance=cov,
+        names=tuple(names),
+        noise_sigma=float(main.sigma * per_si),
+        noise_unit=raw_rate_unit(inst.output_unit),
+        sigma_from_residuals=sigma is None,
+        dof=int(y.size - main.x.size),
+        rank=int(main.x.size),
+        residuals=main.residuals * per_si,
+    )
+    return GyroRateTableResult(
+        site_latitude_deg=plan.site.latitude_deg,
+        site_gravity_m_s2=plan.site.gravity_m_s2,
+        identification=ident,
+        nonlinearity_ppm=nl,
+        nonlinearity_noise_ppm=nl_noise,
+        pairs=pairs,
+        scale_unit=k_unit,
+        rate_deg_s=cols["rate_deg_s"],
+        output=cols["output"],
+        fitted=fitted * per_si,
+        line_deviation=line.residuals * per_si,
+        earth_rate_deg_h=w_e / DEG_PER_H_TO_RAD_PER_S,
+        residual_output=main.residuals * per_si,
+        output_unit=raw_rate_unit(inst.output_unit),
+        messages=tuple(messages),
+    )
+
+
+def _check_rates(rates_deg_s: NDArray[np.float64]) -> None:
+    nonzero = rates_deg_s[rates_deg_s != 0]
+    if nonzero.size == 0:
+        raise IdentifiabilityError(
+            "every reading is at zero table rate: the scale factor cannot be found; add "
+            "positive and negative rates"
+        )
+    if np.all(nonzero > 0):
+        raise IdentifiabilityError(
+            "all table rates are positive: asymmetry needs both directions: add negative rates "
+            f"(e.g. {', '.join(f'{-r:g}' for r in np.unique(nonzero)[:3])} deg/s)"
+        )
+    if np.all(nonzero < 0):
+        raise IdentifiabilityError(
+            "all table rates are negative: asymmetry needs both directions: add positive rates "
+            f"(e.g. {', '.join(f'{-r:g}' for r in np.unique(nonzero)[::-1][:3])} deg/s)"
+        )
+
+
+def _closed_form_pairs(
+    rates_deg_s: NDArray[np.float64], y: NDArray[np.float64], w_e: float, k_si: float
+) -> tuple[dict[str, float], ...]:
+    """K = (E+ - E-)/(2w), B = (E+ + E-)/(2K) - W_ie.a from the mean readings at +-w."""
+    out = []
+    for r in np.unique(np.abs(rates_deg_s[rates_deg_s > 0])):
+        pos, neg = y[rates_deg_s == r], y[rates_deg_s == -r]
+        if pos.size == 0 or neg.size == 0:
+            continue
+        ep, en = pos.mean(), neg.mean()
+        K = (ep - en) / (2 * r * DEG_TO_RAD)
+        B = (ep + en) / (2 * K) - w_e
+        out.append({"rate_deg_s": float(r), "K": float(K / k_si),
+                    "B": float(B / DEG_PER_H_TO_RAD_PER_S)})
+    return tuple(out)
+
+
+def simulate(
+    plan: Plan,
+    truth: Mapping[str, float],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Readings of a virtual gyro on the plan's rate table (Earth rate included).
+
+    ``truth``: ``K`` [K unit; default 1 for rate outputs, else required], ``B`` [deg/h],
+    ``asymmetry`` [ppm] (K+ = K (1 + a/2), K- = K (1 - a/2)), ``K2`` [ppm/(deg/s)].
+
+    Returns columns ``rate_deg_s`` and ``output`` [output unit; count/s for pulses].
+    """
+    check_gyro(plan.instrument, KIND)
+    unknown = sorted(set(truth) - set(TRUTH_NAMES))
+    if unknown:
+        raise PlanError(
+            f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
+            f"{', '.join(TRUTH_NAMES)}"
+        )
+    spec: GyroRateTableSpec = plan.procedure
+    inst = plan.instrument
+    k_unit, k_si = scale_factor_unit(inst.output_unit)
+    if "K" not in truth and inst.output_unit not in RATE_UNITS:
+        raise PlanError(f"truth needs the scale factor K in {k_unit} for a {inst.output_unit} "
+                        "output")
+    K = float(truth.get("K", 1.0)) * k_si
+    B = float(truth.get("B", 0.0)) * DEG_PER_H_TO_RAD_PER_S
+    a = float(truth.get("asymmetry", 0.0)) * PPM
+    k2 = float(truth.get("K2", 0.0)) * PPM / DEG_TO_RAD
+    rates = np.repeat(np.asarray(spec.rates_deg_s, dtype=float), spec.samples_per_rate)
+    w_t = rates * DEG_TO_RAD
+    w_e = table.earth_rate_along(spec.axis_enu, plan.site.latitude_rad)
+    k_dir = K * (1 + np.sign(w_t) * a / 2)
+    out_si = k_dir * w_t + K * (w_e + B + k2 * w_t**2)
+    per_si = raw_rate_per_si(inst.output_unit)
+    output = out_si * per_si + noise_samples(rates.size, noise, rng)
+    return {"rate_deg_s": rates, "output": output}
+

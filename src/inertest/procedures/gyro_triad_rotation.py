@@ -1,0 +1,582 @@
+"""360-degree rotation calibration of a gyro triad on a two-axis turntable (seed 003, sec. 1.2).
+
+Output model of the triad (seed ``003_f374f866dfe7c99f.txt``, eq. (1), written for the raw rate)::
+
+    raw = K (I + M) w + b = A w + b,     bias B = A^-1 b (input-referred) [deg/h]
+
+``K = diag(K_x, K_y, K_z)`` scale factors, ``M`` the misalignment (zero diagonal; ``M_ij`` is
+gyro i's sensitivity to rate about axis j, the seed's ``DH_ji``), ``w`` the body rate on the
+triad's orthogonal reference axes. The seed writes it per pulse count: ``k_x N_gx = w_x + DH_yx
+w_y + DH_zx w_z + e_x0``, i.e. ``k_x = 1/K_x`` (rate per pulse), ``DH_yx = M_xy`` and
+``e = K^-1 b = (I + M) B`` (equal to ``B`` to first order; ``B`` is the rate input that gives
+the output ``b``, the convention of the calibration block).
+
+The test: with the outer axis, set a triad axis ``j`` along the inner (rotation) axis; count each
+gyro's pulses over a window containing one whole 360-degree turn about ``j``, in both
+directions; add static windows for the bias. The pulses counted over window ``T`` are::
+
+    N = A Theta + b T,      Theta = +-2 pi e_j + int_T C_bn(t) W_ie_n dt
+
+with the Earth-rate angle computed from the start attitude, the table rate and acceleration and
+``T`` (:func:`inertest.equipment.rate_table.body_angle`). Each gyro's counts over all windows give
+a linear least-squares problem in its row of ``A`` and ``b`` (4 unknowns, all rows share the
+design); scale factors, misalignments and biases follow from ``A`` and ``b`` with covariance by
+first-order propagation.
+
+Closed form (independent reference used by the tests): for rotations about ``j`` in both
+directions over equal windows at constant rate, ``K_j = (N_j(+) - N_j(-)) / (4 pi)`` and
+``M_ij = (N_i(+) - N_i(-)) / (4 pi K_i)``.
+
+Identifiability: column ``j`` of ``A`` (``K_j``, ``M_ij``; and, through ``K_j``, ``M_ji``) needs
+rotations about ``j``; the biases need either both directions of every rotation or static
+windows. Missing ones raise :class:`~inertest.errors.IdentifiabilityError` naming the
+coefficients and the rotation or position that would determine them.
+
+Data columns: ``part`` (free label), ``attitude`` (x, y, z directions at the start, e.g. ``ENU``),
+``axis`` (``x``, ``y``, ``z`` or ``static``), ``direction`` (+1 right-handed about the axis, -1,
+0 for static), ``duration_s`` (counting window [s]), ``counts_x``, ``counts_y``, ``counts_z``
+(pulses counted in the window; for a rate output, the output integrated over the window
+[output unit x s]).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from inertest.equipment import rate_table as table
+from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
+from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
+from inertest.plan import Plan
+from inertest.procedures.checks import check_no_unknown_keys, noise_samples, require_columns
+from inertest.procedures.gyro_rate_table import (
+    check_gyro,
+    complex_step_jacobian,
+    raw_rate_per_si,
+    raw_rate_unit,
+    scale_factor_unit,
+)
+from inertest.procedures.results import Estimate, Identification, LinearTestResult
+from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
+
+KIND = "gyro-triad-rotation"
+#: Coefficient names in result order.
+SCALE_NAMES = tuple(f"K_{a}" for a in AXES)
+MISALIGNMENT_NAMES = tuple(f"M_{a}{b}" for a in AXES for b in AXES if a != b)
+BIAS_NAMES = tuple(f"B_{a}" for a in AXES)
+NAMES = SCALE_NAMES + MISALIGNMENT_NAMES + BIAS_NAMES
+#: Attitude with each axis up, used to suggest the missing rotation.
+_UP_ATTITUDE = {"x": "UEN", "y": "NUE", "z": "ENU"}
+_STATIC = "static"
+#: How a window's count noise depends on its length (see GyroTriadRotationSpec.noise_model).
+NOISE_MODELS = ("white", "random-walk")
+
+
+@dataclass(frozen=True)
+class RotationSpec:
+    """One rotation of the plan: start attitude and the body axis turned about."""
+
+    attitude: str
+    axis: str
+
+
+@dataclass(frozen=True)
+class GyroTriadRotationSpec:
+    """Parameters of a 360-degree rotation plan (``[procedure]`` table).
+
+    Attributes
+    ----------
+    rate_deg_s : float
+        Table rate during a rotation [deg/s].
+    accel_deg_s2 : float or None
+        Table acceleration [deg/s^2]; None: constant rate from start to stop.
+    rotations : tuple of RotationSpec
+        Start attitudes and axes; in a plan ``rotations = [{attitude = "ENU", axis = "z"}, ...]``.
+        Default: the seed's three, each axis vertical (``UEN``/x, ``NUE``/y, ``ENU``/z).
+    directions : tuple of int
+        Directions each rotation is run in (default both, ``[1, -1]``).
+    rotation_window_s : float or None
+        Counting window of a rotation [s] (default: the rotation time + 4 s).
+    static_attitudes : tuple of str
+        Attitudes of the static windows (default: each axis up and down).
+    static_window_s : float
+        Counting window at rest [s].
+    repeats : int
+        Times the whole sequence is run (for simulation).
+    noise_model : str
+        ``"white"``: every window's count has the same noise (quantisation, readout), given in
+        count; ``"random-walk"``: the count noise grows as the square root of the window
+        (angle random walk of the gyro), given in count/sqrt(s), and windows are weighted so.
+    """
+
+    kind: ClassVar[str] = KIND
+    rate_deg_s: float = 10.0
+    accel_deg_s2: float | None = None
+    rotations: tuple[RotationSpec, ...] = (
+        RotationSpec("UEN", "x"), RotationSpec("NUE", "y"), RotationSpec("ENU", "z"))
+    directions: tuple[int, ...] = (1, -1)
+    rotation_window_s: float | None = None
+    static_attitudes: tuple[str, ...] = ("UEN", "DWN", "NUE", "SDE", "ENU", "WND")
+    static_window_s: float = 60.0
+    repeats: int = 1
+    noise_model: str = "white"
+
+    @property
+    def profile(self) -> table.RotationProfile:
+        """The table's rotation profile (360 deg)."""
+        acc = None if self.accel_deg_s2 is None else self.accel_deg_s2 * DEG_TO_RAD
+        return table.RotationProfile(self.rate_deg_s * DEG_TO_RAD, acc)
+
+    @property
+    def window_s(self) -> float:
+        """Counting window of a rotation [s]."""
+        if self.rotation_window_s is not None:
+            return self.rotation_window_s
+        return self.profile.duration_s + 4.0
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> GyroTriadRotationSpec:
+        """Build from the ``[procedure]`` table of a plan file."""
+        known = ("rate_deg_s", "accel_deg_s2", "rotations", "directions", "rotation_window_s",
+                 "static_attitudes", "static_window_s", "repeats", "noise_model")
+        check_no_unknown_keys(params, known, KIND)
+        kw: dict[str, object] = {}
+        for key in ("rate_deg_s", "accel_deg_s2", "rotation_window_s", "static_window_s"):
+            if key in params:
+                v = params[key]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                    raise PlanError(f"{key} must be a positive number, got {v!r}")
+                kw[key] = float(v)
+        if "rotations" in params:
+            raw = params["rotations"]
+            if not isinstance(raw, list):
+                raise PlanError('rotations must be a list like [{attitude = "ENU", axis = "z"}]')
+            rots = []
+            for r in raw:
+                if not isinstance(r, Mapping) or set(r) != {"attitude", "axis"}:
+                    raise PlanError(
+                        f'each rotation needs exactly attitude and axis, e.g. {{attitude = "ENU", '
+                        f'axis = "z"}}; got {r!r}'
+                    )
+                table.triad_attitude(str(r["attitude"]))
+                table.axis_index(str(r["axis"]))
+                rots.append(RotationSpec(str(r["attitude"]).upper(), str(r["axis"]).lower()))
+            kw["rotations"] = tuple(rots)
+        if "directions" in params:
+            d = params["directions"]
+            if not isinstance(d, list) or not d or any(x not in (1, -1) for x in d):
+                raise PlanError(f"directions must be a list of 1 and/or -1, got {d!r}")
+            kw["directions"] = tuple(int(x) for x in d)
+        if "static_attitudes" in params:
+            s = params["static_attitudes"]
+            if not isinstance(s, list):
+                raise PlanError('static_attitudes must be a list like ["ENU", "WND"]')
+            for a in s:
+                table.triad_attitude(str(a))
+            kw["static_attitudes"] = tuple(str(a).upper() for a in s)
+        rep = params.get("repeats", 1)
+        if not isinstance(rep, int) or isinstance(rep, bool) or rep < 1:
+            raise PlanError(f"repeats must be a positive integer, got {rep!r}")
+        kw["repeats"] = rep
+        model = params.get("noise_model", "white")
+        if model not in NOISE_MODELS:
+            raise PlanError(f'noise_model must be one of {", ".join(NOISE_MODELS)}, got {model!r}')
+        kw["noise_model"] = model
+        spec = cls(**kw)  # type: ignore[arg-type]
+        if spec.window_s < spec.profile.duration_s:
+            raise PlanError(
+                f"rotation_window_s = {spec.window_s:g} s is shorter than one turn "
+                f"({spec.profile.duration_s:g} s at this rate and acceleration); lengthen it"
+            )
+        return spec
+
+
+SPEC = GyroTriadRotationSpec
+
+
+@dataclass(frozen=True)
+class GyroTriadRotationResult(LinearTestResult):
+    """Outcome of :func:`fit` for the 360-degree rotation test.
+
+    Attributes
+    ----------
+    identification : Identification
+        ``K_x..K_z`` [K unit], ``M_xy..M_zy`` [arcsec], ``B_x..B_z`` [deg/h] with covariance.
+    calibration : ImuCalibration
+        The gyroscope correction ``calibrated = matrix @ (raw - offset)`` (raw rate).
+    forward : ndarray, shape (3, 3)
+        ``A = K (I + M)`` [raw rate per rad/s].
+    offset : ndarray, shape (3,)
+        ``b`` [raw rate unit].
+    part, axis : ndarray of str
+        Row labels.
+    direction, duration_s : ndarray
+    body_angle_rad : ndarray, shape (n, 3)
+        ``Theta`` per row (table + Earth) [rad].
+    counts, fitted_counts : ndarray, shape (n, 3)
+        Counted and model counts per row.
+    closed_form_scale : dict
+        ``K_j`` from the +-pairs about each axis [K unit] (constant-rate, equal-window formula).
+    """
+
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    calibration: ImuCalibration
+    forward: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    scale_unit: str
+    raw_unit: str
+    part: NDArray = field(repr=False)
+    axis: NDArray = field(repr=False)
+    direction: NDArray[np.float64] = field(repr=False)
+    duration_s: NDArray[np.float64] = field(repr=False)
+    body_angle_rad: NDArray[np.float64] = field(repr=False)
+    counts: NDArray[np.float64] = field(repr=False)
+    fitted_counts: NDArray[np.float64] = field(repr=False)
+    closed_form_scale: dict[str, float]
+    residual_output: NDArray[np.float64] = field(repr=False)
+    output_unit: str = "count"
+    messages: tuple[str, ...] = ()
+    procedure: str = KIND
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON-ready dictionary with the calibration block."""
+        d = super().to_dict()
+        d["calibration"] = self.calibration.to_dict()
+        d["closed_form_scale"] = {
+            k: {"value": v, "unit": self.scale_unit} for k, v in self.closed_form_scale.items()
+        }
+        return d
+
+
+@dataclass(frozen=True)
+class _Rows:
+    part: NDArray
+    axis: NDArray
+    direction: NDArray[np.float64]
+    attitude: NDArray
+    duration: NDArray[np.float64]
+    counts: NDArray[np.float64]
+
+
+def _read(data: Mapping[str, object]) -> _Rows:
+    cols = require_columns(
+        data, ("direction", "duration_s", "counts_x", "counts_y", "counts_z"),
+        ("part", "attitude", "axis"), procedure=KIND)
+    axis = np.char.lower(np.char.strip(cols["axis"]))
+    bad = np.flatnonzero(~np.isin(axis, [*AXES, _STATIC]))
+    if bad.size:
+        raise DataError(
+            f'axis "{cols["axis"][bad[0]]}" at data row {bad[0] + 1} is not x, y, z or static'
+        )
+    d = cols["direction"]
+    rot = axis != _STATIC
+    bad = np.flatnonzero((rot & ~np.isin(d, [1.0, -1.0])) | (~rot & (d != 0)))
+    if bad.size:
+        i = bad[0]
+        raise DataError(
+            f"direction {d[i]:g} at data row {i + 1} (axis {axis[i]}): use +1 or -1 for a "
+            "rotation and 0 for a static window"
+        )
+    if np.any(cols["duration_s"] <= 0):
+        i = int(np.flatnonzero(cols["duration_s"] <= 0)[0])
+        raise DataError(f"duration_s at data row {i + 1} must be positive")
+    counts = np.column_stack([cols["counts_x"], cols["counts_y"], cols["counts_z"]])
+    return _Rows(cols["part"], axis, d, np.char.upper(np.char.strip(cols["attitude"])),
+                 cols["duration_s"], counts)
+
+
+def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.float64],
+                duration_s: NDArray[np.float64], spec: GyroTriadRotationSpec,
+                latitude_rad: float) -> NDArray[np.float64]:
+    """``Theta`` [rad], shape (n, 3): table angle plus Earth-rate angle over each window."""
+    out = np.empty((axis.size, 3))
+    profile = spec.profile
+    cache: dict[tuple[str, str, float, float], NDArray[np.float64]] = {}
+    for i in range(axis.size):
+        key = (str(rows_attitude[i]), str(axis[i]), float(direction[i]), float(duration_s[i]))
+        if key not in cache:
+            try:
+                C = table.triad_attitude(key[0])
+                if key[1] == _STATIC:
+                    cache[key] = table.static_body_angle(C, key[3], latitude_rad)
+                else:
+                    cache[key] = table.body_angle(C, table.axis_index(key[1]), int(key[2]),
+                                                  profile, key[3], latitude_rad)
+            except InputError as exc:
+                raise DataError(f"data row {i + 1}: {exc}") from None
+        out[i] = cache[key]
+    return out
+
+
+def _check_labels(rows: _Rows) -> None:
+    """Each rotation's own gyro counts the turn: catch mislabelled axes and directions."""
+    for j, a in enumerate(AXES):
+        idx = np.flatnonzero(rows.axis == a)
+        for i in idx:
+            big = int(np.argmax(np.abs(rows.counts[i])))
+            if big != j:
+                raise DataError(
+                    f'data row {i + 1} (part "{rows.part[i]}") is labelled a rotation about {a}, '
+                    f"but gyro {AXES[big]} counted the turn ({rows.counts[i, big]:.6g} against "
+                    f"{rows.counts[i, j]:.6g}): fix the axis label or the counts columns"
+                )
+        if idx.size:
+            s = np.sign(rows.counts[idx, j]) * rows.direction[idx]
+            if np.any(s != s[0]):
+                i = idx[int(np.flatnonzero(s != s[0])[0])]
+                raise DataError(
+                    f'data row {i + 1} (part "{rows.part[i]}"): direction {rows.direction[i]:+g} '
+                    f"but gyro {a} counted the other way from the other rotations about {a}; "
+                    "fix the direction column"
+                )
+
+
+def _check_excitation(rows: _Rows) -> None:
+    """Name the coefficients a plan cannot find, and the rotation or position that would."""
+    static = bool(np.any(rows.axis == _STATIC))
+    for a in AXES:
+        mine = rows.axis == a
+        if not np.any(mine):
+            others = [b for b in AXES if b != a]
+            raise IdentifiabilityError(
+                f"no rotation about {a}: K_{a}, M_{others[0]}{a}, M_{others[1]}{a} ({a} rate "
+                f"into the other gyros) and M_{a}{others[0]}, M_{a}{others[1]} (need K_{a}) "
+                f"cannot be found, nor the biases; add 360-degree rotations about {a} (e.g. "
+                f'attitude "{_UP_ATTITUDE[a]}", {a} up) in both directions'
+            )
+        dirs = set(rows.direction[mine].tolist())
+        if len(dirs) == 1 and not static:
+            missing = "-1" if dirs == {1.0} else "+1"
+            raise IdentifiabilityError(
+                f"rotations about {a} run in one direction only and there is no static window: "
+                f"the biases cannot be separated from K_{a} and the {a} misalignments; add "
+                f"rotations about {a} with direction {missing}, or static positions"
+            )
+
+
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+        ) -> GyroTriadRotationResult:
+    """Scale factors, misalignment and bias of a gyro triad from 360-degree rotations.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site (latitude), instrument (a gyro triad) and a :class:`GyroTriadRotationSpec` (table
+        rate and acceleration, used for the Earth-rate angle during a turn).
+    data : mapping
+        Columns listed in the module docstring, one row per counting window.
+    sigma : float, optional
+        Known noise of a window's count [output unit (x s)], per sqrt(s) with the random-walk
+        noise model; from the residuals when omitted (separately for each gyro).
+
+    Raises
+    ------
+    IdentifiabilityError
+        An axis never rotated about, one direction only without static windows, too few rows.
+    DataError
+        Missing or bad columns, mislabelled axis or direction.
+    """
+    check_gyro(plan.instrument, KIND)
+    spec: GyroTriadRotationSpec = plan.procedure
+    inst = plan.instrument
+    rows = _read(data)
+    _check_labels(rows)
+    _check_excitation(rows)
+    per_si = raw_rate_per_si(inst.output_unit)
+    theta = body_angles(rows.attitude, rows.axis, rows.direction, rows.duration, spec,
+                        plan.site.latitude_rad)
+    X = np.column_stack([theta, rows.duration])
+    Y = rows.counts / per_si  # raw SI: count, or rad for rate outputs
+    n = X.shape[0]
+    # Relative noise of each window: 1, or sqrt(T) for an angle random walk.
+    rel = np.sqrt(rows.duration) if spec.noise_model == "random-walk" else np.ones(n)
+    Xw = X / rel[:, None]
+    scale = np.linalg.norm(Xw, axis=0)
+    U, s, Vt = np.linalg.svd(Xw / scale, full_matrices=False)
+    if s[-1] < 1e-9 * s[0]:
+        raise IdentifiabilityError(
+            "the windows do not separate the scale factors, misalignments and biases (the design "
+            "is singular); run every axis in both directions and add static positions"
+        )
+    if sigma is None and n <= 4:
+        raise IdentifiabilityError(
+            f"{n} windows leave no degree of freedom to estimate the noise (4 unknowns per gyro); "
+            "add rotations or static windows, or give the noise level (--sigma)"
+        )
+    P = (Vt.T / s) @ U.T / scale[:, None]  # pseudo-inverse of the weighted design
+    coef = P @ (Y / rel[:, None])  # (4, 3): column i = gyro i's [A_ix, A_iy, A_iz, b_i]
+    resid = Y - X @ coef
+    if sigma is None:
+        sig = np.sqrt(np.sum((resid / rel[:, None]) ** 2, axis=0) / (n - 4))
+    else:
+        if not np.isfinite(sigma) or sigma <= 0:
+            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+        sig = np.full(3, sigma / per_si)
+    cov_unit = P @ P.T
+    p = coef.T.reshape(-1)  # per gyro i: A_ix, A_iy, A_iz, b_i
+    cov_p = np.kron(np.diag(sig**2), cov_unit)
+    k_unit, k_si = scale_factor_unit(inst.output_unit)
+    values = engineering(p, k_si)
+    J = complex_step_jacobian(lambda q: engineering(q, k_si), p)
+    cov = J @ cov_p @ J.T
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    units = {**dict.fromkeys(SCALE_NAMES, k_unit), **dict.fromkeys(MISALIGNMENT_NAMES, "arcsec"),
+             **dict.fromkeys(BIAS_NAMES, "deg/h")}
+    coefficients = {
+        nm: Estimate(nm, float(values[i]), float(std[i]), units[nm]) for i, nm in enumerate(NAMES)
+    }
+    A = coef[:3].T
+    b = coef[3]
+    raw_unit = raw_rate_unit(inst.output_unit)
+    gyro = TriadCalibration(matrix=np.linalg.inv(A) / per_si, offset=b * per_si, unit="rad/s",
+                            raw_unit=raw_unit)
+    ident = Identification(
+        coefficients=coefficients,
+        combinations=(),
+        not_separable=(),
+        covariance=cov,
+        names=NAMES,
+        noise_sigma=float(np.sqrt(np.mean(sig**2)) * per_si),
+        noise_unit=_count_unit(inst.output_unit) + (
+            "/sqrt(s)" if spec.noise_model == "random-walk" else ""),
+        sigma_from_residuals=sigma is None,
+        dof=int(n - 4),
+        rank=4,
+        residuals=resid.reshape(-1) * per_si,
+    )
+    return GyroTriadRotationResult(
+        site_latitude_deg=plan.site.latitude_deg,
+        site_gravity_m_s2=plan.site.gravity_m_s2,
+        identification=ident,
+        calibration=ImuCalibration(gyroscope=gyro),
+        forward=A * per_si,
+        offset=b * per_si,
+        scale_unit=k_unit,
+        raw_unit=raw_unit,
+        part=rows.part,
+        axis=rows.axis,
+        direction=rows.direction,
+        duration_s=rows.duration,
+        body_angle_rad=theta,
+        counts=rows.counts,
+        fitted_counts=(X @ coef) * per_si,
+        closed_form_scale=_closed_form_scale(rows, k_si * per_si),
+        residual_output=resid * per_si,
+        output_unit=_count_unit(inst.output_unit),
+        messages=(),
+    )
+
+
+def _count_unit(output_unit: str) -> str:
+    return "count" if output_unit == "count" else f"{output_unit}*s"
+
+
+def engineering(p: NDArray, k_si: float) -> NDArray:
+    """``(K, M, B)`` in engineering units from ``p = [A_x., b_x, A_y., b_y, A_z., b_z]`` (SI).
+
+    ``K_i = A_ii`` [K unit], ``M_ij = A_ij / A_ii`` [arcsec], ``B = A^-1 b`` [deg/h]. Works on
+    complex input (for the complex-step Jacobian).
+    """
+    q = p.reshape(3, 4)
+    A, b = q[:, :3], q[:, 3]
+    d = np.diag(A)
+    M = A / d[:, None]
+    mis = [M[i, j] for i in range(3) for j in range(3) if i != j]
+    B = np.linalg.solve(A, b)
+    return np.concatenate([d / k_si, np.array(mis) / ARCSEC_TO_RAD,
+                           B / DEG_PER_H_TO_RAD_PER_S])
+
+
+def _closed_form_scale(rows: _Rows, k_per_count: float) -> dict[str, float]:
+    """``K_j = (mean N_j(+) - mean N_j(-)) / (4 pi)`` where both directions were run."""
+    out = {}
+    for j, a in enumerate(AXES):
+        pos = rows.counts[(rows.axis == a) & (rows.direction > 0), j]
+        neg = rows.counts[(rows.axis == a) & (rows.direction < 0), j]
+        if pos.size and neg.size:
+            out[f"K_{a}"] = float((pos.mean() - neg.mean()) / (4 * np.pi) / k_per_count)
+    return out
+
+
+def truth_model(truth: Mapping[str, float], output_unit: str
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``A`` [raw SI per rad/s] and ``b`` [raw SI rate] from truth names in engineering units.
+
+    ``K_x..K_z`` [K unit; default 1 for rate outputs], ``M_ij`` [arcsec], ``B_x..B_z`` [deg/h].
+    """
+    unknown = sorted(set(truth) - set(NAMES))
+    if unknown:
+        raise PlanError(
+            f"truth for a gyro triad has unknown name(s) {', '.join(unknown)}; known: "
+            f"{', '.join(NAMES)}"
+        )
+    k_unit, k_si = scale_factor_unit(output_unit)
+    missing = [k for k in SCALE_NAMES if k not in truth]
+    if missing and k_unit != "1":
+        raise PlanError(f"truth needs the scale factors {', '.join(missing)} in {k_unit}")
+    K = np.array([float(truth.get(k, 1.0)) for k in SCALE_NAMES]) * k_si
+    M = np.zeros((3, 3))
+    for i, a in enumerate(AXES):
+        for j, c in enumerate(AXES):
+            if i != j:
+                M[i, j] = float(truth.get(f"M_{a}{c}", 0.0)) * ARCSEC_TO_RAD
+    A = np.diag(K) @ (np.eye(3) + M)
+    B = np.array([float(truth.get(k, 0.0)) for k in BIAS_NAMES]) * DEG_PER_H_TO_RAD_PER_S
+    return A, A @ B
+
+
+def plan_rows(spec: GyroTriadRotationSpec) -> dict[str, NDArray]:
+    """The label columns of the plan's windows, in the order they are run."""
+    part, att, axis, direction, dur = [], [], [], [], []
+    for _ in range(spec.repeats):
+        for r in spec.rotations:
+            for d in spec.directions:
+                part.append(f"{r.attitude} {r.axis}{'+' if d > 0 else '-'}")
+                att.append(r.attitude)
+                axis.append(r.axis)
+                direction.append(float(d))
+                dur.append(spec.window_s)
+        for a in spec.static_attitudes:
+            part.append(f"{a} static")
+            att.append(a)
+            axis.append(_STATIC)
+            direction.append(0.0)
+            dur.append(spec.static_window_s)
+    return {"part": np.array(part), "attitude": np.array(att), "axis": np.array(axis),
+            "direction": np.array(direction), "duration_s": np.array(dur)}
+
+
+def simulate(
+    plan: Plan,
+    truth: Mapping[str, float],
+    *,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Counts of a virtual gyro triad over the plan's rotations and static windows.
+
+    ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [arcsec], ``B_i``
+    [deg/h]. ``noise``: noise of each window's count [count], or [count/sqrt(s)] times the
+    square root of the window with the random-walk noise model.
+    """
+    check_gyro(plan.instrument, KIND)
+    spec: GyroTriadRotationSpec = plan.procedure
+    per_si = raw_rate_per_si(plan.instrument.output_unit)
+    A, b = truth_model(truth, plan.instrument.output_unit)
+    cols = plan_rows(spec)
+    theta = body_angles(cols["attitude"], cols["axis"], cols["direction"], cols["duration_s"],
+                        spec, plan.site.latitude_rad)
+    counts = (theta @ A.T + np.outer(cols["duration_s"], b)) * per_si
+    gen = np.random.default_rng(rng)
+    rel = np.sqrt(cols["duration_s"]) if spec.noise_model == "random-walk" else 1.0
+    counts = counts + noise_samples(counts.size, noise, gen).reshape(counts.shape) * np.reshape(
+        rel, (-1, 1))
+    for j, a in enumerate(AXES):
+        cols[f"counts_{a}"] = counts[:, j]
+    return cols

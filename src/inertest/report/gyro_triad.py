@@ -1,0 +1,176 @@
+"""Figures and report sections of the gyro calibrations of seed 003.
+
+The rate-table test, the 360-degree rotation test and the navigation-mode iteration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.ticker import MaxNLocator
+
+from inertest.analysis.navigation_calibration import AXES, NavigationCalibrationResult
+from inertest.procedures.gyro_rate_table import GyroRateTableResult
+from inertest.procedures.gyro_triad_rotation import GyroTriadRotationResult
+from inertest.report.html import Section, figure_html, page, paragraph, table_html
+from inertest.report.identification import fmt, identification_section
+
+
+def rate_table_figure(result: GyroRateTableResult):
+    """Output against table rate with the fit, and the deviation from the straight line."""
+    rates, inverse = np.unique(result.rate_deg_s, return_inverse=True)
+    counts = np.bincount(inverse)
+    dev = np.bincount(inverse, result.line_deviation) / counts
+    k = result.coefficients["K"].value
+    fs = abs(k) * np.max(np.abs(rates)) if result.scale_unit != "1" else np.max(np.abs(
+        result.output))
+    fig, (ax, axr) = plt.subplots(2, 1, figsize=(7, 5.6), sharex=True,
+                                  gridspec_kw={"height_ratios": [1.4, 1]})
+    ax.plot(result.rate_deg_s, result.output, ".", ms=4, label="readings")
+    order = np.argsort(result.rate_deg_s)
+    ax.plot(result.rate_deg_s[order], result.fitted[order], "-", lw=1, label="model")
+    ax.set_ylabel(f"output [{result.output_unit}]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    axr.plot(result.rate_deg_s, result.line_deviation / fs * 1e6, ".", ms=3, alpha=0.5,
+             label="readings")
+    axr.plot(rates, dev / fs * 1e6, "o-", mfc="none", label="mean per rate")
+    axr.axhline(0, color="k", lw=0.6)
+    axr.set_xlabel("commanded table rate [deg/s]")
+    axr.set_ylabel("deviation from line [ppm FS]")
+    axr.grid(alpha=0.3)
+    axr.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def rate_table_sections(
+    result: GyroRateTableResult, truth: Mapping[str, float] | None = None, *, title: str
+) -> list[Section]:
+    """Report section of a rate-table test: estimates, nonlinearity, closed-form pairs, figure."""
+    sec = identification_section(f"{title}: scale factor, asymmetry, bias", result.identification,
+                                 truth)
+    sec.parts.append(paragraph(
+        f"Earth rate along the table axis removed from the bias: {result.earth_rate_deg_h:.4f} "
+        "deg/h. K is the mean of the two directions' scale factors when both are determined; "
+        "asymmetry = (K_pos - K_neg)/K (IEEE Std 528 / 952 terms)."))
+    if result.nonlinearity_ppm is not None:
+        sec.parts.append(paragraph(
+            f"Nonlinearity (largest deviation of a per-rate mean from the straight line, IEEE "
+            f"Std 528/952): {result.nonlinearity_ppm:.3g} ppm of full scale; noise of a per-rate "
+            f"mean at that rate: {result.nonlinearity_noise_ppm:.2g} ppm."))
+    if result.pairs:
+        rows = [[f"±{p['rate_deg_s']:g}", f"{p['K']:.8g}", f"{p['B']:.5g}"] for p in result.pairs]
+        sec.parts.append(paragraph("Closed form from each pair of opposite rates: K = (E+ − E−)"
+                                   "/(2ω), B = (E+ + E−)/(2K) − Earth rate:"))
+        sec.parts.append(table_html(["rate [deg/s]", f"K [{result.scale_unit}]", "B [deg/h]"],
+                                    rows))
+    sec.parts.append(figure_html(rate_table_figure(result),
+                                 "Output against table rate, and deviation from the straight "
+                                 "line (ppm of full scale)"))
+    for msg in result.messages:
+        sec.parts.append(paragraph("Warning: " + msg, note=True))
+    return [sec]
+
+
+def rotation_residual_figure(result: GyroTriadRotationResult):
+    """Residual counts of each gyro in each window."""
+    n = result.counts.shape[0]
+    fig, ax = plt.subplots(figsize=(max(6, 0.32 * n), 3.6))
+    x = np.arange(n)
+    for j, a in enumerate(AXES):
+        ax.plot(x + (j - 1) * 0.2, result.residual_output[:, j], "o", ms=4, label=f"gyro {a}")
+    ax.axhline(0, color="k", lw=0.6)
+    ax.set_xticks(x, result.part, rotation=90, fontsize=7)
+    ax.set_ylabel(f"residual [{result.output_unit}]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def rotation_sections(
+    result: GyroTriadRotationResult, truth: Mapping[str, float] | None = None, *, title: str
+) -> list[Section]:
+    """Report section of the 360-degree rotation test: estimates, calibration, residuals."""
+    sec = identification_section(f"{title}: scale factors, misalignment, bias",
+                                 result.identification, truth)
+    gyro = result.calibration.gyroscope
+    assert gyro is not None
+    sec.parts.append(paragraph(
+        f"Calibration (calibrated [rad/s] = matrix @ (raw [{gyro.raw_unit}] − offset)):"))
+    rows = [[a, *(f"{v:.9g}" for v in gyro.matrix[i]), f"{gyro.offset[i]:.6g}"]
+            for i, a in enumerate(AXES)]
+    sec.parts.append(table_html(["gyro", "matrix x", "matrix y", "matrix z", "offset"], rows))
+    if result.closed_form_scale:
+        sec.parts.append(paragraph(
+            "Closed form K_j = (N_j(+) − N_j(−))/(4π) (equal windows, constant rate): "
+            + ", ".join(f"{k} = {v:.8g} {result.scale_unit}"
+                        for k, v in result.closed_form_scale.items())))
+    sec.parts.append(figure_html(rotation_residual_figure(result),
+                                 "Residual counts per window and gyro"))
+    return [sec]
+
+
+def convergence_figure(result: NavigationCalibrationResult):
+    """Attitude error and corrections against iteration (log scale)."""
+    it = [h.iteration for h in result.history]
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 3.8))
+    a1.semilogy(it, [max(h.attitude_error_rms_arcsec, 1e-12) for h in result.history], "o-",
+                label="rms")
+    a1.semilogy(it, [max(h.attitude_error_max_arcsec, 1e-12) for h in result.history], "s--",
+                label="max")
+    a1.set_xlabel("iteration")
+    a1.set_ylabel("attitude error before correction [arcsec]")
+    a1.grid(alpha=0.3, which="both")
+    a1.legend(fontsize=8)
+    for j, a in enumerate(AXES):
+        a2.semilogy(it, [max(abs(h.scale_correction_ppm[j]), 1e-12) for h in result.history],
+                    "o-", label=f"|δK_{a}| [ppm]")
+    a2.semilogy(it, [max(np.max(np.abs(h.misalignment_correction_arcsec)), 1e-12)
+                     for h in result.history], "k^--", label="max |δM| [arcsec]")
+    a2.set_xlabel("iteration")
+    a2.set_ylabel("correction")
+    a2.grid(alpha=0.3, which="both")
+    a2.legend(fontsize=8)
+    for ax in (a1, a2):
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    fig.tight_layout()
+    return fig
+
+
+def navigation_sections(
+    result: NavigationCalibrationResult, *, scale_unit: str, si_per_scale_unit: float,
+    title: str = "Navigation-mode calibration",
+) -> list[Section]:
+    """Estimates after the iteration, the history of corrections and the convergence figure."""
+    d = result.to_dict(scale_unit=scale_unit, si_per_scale_unit=si_per_scale_unit)
+    rows = [[k, fmt(v["value"], v["std"]), v["unit"]]  # type: ignore[index]
+            for k, v in d["coefficients"].items()]  # type: ignore[union-attr]
+    sec = Section(title, [table_html(["quantity", "estimate ± std", "unit"], rows)])
+    sec.parts.append(paragraph(
+        f"{'Converged' if result.converged else 'Not converged'} after {len(result.history)} "
+        f"iteration(s); scatter of the attitude-error increments {result.noise_arcsec:.3g} "
+        f"arcsec ({result.dof} dof)."))
+    hist = [[h.iteration, f"{h.attitude_error_rms_arcsec:.4g}",
+             f"{h.attitude_error_max_arcsec:.4g}",
+             ", ".join(f"{v:+.4g}" for v in h.scale_correction_ppm),
+             f"{np.max(np.abs(h.misalignment_correction_arcsec)):.4g}",
+             ", ".join(f"{v:+.3g}" for v in h.bias_correction_deg_h)] for h in result.history]
+    sec.parts.append(table_html(
+        ["iteration", "rms error [arcsec]", "max error [arcsec]", "δK x, y, z [ppm]",
+         "max |δM| [arcsec]", "δB x, y, z [deg/h]"], hist))
+    sec.parts.append(figure_html(convergence_figure(result),
+                                 "Attitude error and corrections per iteration"))
+    return [sec]
+
+
+def navigation_page(result: NavigationCalibrationResult, *, scale_unit: str,
+                    si_per_scale_unit: float, serial: str) -> str:
+    """Self-contained HTML page of a navigation-mode calibration."""
+    return page(f"inertest: navigation-mode calibration of {serial or 'gyro triad'}",
+                navigation_sections(result, scale_unit=scale_unit,
+                                    si_per_scale_unit=si_per_scale_unit),
+                subtitle="Iterative refinement through 360-degree rotations (seed 003, sec. 1.3)")
