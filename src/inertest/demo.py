@@ -23,6 +23,7 @@ from inertest.io.atomic import target_directory
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import read_toml
 from inertest.models.sdf_gyro import COEFFICIENTS
+from inertest.procedures import procedure_module
 from inertest.report.html import Section, page, paragraph
 from inertest.report.sections import result_sections
 
@@ -69,6 +70,8 @@ def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
         noise, seed = float(t.get("noise", 0.0)), int(t.get("seed", 0))
         data = simulate(plan, truth, noise=noise, rng=seed)
         result = fit(plan, data)
+        derived = getattr(procedure_module(plan.kind), "truth_quantities", None)
+        truth = derived(truth) if derived is not None else truth
         out.append(DemoTest(str(t.get("title", plan.kind)), plan_path, truth, noise, seed,
                             data, result))
     return out

@@ -47,6 +47,9 @@ def test_exact_recovery_with_asymmetry_and_k2():
     # IEEE 952 asymmetry: (K+ - K-)/mean, with K+- = K (1 +- a/2).
     assert res.coefficients["K_pos"].value == pytest.approx(7200.0 * (1 + 17.5e-6), rel=1e-12)
     assert res.coefficients["K_neg"].value == pytest.approx(7200.0 * (1 - 17.5e-6), rel=1e-12)
+    derived = grt.truth_quantities(truth)
+    for name in ("K_pos", "K_neg"):
+        assert derived[name] == pytest.approx(res.coefficients[name].value, rel=1e-12)
 
 
 def test_nonlinearity_closed_form_for_a_quadratic_error():

@@ -7,7 +7,10 @@ Each procedure is a module listed in :data:`_MODULES` that provides
 * ``fit(plan, data, *, sigma=None)`` -> a frozen result with ``procedure``, ``identification``
   (:class:`~inertest.procedures.results.Identification`) and ``to_dict()``;
 * ``simulate(plan, truth, *, noise=0.0, rng=None)`` -> data columns, with ``truth`` a mapping of
-  coefficient names to values in the procedure's engineering units.
+  coefficient names to values in the procedure's engineering units;
+* optionally ``truth_quantities(truth)`` -> the truth extended by the derived quantities the
+  result reports (e.g. a rate table's ``K_pos`` from ``K`` and ``asymmetry``), so simulated
+  results can be compared with their truth quantity by quantity.
 """
 
 from __future__ import annotations

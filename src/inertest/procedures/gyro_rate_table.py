@@ -434,6 +434,18 @@ def _closed_form_pairs(
     return tuple(out)
 
 
+def truth_quantities(truth: Mapping[str, float]) -> dict[str, float]:
+    """Truth with the one-direction scale factors the result reports.
+
+    ``K_pos = K (1 + a/2)``, ``K_neg = K (1 - a/2)`` with ``a`` the asymmetry [ppm] (the model
+    :func:`simulate` uses).
+    """
+    out = {k: float(v) for k, v in truth.items()}
+    k, a = out.get("K", 1.0), out.get("asymmetry", 0.0) * 1e-6
+    out.update(K_pos=k * (1 + a / 2), K_neg=k * (1 - a / 2))
+    return out
+
+
 def simulate(
     plan: Plan,
     truth: Mapping[str, float],
