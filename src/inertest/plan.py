@@ -17,6 +17,8 @@ Plan files are TOML (read by :mod:`inertest.io.plan_file`)::
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.earth import Site
-from inertest.errors import PlanError
+from inertest.errors import InertestError, PlanError
 from inertest.units import (
     ACCEL_UNITS,
     COUNT_UNITS,
@@ -126,3 +128,35 @@ class Plan:
     def kind(self) -> str:
         """The procedure kind, e.g. ``"polar-tumble"``."""
         return str(self.procedure.kind)
+
+
+def toml_table(
+    doc: Mapping[str, Any], name: str, source: str, *, error: type[InertestError] = PlanError
+) -> Mapping[str, Any]:
+    """The ``[name]`` table of a parsed TOML document (empty when absent); ``error`` otherwise."""
+    t = doc.get(name, {})
+    if not isinstance(t, Mapping):
+        raise error(f"{source}: [{name}] must be a table")
+    return t
+
+
+def check_known_keys(
+    t: Mapping[str, Any], known: set[str], where: str, *, error: type[InertestError] = PlanError
+) -> None:
+    """Reject keys not in ``known``: a misspelt key would otherwise be a silent default."""
+    unknown = sorted(set(t) - known)
+    if unknown:
+        raise error(f"{where}: unknown key(s) {', '.join(unknown)}; known: "
+                    f"{', '.join(sorted(known))}")
+
+
+def finite_number(
+    v: Any, key: str, source: str, *, error: type[InertestError] = PlanError
+) -> float:
+    """``v`` as a finite float; booleans and strings are errors naming ``key`` and ``source``."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise error(f"{source}: {key} must be a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise error(f"{source}: {key} must be finite, got {v!r}")
+    return x

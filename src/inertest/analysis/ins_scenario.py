@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 from inertest.analysis.ins_error_model import DEFAULT_RADIUS_M, InsSite
 from inertest.earth import OMEGA_IE
 from inertest.errors import InputError
+from inertest.plan import check_known_keys, finite_number, toml_table
 from inertest.units import (
     ARCMIN_TO_RAD,
     ARCSEC_TO_RAD,
@@ -40,6 +42,11 @@ from inertest.units import (
     HOUR_TO_S,
     MICRO_G_TO_M_PER_S2,
 )
+
+# TOML validation with this module's error class (InputError).
+_table = partial(toml_table, error=InputError)
+_known = partial(check_known_keys, error=InputError)
+_number = partial(finite_number, error=InputError)
 
 __all__ = [
     "InsScenario",
@@ -203,28 +210,6 @@ def seed_scenario() -> InsScenario:
     return InsScenario(site=site, x0=x0, u=u, duration_s=24 * HOUR_TO_S, step_s=10.0,
                        name="seed 002 worked example (L = 39 deg, 24 h)")
 
-
-def _table(doc: Mapping[str, Any], name: str, source: str) -> Mapping[str, Any]:
-    t = doc.get(name, {})
-    if not isinstance(t, Mapping):
-        raise InputError(f"{source}: [{name}] must be a table")
-    return t
-
-
-def _known(t: Mapping[str, Any], known: set[str], where: str) -> None:
-    unknown = sorted(set(t) - known)
-    if unknown:
-        raise InputError(f"{where}: unknown key(s) {', '.join(unknown)}; known: "
-                         f"{', '.join(sorted(known))}")
-
-
-def _number(v: Any, key: str, source: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise InputError(f"{source}: {key} must be a number, got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise InputError(f"{source}: {key} must be finite, got {v!r}")
-    return x
 
 
 def _errors(t: Mapping[str, Any], gravity: float, source: str) -> dict[str, NDArray[np.float64]]:

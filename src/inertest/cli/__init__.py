@@ -28,6 +28,7 @@ _COMMANDS: list[tuple[str, str]] = [
     ("inertest.cli.apply", "apply"),
     ("inertest.cli.thermal", "thermal"),
     ("inertest.cli.allan", "allan"),
+    ("inertest.cli.centrifuge", "centrifuge_study"),
 ]
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

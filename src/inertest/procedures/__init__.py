@@ -28,6 +28,7 @@ _MODULES: tuple[str, ...] = (
     "ferraris",
     "triad_multiposition",
     "accelerometer_multipoint",
+    "centrifuge_nine_position",
 )
 
 PROCEDURES: dict[str, ModuleType] = {}

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from inertest.report import accelerometer, ferraris, gyro_triad, tumble
+from inertest.report import accelerometer, centrifuge, ferraris, gyro_triad, tumble
 from inertest.report.html import Section
 from inertest.report.identification import identification_section
 
@@ -23,6 +23,7 @@ SECTION_BUILDERS: dict[str, SectionBuilder] = {
     "ferraris": ferraris.ferraris_sections,
     "accelerometer-multipoint": accelerometer.multipoint_sections,
     "triad-multiposition": accelerometer.triad_sections,
+    "centrifuge-nine-position": centrifuge.nine_position_sections,
 }
 
 

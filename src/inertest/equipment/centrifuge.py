@@ -1,0 +1,528 @@
+"""Dual-axis precision centrifuge with a counter-rotating azimuth platform: the ideal machine.
+
+Seed ``004_f16e7c07e7c35fdc.txt`` (Sun, Ren & Wang), sec. 1-3. The main axis turns the arm by
+``alpha = w t`` about the local vertical; the azimuth (platform) axis at the arm end turns by
+``beta = -alpha`` so the instrument keeps a fixed attitude relative to the ground while the
+centripetal specific force ``R w^2`` rotates around it.
+
+Conventions (ideal machine)
+---------------------------
+Platform frame P, fixed to the ground: ``x_P`` along the arm at ``t = 0``, pointing to the
+azimuth ``platform_heading`` (clockwise from north), ``z_P`` up, ``y_P = z_P x x_P``. The arm
+angle ``alpha = w t`` is right-handed about ``z_P``. Specific force in P (centripetal plus the
+reaction to gravity)::
+
+    f_P = -R w^2 (cos alpha, sin alpha, 0) + (0, 0, g)
+
+The gyro axes (I, O, S) are right-handed, ``I x O = S``. The nine attitudes are three mountings
+(rows I, O, S in P at fixture angle 0) each at fixture angles 0, +45, -45 deg, the fixture turning
+right-handed about ``y_P``:
+
+=========  ==========================
+positions  fixture 0
+=========  ==========================
+1, 2, 3    I = x_P, O = y_P, S = z_P
+4, 5, 6    I = y_P, O = z_P, S = x_P
+7, 8, 9    I = z_P, O = x_P, S = y_P
+=========  ==========================
+
+The imperfect machine
+---------------------
+:func:`centrifuge_motion` / :func:`instrument_inputs` evaluate the full chain of homogeneous
+transforms of seed 004 (eqs. 1-8) exactly, vectorised over time: dynamic radius error, dynamic
+misalignment of the arm end, parallelism and first-harmonic wobble of the azimuth axis, fixture
+eccentricity (:class:`CentrifugeErrors`) and the non-synchronisation ``beta = -alpha + dgamma(t)``
+(:class:`PhaseTracking`, :class:`RateTracking`, :class:`MeasuredDgamma`). With every error zero
+and the Earth-rate acceleration terms left out they reduce to :func:`ideal_inputs` (tested).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
+
+from inertest.earth import earth_rate_enu
+from inertest.errors import InputError
+
+#: Position numbers of the nine-position method.
+POSITIONS: tuple[int, ...] = tuple(range(1, 10))
+
+#: Rows I, O, S in the platform frame P for each mounting at fixture angle 0.
+_MOUNTINGS = (
+    np.eye(3),  # I = x_P, O = y_P, S = z_P
+    np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]),  # I = y_P, O = z_P, S = x_P
+    np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),  # I = z_P, O = x_P, S = y_P
+)
+#: Fixture angle [deg] of the positions within one mounting, in order.
+FIXTURE_ANGLES_DEG: tuple[float, ...] = (0.0, 45.0, -45.0)
+
+
+def fixture_angle_rad(position: int) -> float:
+    """Fixture angle about ``y_P`` [rad] of a position 1..9."""
+    _check_position(position)
+    return float(np.radians(FIXTURE_ANGLES_DEG[(position - 1) % 3]))
+
+
+def mounting_axes(position: int) -> NDArray[np.float64]:
+    """Rows I, O, S in P of a position's mounting at fixture angle 0 (shape (3, 3))."""
+    _check_position(position)
+    return _MOUNTINGS[(position - 1) // 3].copy()
+
+
+def rotation_about_y(angle_rad: float) -> NDArray[np.float64]:
+    """Active right-handed rotation by ``angle_rad`` about the y axis (3x3)."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def position_axes(position: int) -> NDArray[np.float64]:
+    """Rows I, O, S in the platform frame P of an ideal machine at ``position`` (1..9).
+
+    The fixture turns the mounting's axes by the position's fixture angle about ``y_P``
+    (right-handed), so each row ``a`` becomes ``R_y(theta) a``.
+    """
+    rows = mounting_axes(position)
+    return rows @ rotation_about_y(fixture_angle_rad(position)).T
+
+
+def platform_to_enu(platform_heading_rad: float) -> NDArray[np.float64]:
+    """Direction cosines C with ``v_ENU = C v_P`` (columns x_P, y_P, z_P in ENU)."""
+    h = float(platform_heading_rad)
+    x = np.array([np.sin(h), np.cos(h), 0.0])
+    z = np.array([0.0, 0.0, 1.0])
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def ideal_specific_force_platform(
+    t: ArrayLike, omega: float, radius_m: float, gravity_m_s2: float
+) -> NDArray[np.float64]:
+    """Specific force in P [m/s^2] on an ideal machine, ``-R w^2 (cos a, sin a, 0) + (0, 0, g)``.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time since the arm passed ``x_P`` [s].
+    omega : float
+        Main-axis rate ``w`` [rad/s], positive right-handed about up.
+    radius_m : float
+        Arm radius R to the instrument [m].
+    gravity_m_s2 : float
+        Local gravity [m/s^2].
+    """
+    a = float(omega) * np.asarray(t, dtype=float)
+    centripetal = float(radius_m) * float(omega) ** 2
+    return np.column_stack(
+        [-centripetal * np.cos(a), -centripetal * np.sin(a), np.full(a.shape, float(gravity_m_s2))]
+    )
+
+
+def ideal_inputs(
+    t: ArrayLike,
+    omega: float,
+    position: int,
+    *,
+    radius_m: float,
+    gravity_m_s2: float,
+    latitude_rad: float,
+    platform_heading_rad: float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Specific force and inertial angular rate on the gyro axes of an ideal machine.
+
+    The counter-rotating platform cancels the arm's rotation exactly, so the instrument turns with
+    the Earth only (seed 004, eq. 13 with ``alpha + beta = 0``).
+
+    Returns
+    -------
+    f_ios : ndarray, shape (n, 3)
+        Specific force along I, O, S [m/s^2].
+    omega_ios : ndarray, shape (n, 3)
+        Angular rate of the instrument relative to inertial space along I, O, S [rad/s].
+    """
+    axes = position_axes(position)
+    f = ideal_specific_force_platform(t, omega, radius_m, gravity_m_s2) @ axes.T
+    w_p = platform_to_enu(platform_heading_rad).T @ earth_rate_enu(latitude_rad)
+    return f, np.broadcast_to(axes @ w_p, f.shape).copy()
+
+
+def _check_position(position: int) -> None:
+    if int(position) != position or not 1 <= int(position) <= 9:
+        raise InputError(
+            f"centrifuge position {position!r} is not one of 1..9 (nine-position method)"
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# The imperfect machine: full kinematic chain (seed 004, sec. 2, eqs. 1-13), computed exactly.
+# --------------------------------------------------------------------------------------------
+
+
+
+@dataclass(frozen=True)
+class PhaseTracking:
+    """Bounded non-synchronisation of a phase-tracking azimuth servo.
+
+    ``dgamma(t) = amplitude * sin(2 pi frequency t + phase)`` [rad]; the source quotes
+    ``dgamma_p = 2 arcmin`` (seed 004, sec. 3).
+    """
+
+    amplitude_rad: float
+    frequency_hz: float
+    phase_rad: float = 0.0
+
+    def evaluate(self, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """``dgamma, d(dgamma)/dt, d2(dgamma)/dt2`` at ``t`` [rad, rad/s, rad/s^2]."""
+        w = 2.0 * np.pi * float(self.frequency_hz)
+        arg = w * t + float(self.phase_rad)
+        a = float(self.amplitude_rad)
+        return a * np.sin(arg), a * w * np.cos(arg), -a * w * w * np.sin(arg)
+
+
+@dataclass(frozen=True)
+class RateTracking:
+    """Accumulating non-synchronisation of a rate-tracking azimuth servo.
+
+    ``dgamma(t) = offset + rate * t`` [rad]; the source quotes 20.7 arcmin per second
+    (seed 004, sec. 3). ``rate = 0`` gives a constant angle error (the source's 200' and 1000').
+    """
+
+    rate_rad_s: float
+    offset_rad: float = 0.0
+
+    def evaluate(self, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """``dgamma, d(dgamma)/dt, d2(dgamma)/dt2`` at ``t`` [rad, rad/s, rad/s^2]."""
+        r = float(self.rate_rad_s)
+        return float(self.offset_rad) + r * t, np.full_like(t, r), np.zeros_like(t)
+
+
+@dataclass(frozen=True)
+class MeasuredDgamma:
+    """A measured non-synchronisation record ``dgamma(t_k)`` [rad] (e.g. from the two encoders).
+
+    Interpolated by a cubic spline (``scipy.interpolate.CubicSpline``), whose first and second
+    derivatives give the residual rate and acceleration. Times must be strictly increasing and
+    cover the simulated/fitted times.
+    """
+
+    t: NDArray[np.float64]
+    dgamma_rad: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.t, dtype=float)
+        d = np.asarray(self.dgamma_rad, dtype=float)
+        if t.ndim != 1 or t.shape != d.shape or t.size < 4:
+            raise InputError(
+                "measured dgamma needs matching 1-D arrays t and dgamma with at least 4 samples"
+            )
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(d))):
+            raise InputError("measured dgamma contains non-finite values; remove or fill them")
+        if np.any(np.diff(t) <= 0.0):
+            raise InputError("measured dgamma times must be strictly increasing; sort the record")
+        object.__setattr__(self, "t", t)
+        object.__setattr__(self, "dgamma_rad", d)
+
+    def evaluate(self, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """``dgamma, d(dgamma)/dt, d2(dgamma)/dt2`` at ``t`` from the spline."""
+        if t.size and (t.min() < self.t[0] - 1e-9 or t.max() > self.t[-1] + 1e-9):
+            raise InputError(
+                f"measured dgamma covers {self.t[0]:g}..{self.t[-1]:g} s but times "
+                f"{t.min():g}..{t.max():g} s were asked; record dgamma over the whole run"
+            )
+        spline = CubicSpline(self.t, self.dgamma_rad)
+        return spline(t), spline(t, 1), spline(t, 2)
+
+
+NonSynchronisation = PhaseTracking | RateTracking | MeasuredDgamma
+
+
+def _poly(coefficients: tuple[float, ...], omega: float) -> float:
+    """``c1 w + c2 w^2 + ...`` (no constant term: a static part belongs to the nominal value)."""
+    return float(sum(c * omega ** (k + 1) for k, c in enumerate(coefficients)))
+
+
+@dataclass(frozen=True)
+class CentrifugeErrors:
+    """Geometric and dynamic errors of a dual-axis centrifuge (seed 004, sec. 2, eqs. 1-8).
+
+    Attributes
+    ----------
+    radius_poly_m : tuple of float
+        Dynamic radius error ``dR(w) = r1 w + r2 w^2 + ...`` [m, w in rad/s].
+    misalignment_y_poly_rad, misalignment_z_poly_rad : tuple of float
+        Dynamic misalignment of the arm end about its y and z axes,
+        ``dl(w) = l1 w + l2 w^2 + ...`` [rad] (the arm end tilts, then the azimuth axis sits on it).
+    parallelism_x_rad, parallelism_y_rad : float
+        Parallelism errors ``dth_x1``, ``dth_y1`` of the azimuth axis to the main axis [rad].
+    wobble_x_rad, wobble_y_rad : float
+        First-harmonic wobble amplitudes of the azimuth axis about its x and y axes [rad]:
+        ``tilt_x = wobble_x cos(beta + wobble_x_phase)``, same for y.
+    wobble_x_phase_rad, wobble_y_phase_rad : float
+        Wobble phases [rad].
+    eccentricity_x_m, eccentricity_y_m : float
+        Fixture eccentricity ``lx``, ``ly`` of the instrument's point in the azimuth frame [m].
+    """
+
+    radius_poly_m: tuple[float, ...] = ()
+    misalignment_y_poly_rad: tuple[float, ...] = ()
+    misalignment_z_poly_rad: tuple[float, ...] = ()
+    parallelism_x_rad: float = 0.0
+    parallelism_y_rad: float = 0.0
+    wobble_x_rad: float = 0.0
+    wobble_y_rad: float = 0.0
+    wobble_x_phase_rad: float = 0.0
+    wobble_y_phase_rad: float = 0.0
+    eccentricity_x_m: float = 0.0
+    eccentricity_y_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            v = getattr(self, f.name)
+            vals = v if isinstance(v, tuple) else (v,)
+            if not all(np.isfinite(float(x)) for x in vals):
+                raise InputError(f"centrifuge error {f.name} must be finite, got {v!r}")
+
+
+@dataclass(frozen=True)
+class CentrifugeMotion:
+    """Exact motion of the instrument on an imperfect centrifuge (all arrays over time, n samples).
+
+    Attributes
+    ----------
+    attitude_p : ndarray, shape (n, 3, 3)
+        Direction cosines instrument -> platform frame P (columns I, O, S in P).
+    attitude : ndarray, shape (n, 3, 3)
+        Direction cosines instrument -> ENU (columns I, O, S in ENU).
+    omega_ios : ndarray, shape (n, 3)
+        Angular rate of the instrument relative to inertial space on I, O, S [rad/s].
+    f_ios : ndarray, shape (n, 3)
+        Specific force on I, O, S [m/s^2].
+    position_p, velocity_p, acceleration_p : ndarray, shape (n, 3)
+        Position [m], velocity [m/s] and acceleration [m/s^2] of the instrument's point relative
+        to P, in P (derivatives in the ground frame).
+    omega_rel_p : ndarray, shape (n, 3)
+        Angular rate of the instrument relative to the ground, in P [rad/s].
+    """
+
+    attitude_p: NDArray[np.float64]
+    attitude: NDArray[np.float64]
+    omega_ios: NDArray[np.float64]
+    f_ios: NDArray[np.float64]
+    position_p: NDArray[np.float64]
+    velocity_p: NDArray[np.float64]
+    acceleration_p: NDArray[np.float64]
+    omega_rel_p: NDArray[np.float64]
+
+    @property
+    def pose(self) -> NDArray[np.float64]:
+        """Homogeneous transforms instrument -> P, shape (n, 4, 4): ``[[C, p], [0, 1]]``."""
+        out = np.zeros((self.position_p.shape[0], 4, 4))
+        out[:, :3, :3], out[:, :3, 3], out[:, 3, 3] = self.attitude_p, self.position_p, 1.0
+        return out
+
+
+def centrifuge_motion(
+    t: ArrayLike,
+    omega: float,
+    position: int,
+    *,
+    radius_m: float,
+    gravity_m_s2: float,
+    latitude_rad: float,
+    platform_heading_rad: float = 0.0,
+    errors: CentrifugeErrors | None = None,
+    dgamma: NonSynchronisation | None = None,
+    earth_rotation_in_acceleration: bool = True,
+) -> CentrifugeMotion:
+    """Exact kinematics of the instrument on an imperfect dual-axis centrifuge.
+
+    The chain of homogeneous transforms (seed 004, eqs. 1-8), each link ``T = [C r; 0 1]`` mapping
+    child to parent coordinates, from the ground-fixed platform frame P (see module docstring)::
+
+        P -> Rz(alpha)                      main axis, alpha = w t
+          -> Trans(R + dR(w), 0, 0)          arm end
+          -> Ry(dl_y(w)) Rz(dl_z(w))         dynamic misalignment of the arm end
+          -> Rx(dth_x1) Ry(dth_y1)           parallelism of the azimuth axis
+          -> Rz(beta)                        azimuth axis, beta = -alpha + dgamma(t)
+          -> Rx(ax cos(beta+px)) Ry(ay cos(beta+py))   first-harmonic wobble
+          -> Trans(lx, ly, 0)                fixture eccentricity
+          -> Ry(theta)                       fixture angle of the position
+          -> mounting (rows I, O, S)         instrument
+
+    Nothing is linearised. Angular rate, angular acceleration, velocity and acceleration are
+    propagated along the chain analytically (serial-chain recursion: each joint adds
+    ``e_k dq_k/dt`` to the rate, ``e_k d2q_k/dt2 + w x e_k dq_k/dt`` to the angular acceleration,
+    and each offset ``r`` adds ``w' x r + w x (w x r)`` to the acceleration), so the residual rate
+    ``d(dgamma)/dt`` and the wobble rates ``-a sin(beta + p) dbeta/dt`` are included exactly.
+
+    Earth rotation: P turns with the Earth at ``W`` (the Earth rate in P). The inertial angular
+    rate is ``W + w_rel``. With ``earth_rotation_in_acceleration`` (default) the inertial
+    acceleration of the point is ``a_rel + 2 W x v_rel + W x (W x p)`` (Coriolis, ~``2 W w R``,
+    and the centripetal term of the arm's offset from the main axis); the Earth's rotation of the
+    centrifuge's own site is inside plumb-line gravity ``(0, 0, -g)`` in ENU. The specific force is
+    ``f = a - g_vec``. ``False`` drops the two Earth terms, as the ideal closed form does.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time since the arm passed ``x_P`` [s].
+    omega : float
+        Main-axis rate ``w`` [rad/s] (right-handed about up).
+    position : int
+        Position 1..9 (mounting and fixture angle).
+    radius_m, gravity_m_s2, latitude_rad, platform_heading_rad : float
+        Nominal arm radius [m], local gravity [m/s^2], latitude [rad], azimuth of ``x_P`` [rad].
+    errors : CentrifugeErrors, optional
+        Machine errors; default none.
+    dgamma : PhaseTracking, RateTracking or MeasuredDgamma, optional
+        Azimuth non-synchronisation ``beta = -alpha + dgamma(t)``; default none.
+    earth_rotation_in_acceleration : bool
+        Include the Earth-rate Coriolis and centripetal terms in the acceleration.
+    """
+    tt = np.atleast_1d(np.asarray(t, dtype=float))
+    if tt.ndim != 1 or not np.all(np.isfinite(tt)):
+        raise InputError("times must be a finite 1-D array [s]")
+    w = float(omega)
+    if not np.isfinite(w):
+        raise InputError(f"main-axis rate must be finite, got {omega!r}")
+    for name, value in (("radius_m", radius_m), ("gravity_m_s2", gravity_m_s2),
+                        ("latitude_rad", latitude_rad),
+                        ("platform_heading_rad", platform_heading_rad)):
+        if not np.isfinite(float(value)):
+            raise InputError(f"{name} must be finite, got {value!r}")
+    if not float(radius_m) > 0:
+        raise InputError(f"arm radius must be positive [m], got {radius_m!r}")
+    err = errors if errors is not None else CentrifugeErrors()
+    n = tt.size
+    zeros = np.zeros(n)
+    dg, dg1, dg2 = (zeros, zeros, zeros) if dgamma is None else dgamma.evaluate(tt)
+
+    alpha = w * tt
+    beta, beta1, beta2 = -alpha + dg, -w + dg1, dg2
+
+    def wobble(amp: float, ph: float) -> tuple[NDArray[np.float64], ...]:
+        c, s = np.cos(beta + ph), np.sin(beta + ph)
+        return amp * c, -amp * s * beta1, -amp * c * beta1**2 - amp * s * beta2
+
+    theta = fixture_angle_rad(position)
+    # (kind, axis or offset, (q, dq/dt, d2q/dt2) for a moving joint, or a constant angle)
+    chain: list[tuple[str, Any, Any]] = [
+        ("rot", "z", (alpha, np.full(n, w), zeros)),
+        ("trans", np.array([float(radius_m) + _poly(err.radius_poly_m, w), 0.0, 0.0]), None),
+        ("rot", "y", _poly(err.misalignment_y_poly_rad, w)),
+        ("rot", "z", _poly(err.misalignment_z_poly_rad, w)),
+        ("rot", "x", err.parallelism_x_rad),
+        ("rot", "y", err.parallelism_y_rad),
+        ("rot", "z", (beta, beta1, beta2)),
+        ("rot", "x", wobble(err.wobble_x_rad, err.wobble_x_phase_rad) if err.wobble_x_rad else 0),
+        ("rot", "y", wobble(err.wobble_y_rad, err.wobble_y_phase_rad) if err.wobble_y_rad else 0),
+        ("trans", np.array([err.eccentricity_x_m, err.eccentricity_y_m, 0.0]), None),
+    ]
+    # Running attitude C (frame axes in P as columns), stored component-major as c[row, col, n]
+    # so that every operation below works on contiguous length-n rows. Turning about a body axis
+    # only mixes the two other columns, ~20x faster than composing scipy Rotations sample by
+    # sample (0.6 us per product in scipy 1.17).
+    c = np.zeros((3, 3, n))
+    c[0, 0] = c[1, 1] = c[2, 2] = 1.0
+    p, v, a = np.zeros((3, n)), np.zeros((3, n)), np.zeros((3, n))
+    wr, wd = np.zeros((3, n)), np.zeros((3, n))
+    for kind, what, motion in chain:
+        if kind == "trans":
+            if not np.any(what):
+                continue
+            r = np.einsum("ijn,j->in", c, what)
+            wxr = _cross(wr, r)
+            p += r
+            v += wxr
+            a += _cross(wd, r) + _cross(wr, wxr)
+            continue
+        k = "xyz".index(what)
+        if not isinstance(motion, tuple):  # a constant angle: no rate
+            if motion:
+                _turn(c, k, float(motion))
+            continue
+        q, q1, q2 = motion
+        e = c[:, k].copy()  # joint axis in P (the same before and after the joint turns)
+        dw = e * q1
+        wd += e * q2 + _cross(wr, dw)
+        wr += dw
+        _turn(c, k, q)
+    # fixture angle about the platform's y, then the mounting: columns I, O, S in P
+    fixture = Rotation.from_rotvec([0.0, theta, 0.0]).as_matrix() @ mounting_axes(position).T
+    c = np.einsum("ijn,jk->ikn", c, fixture)
+
+    c_pe = platform_to_enu(platform_heading_rad)
+    earth_p = c_pe.T @ earth_rate_enu(latitude_rad)
+    acc = a.copy()
+    if earth_rotation_in_acceleration:
+        e3 = np.broadcast_to(earth_p[:, None], p.shape)
+        acc += 2.0 * _cross(e3, v) + _cross(e3, _cross(e3, p))
+    acc[2] += float(gravity_m_s2)
+    w_in = wr + earth_p[:, None]
+    return CentrifugeMotion(
+        attitude_p=c.transpose(2, 0, 1),
+        attitude=np.einsum("ij,jkn->nik", c_pe, c),
+        omega_ios=np.einsum("jin,jn->ni", c, w_in),
+        f_ios=np.einsum("jin,jn->ni", c, acc),
+        position_p=p.T,
+        velocity_p=v.T,
+        acceleration_p=a.T,
+        omega_rel_p=wr.T,
+    )
+
+
+def _turn(c: NDArray[np.float64], k: int, angle: float | NDArray[np.float64]) -> None:
+    """In place ``C <- C R_k(angle)`` (``c[row, col, n]``): right-handed turn about body axis k.
+
+    Only the two other columns change: ``c_i' = cos c_i + sin c_j``, ``c_j' = -sin c_i + cos c_j``
+    with ``(i, j)`` the cyclic successors of ``k``.
+    """
+    i, j = (k + 1) % 3, (k + 2) % 3
+    co = np.cos(angle)
+    si = np.sin(angle)
+    ci, cj = c[:, i].copy(), c[:, j]
+    c[:, i] = co * ci + si * cj
+    c[:, j] = -si * ci + co * cj
+
+
+def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Cross product of component-major (3, n) arrays."""
+    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
+def instrument_inputs(
+    t: ArrayLike,
+    omega: float,
+    position: int,
+    *,
+    radius_m: float,
+    gravity_m_s2: float,
+    latitude_rad: float,
+    platform_heading_rad: float = 0.0,
+    errors: CentrifugeErrors | None = None,
+    dgamma: NonSynchronisation | None = None,
+    earth_rotation_in_acceleration: bool = True,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Specific force, inertial angular rate (both on I, O, S) and attitude on a real machine.
+
+    Thin wrapper of :func:`centrifuge_motion` (same parameters).
+
+    Returns
+    -------
+    f_ios : ndarray, shape (n, 3)
+        Specific force [m/s^2].
+    omega_ios : ndarray, shape (n, 3)
+        Angular rate relative to inertial space [rad/s] (Earth rate included).
+    attitude : ndarray, shape (n, 3, 3)
+        Direction cosines instrument -> ENU.
+    """
+    m = centrifuge_motion(
+        t, omega, position, radius_m=radius_m, gravity_m_s2=gravity_m_s2,
+        latitude_rad=latitude_rad, platform_heading_rad=platform_heading_rad, errors=errors,
+        dgamma=dgamma, earth_rotation_in_acceleration=earth_rotation_in_acceleration,
+    )
+    return m.f_ios, m.omega_ios, m.attitude

@@ -1,0 +1,376 @@
+"""Nine-position identification on a dual-axis centrifuge (seed 004), whole-cycle integration."""
+
+import json
+
+import numpy as np
+import pytest
+
+from inertest.cli import main
+from inertest.earth import Site
+from inertest.equipment import centrifuge as machine
+from inertest.errors import DataError, InertestWarning, PlanError
+from inertest.io.data_file import read_table, write_table
+from inertest.plan import Instrument, Plan
+from inertest.procedures import centrifuge_nine_position as cnp
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
+
+K = DEG_PER_H_TO_RAD_PER_S
+NAMES = ("DF", "DI", "DO", "DS", "DIO", "DOS", "DSI", "DII", "DOO", "DSS")
+TRUTH = dict(DF=0.5, DI=0.3, DO=-0.2, DS=0.15, DIO=0.01, DOS=-0.008, DSI=0.006, DII=0.02,
+             DOO=-0.012, DSS=0.009)
+# Seed 004's study: R = 2.5 m, latitude 45 deg, g = 9.8066 m/s^2, 4.43 and 8.85 rad/s, 50 Hz.
+R, G, LAT = 2.5, 9.8066, 45.0
+
+# The issue's table, written out by hand: rows I, O, S in P at fixture 0, then the fixture turns
+# right-handed about y_P by 0, +45, -45 deg (a row a becomes Ry(theta) a).
+_MOUNT = [np.eye(3), np.array([[0, 1, 0], [0, 0, 1], [1, 0, 0]], float),
+          np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], float)]
+
+
+def _axes(position):
+    th = np.radians([0.0, 45.0, -45.0][(position - 1) % 3])
+    ry = np.array([[np.cos(th), 0, np.sin(th)], [0, 1, 0], [-np.sin(th), 0, np.cos(th)]])
+    return _MOUNT[(position - 1) // 3] @ ry.T
+
+
+def _closed_form_regressors(position, omega):
+    """Whole-revolution means of the ten regressors from f_P = -R w^2 (cos a, sin a, 0) + (0,0,g).
+
+    Over a revolution mean(cos) = mean(sin) = mean(sin cos) = 0 and mean(cos^2) = mean(sin^2)
+    = 1/2, so mean f_P = (0, 0, g) and mean f_P f_P^T = diag(A^2/2, A^2/2, g^2), A = R w^2.
+    On the gyro axes (rows of M): mean f = M (0, 0, g), mean f f^T = M diag(...) M^T.
+    """
+    m = _axes(position)
+    a = R * omega**2
+    mean_f = m @ np.array([0.0, 0.0, G]) / G0
+    m2 = m @ np.diag([a * a / 2, a * a / 2, G * G]) @ m.T / G0**2
+    return np.array([1.0, *mean_f, m2[0, 1], m2[1, 2], m2[2, 0], m2[0, 0], m2[1, 1], m2[2, 2]])
+
+
+def make_plan(**params):
+    p = {"radius_m": R, **params}
+    return Plan(Site.at(LAT, G), Instrument(output_unit="rad/s"), cnp.SPEC.from_mapping(p))
+
+
+def test_position_table_matches_the_issue():
+    for p in range(1, 10):
+        np.testing.assert_allclose(machine.position_axes(p), _axes(p), atol=1e-15)
+
+
+def test_whole_cycle_regressor_means_equal_the_closed_forms():
+    # 40 samples per revolution exactly: the sampled means of cos, sin, cos^2, ... over whole
+    # revolutions equal the continuous ones (sums of roots of unity), so the check is tight.
+    omega, fs = 4.43, 40 * 4.43 / (2 * np.pi)
+    t = np.arange(0, 12 * 40 + 17) / fs  # 12 revolutions and a bit (dropped)
+    for p in range(1, 10):
+        f, w = machine.ideal_inputs(t, omega, p, radius_m=R, gravity_m_s2=G,
+                                    latitude_rad=np.radians(LAT))
+        runs = cnp.run_means(np.full(t.size, p), np.full(t.size, omega), t,
+                             np.zeros(t.size), f, w)
+        assert runs.revolutions[0] == 12 and runs.n_samples[0] == 480
+        assert runs.n_dropped[0] == 17
+        np.testing.assert_allclose(runs.regressors[0], _closed_form_regressors(p, omega),
+                                   rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(runs.structural_regressors[0],
+                                   _closed_form_regressors(p, omega), rtol=1e-10, atol=1e-10)
+    # 50 Hz at 8.85 rad/s is 35.5 samples per revolution: a plain mean leaks O(1/samples), the
+    # whole-cycle weights give the integral's values exactly.
+    omega = 8.85
+    t = np.arange(0, 3 * 355 + 9) / 50.0  # 30 revolutions (1065 samples) and a bit
+    for p in (2, 6, 8):
+        f, w = machine.ideal_inputs(t, omega, p, radius_m=R, gravity_m_s2=G,
+                                    latitude_rad=np.radians(LAT))
+        runs = cnp.run_means(np.full(t.size, p), np.full(t.size, omega), t,
+                             np.zeros(t.size), f, w)
+        assert runs.revolutions[0] == 30
+        np.testing.assert_allclose(runs.regressors[0], _closed_form_regressors(p, omega),
+                                   rtol=1e-12, atol=1e-12)
+        plain = cnp.drift_regressors(f[:1065] / G0).mean(axis=0)
+        assert np.max(np.abs(plain - _closed_form_regressors(p, omega))) > 1e-4
+        assert runs.noise_factor[0] == pytest.approx(1 / np.sqrt(1065), rel=1e-3)
+    omega = 4.43
+    # Position 2 (I, S at 45 deg in the x-z plane): mean fI^2 = A^2/4 + g^2/2 (hand-derived).
+    a = R * omega**2
+    assert _closed_form_regressors(2, omega)[7] == pytest.approx((a * a / 4 + G * G / 2) / G0**2)
+
+
+def test_whole_revolution_mask_boundaries():
+    w = 2 * np.pi  # one revolution per second
+    t = np.arange(0, 301) / 100.0  # 0..3.00 s: the last sample closes the third revolution
+    mask, n = cnp.whole_revolution_mask(t, w)
+    assert n == 3 and mask.sum() == 300 and not mask[-1]
+    mask, n = cnp.whole_revolution_mask(t[:-1], w)  # 0..2.99 s: two whole revolutions
+    assert n == 2 and mask.sum() == 200
+    mask, n = cnp.whole_revolution_mask(t[:50], w)
+    assert n == 0 and not mask.any()
+
+
+def test_partial_revolution_no_bias_while_naive_mean_is_biased():
+    # Position 1 (I along the arm): fI = -A cos(w t) / g0. A run of 10.3 revolutions; the gyro
+    # also sees a disturbance at the arm's frequency that no regressor models (as a machine
+    # error would): c cos(w t). Whole-revolution averaging removes it; the naive mean over all
+    # samples keeps c * mean(cos) over the extra 0.3 revolution.
+    omega, spr = 4.43, 1000
+    fs = spr * omega / (2 * np.pi)
+    t = np.arange(int(10.3 * spr)) / fs
+    pos = np.full(t.size, 1)
+    f, w_ios = machine.ideal_inputs(t, omega, 1, radius_m=R, gravity_m_s2=G,
+                                    latitude_rad=np.radians(LAT))
+    c = 1e-6  # rad/s
+    out = w_ios[:, 0] + TRUTH["DF"] * K + c * np.cos(omega * t)
+    runs = cnp.run_means(pos, np.full(t.size, omega), t, out, f, w_ios)
+    assert runs.revolutions[0] == 10 and runs.n_samples[0] == 10 * spr
+    assert runs.drift_rad_s[0] == pytest.approx(TRUTH["DF"] * K, abs=1e-18)
+    naive = out.mean() - w_ios[:, 0].mean() - TRUTH["DF"] * K
+    # Continuous closed form: mean of cos over 10.3 revolutions = sin(2 pi 10.3) / (2 pi 10.3).
+    expected = c * np.sin(2 * np.pi * 10.3) / (2 * np.pi * 10.3)
+    assert naive == pytest.approx(expected, rel=1e-2)  # rectangle rule vs integral: O(1/spr)
+    assert abs(naive) > 1e-8
+
+
+def test_exact_recovery_of_all_ten_coefficients():
+    plan = make_plan()
+    res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+    assert set(res.coefficients) == set(NAMES) and not res.combinations
+    assert res.identification.not_separable == ()
+    for n, e in res.coefficients.items():
+        assert e.value == pytest.approx(TRUTH[n], rel=1e-9), n
+        assert e.unit == {0: "deg/h", 1: "deg/h/g", 2: "deg/h/g^2"}[len(n) - 1 if n != "DF" else 0]
+    assert res.run_position.size == 18 and np.all(res.run_revolutions == 100)
+    d = res.to_dict()
+    assert d["procedure"] == "centrifuge-nine-position" and len(d["runs"]) == 18
+    json.dumps(d)
+
+
+def test_exact_recovery_from_any_kinematic_inputs():
+    # fit_inputs takes per-sample inputs from any model: here the ideal ones at heading 30 deg
+    # with a random time origin per run, and a gyro reading in rad/s.
+    rng = np.random.default_rng(5)
+    coef = np.array([TRUTH[n] for n in NAMES]) * K
+    cols = {k: [] for k in ("p", "w", "t", "y", "f", "wi")}
+    for p in range(1, 10):
+        for w in (3.0, 6.0, 9.0):
+            t = rng.uniform(0, 1) + np.arange(0, 7 * 2 * np.pi / w + 0.2, 1 / 97.0)
+            f, wi = machine.ideal_inputs(t, w, p, radius_m=R, gravity_m_s2=G,
+                                         latitude_rad=np.radians(LAT),
+                                         platform_heading_rad=np.radians(30.0))
+            fg = f / G0
+            phi = np.column_stack([np.ones(t.size), fg, fg[:, 0] * fg[:, 1], fg[:, 1] * fg[:, 2],
+                                   fg[:, 2] * fg[:, 0], fg**2])
+            for k, v in zip(cols, (np.full(t.size, p), np.full(t.size, w), t,
+                                   wi[:, 0] + phi @ coef, f, wi), strict=True):
+                cols[k].append(v)
+    args = [np.concatenate(cols[k]) for k in ("p", "w", "t", "y")]
+    lsq, ident = cnp.fit_inputs(*args, np.vstack(cols["f"]), np.vstack(cols["wi"]),
+                                sigma_rad_s=1e-8)
+    np.testing.assert_allclose(lsq.x, coef, rtol=1e-9)
+    assert ident.rank == 10 and lsq.residuals.shape == (27,)
+
+
+def test_one_rate_loses_df_and_the_squares_like_a_tumble():
+    plan = make_plan(omegas_rad_s=[8.85], revolutions=20)
+    with pytest.warns(InertestWarning, match="only one main-axis rate"):
+        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+    assert set(res.coefficients) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
+    # Closed form: every run has mean fI^2 + fO^2 + fS^2 = ((R w^2)^2 + g^2) / g0^2.
+    s = ((R * 8.85**2) ** 2 + G**2) / G0**2
+    names = {c.name for c in res.combinations}
+    assert f"DF + {s:.6g}*DSS" in names and {"DII - DSS", "DOO - DSS"} <= names
+    for c in res.combinations:
+        assert c.value == pytest.approx(c.evaluate(TRUTH), rel=1e-8, abs=1e-12)
+    text = " ".join(res.identification.not_separable)
+    assert "DF, DII, DOO, DSS: not separable" in text and "second rate" in text
+
+
+@pytest.mark.parametrize(("positions", "zero", "mixed", "lead"), [
+    ([1, 2, 3], "DO, DIO, DOS", "DF, DII, DOO, DSS", f"DF + {(G / G0) ** 2:.6g}*DSS"),
+    ([4, 5, 6], "DI, DIO, DSI", "DF, DII, DOO, DSS", f"DF + {(G / G0) ** 2:.6g}*DSS"),
+    ([1, 4, 7], "DIO, DOS, DSI", "DF, DI, DO, DS", f"DF + {G / G0:.6g}*DS"),
+])
+def test_missing_positions_say_what_is_lost(positions, zero, mixed, lead):
+    # With one mounting, the always-horizontal axis (O for 1-3, I for 4-6) never has a mean
+    # force, nor a mean product with the others, and the vertical plane's axes only ever see
+    # g^2 between them: the squares mix with DF as in a tumble (weight (g/g0)^2). With fixture 0
+    # only, no cross product survives and each axis is up in one position only: DF + g DI etc.
+    plan = make_plan(positions=positions, revolutions=5)
+    with pytest.warns(InertestWarning, match="not individually identifiable"):
+        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+    text = res.identification.not_separable
+    assert text[0].startswith(f"{zero}: their averaged regressors are zero")
+    missing = ", ".join(str(p) for p in range(1, 10) if p not in positions)
+    assert text[1].startswith(f"{mixed}: not separable because positions {missing}")
+    for c in res.combinations:
+        assert c.value == pytest.approx(c.evaluate(TRUTH), rel=1e-9, abs=1e-12)
+    assert lead in [c.name for c in res.combinations]
+
+
+def test_six_positions_still_determine_everything():
+    plan = make_plan(positions=[2, 3, 5, 6, 8, 9], revolutions=5)
+    with pytest.warns(InertestWarning, match="still identifiable"):
+        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+    assert set(res.coefficients) == set(NAMES)
+
+
+def _analytic_cov_reference(n_samples_by_rate, sigma):
+    """(A^T W A)^-1 from the closed-form run means, independent of the library's solver."""
+    rows, weights = [], []
+    for p in range(1, 10):
+        for w, n in n_samples_by_rate.items():
+            rows.append(_closed_form_regressors(p, w))
+            weights.append(n / sigma**2)
+    a = np.array(rows)
+    return np.linalg.inv(a.T @ (a * np.array(weights)[:, None]))
+
+
+def test_seed_study_analytic_uncertainties():
+    sigma = 1e-7 / 3  # rad/s per sample (3 sigma = 1e-7, seed 004)
+    plan = make_plan()
+    data = cnp.simulate(plan, TRUTH)
+    res = cnp.fit(plan, data, sigma=sigma)
+    n = {w: int(res.run_samples[res.run_omega == w][0]) for w in (4.43, 8.85)}
+    # Samples with t < 100 * 2 pi / w at 50 Hz: ceil(100 * 2 pi * 50 / w).
+    assert n == {4.43: 7092, 8.85: 3550}
+    ref = np.sqrt(np.diag(_analytic_cov_reference(n, sigma))) / K
+    got = np.array([res.coefficients[c].std for c in NAMES])
+    print(dict(zip(NAMES, np.round(got, 9), strict=True)))
+    np.testing.assert_allclose(got, ref, rtol=1e-4)
+    # Sane: DF ~ sigma / sqrt(all samples) within a small factor; square terms far smaller
+    # (they are excited by ~(20 g)^2); the three of a kind share their uncertainty.
+    floor = sigma / np.sqrt(9 * sum(n.values())) / K
+    assert floor < res.coefficients["DF"].std < 10 * floor
+    assert all(res.coefficients[c].std < res.coefficients["DF"].std / 50
+               for c in ("DII", "DOO", "DSS"))
+    for group in (("DI", "DO", "DS"), ("DIO", "DOS", "DSI"), ("DII", "DOO", "DSS")):
+        s = [res.coefficients[c].std for c in group]
+        assert max(s) == pytest.approx(min(s), rel=1e-2)
+
+
+@pytest.mark.slow
+def test_monte_carlo_reported_std_matches_scatter():
+    plan = make_plan(revolutions=10)
+    clean = cnp.simulate(plan, TRUTH)
+    rng = np.random.default_rng(21)
+    sigma = 1e-7 / 3
+    runs = 300
+    vals, std_known, std_resid = [], [], []
+    for _ in range(runs):
+        d = dict(clean, output=clean["output"] + rng.normal(0, sigma, clean["output"].size))
+        lsq, ident = cnp.fit_inputs(*_inputs(plan, d), sigma_rad_s=sigma)
+        vals.append(lsq.x)
+        std_known.append(lsq.std)
+        lsq2, _ = cnp.fit_inputs(*_inputs(plan, d))
+        std_resid.append(lsq2.std)
+    vals = np.array(vals)
+    scatter = vals.std(axis=0, ddof=1)
+    ratio = scatter / np.mean(std_known, axis=0)
+    ratio2 = scatter / np.sqrt(np.mean(np.square(std_resid), axis=0))
+    print("scatter/std, sigma given:", np.round(ratio, 3))
+    print("scatter/std, sigma from residuals:", np.round(ratio2, 3))
+    assert np.all(np.abs(ratio - 1) < 0.2), ratio
+    assert np.all(np.abs(ratio2 - 1) < 0.2), ratio2
+
+
+_CACHE = {}
+
+
+def _inputs(plan, d):
+    key = id(plan)
+    if key not in _CACHE:
+        f, w = cnp._ideal_inputs_all(plan, d["position"], d["omega"], d["t"])
+        _CACHE[key] = (f, w)
+    f, w = _CACHE[key]
+    return d["position"], d["omega"], d["t"], d["output"], f, w
+
+
+def test_plan_keys_validated():
+    with pytest.raises(PlanError, match="needs radius_m"):
+        cnp.SPEC.from_mapping({})
+    with pytest.raises(PlanError, match="unknown parameter"):
+        cnp.SPEC.from_mapping({"radius_m": 2.5, "radius": 2.5})
+    with pytest.raises(PlanError, match="positions must be"):
+        cnp.SPEC.from_mapping({"radius_m": 2.5, "positions": [0, 1]})
+    with pytest.raises(PlanError, match="radius_m must be a finite positive"):
+        cnp.SPEC.from_mapping({"radius_m": -1.0})
+
+
+def test_python_errors_for_bad_data():
+    plan = make_plan(positions=[1], omegas_rad_s=[4.43], revolutions=2)
+    d = cnp.simulate(plan, TRUTH)
+    with pytest.raises(DataError, match="less than one whole revolution"):
+        cnp.fit(plan, {k: v[:30] for k, v in d.items()}, sigma=1e-8)
+    with pytest.raises(DataError, match="omega must be positive"):
+        cnp.fit(plan, dict(d, omega=-d["omega"]), sigma=1e-8)
+    t = np.arange(9) * (2 * np.pi / 4.43) / 4  # 4 samples per revolution: sin 2a = 0 at all
+    with pytest.raises(DataError, match="at least 5 times per revolution"):
+        cnp.fit(plan, {"position": np.ones(9), "omega": np.full(9, 4.43), "t": t,
+                       "output": np.zeros(9)}, sigma=1e-8)
+    with pytest.raises(DataError, match="no degree of freedom"):
+        cnp.fit(plan, d)
+
+
+# --- CLI ------------------------------------------------------------------------------------
+
+
+def _simulated(examples_dir, tmp_path, capsys, noise="3.3e-8"):
+    plan = examples_dir / "centrifuge" / "plan.toml"
+    data = tmp_path / "data.csv"
+    assert main(["simulate", str(plan), "--truth", str(examples_dir / "centrifuge" / "truth.toml"),
+                 "-o", str(data), "--noise", noise, "--seed", "4"]) == 0
+    capsys.readouterr()
+    return plan, data
+
+
+def test_cli_simulate_then_fit_round_trip(examples_dir, tmp_path, capsys):
+    plan, data = _simulated(examples_dir, tmp_path, capsys)
+    assert set(read_table(data)) == {"position", "omega", "t", "output"}
+    assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["procedure"] == "centrifuge-nine-position" and out["not_separable"] == []
+    truth = {"DF": 0.5, "DI": 0.3, "DO": -0.2, "DS": 0.15, "DIO": 0.01, "DOS": -0.008,
+             "DSI": 0.006, "DII": 0.02, "DOO": -0.012, "DSS": 0.009}
+    for k, v in truth.items():
+        e = out["coefficients"][k]
+        assert abs(e["value"] - v) < 5 * e["std"], k
+    assert out["noise"]["source"] == "residuals" and out["dof"] == 8
+    assert out["noise"]["sigma"] == pytest.approx(3.3e-8 / K, rel=0.6)
+
+
+def _fit_modified(examples_dir, tmp_path, capsys, change):
+    plan, data = _simulated(examples_dir, tmp_path, capsys, noise="0")
+    d = read_table(data)
+    change(d)
+    bad = tmp_path / "bad.csv"
+    write_table(bad, d)
+    code = main(["fit", str(plan), str(bad), "--no-store", "--sigma", "1e-8"])
+    return code, capsys.readouterr()
+
+
+def _keep(mask_fn):
+    def change(d):
+        keep = mask_fn(d)
+        for k in list(d):
+            d[k] = d[k][keep]
+    return change
+
+
+def test_cli_missing_positions_names_lost_coefficients(examples_dir, tmp_path, capsys):
+    code, cap = _fit_modified(examples_dir, tmp_path, capsys,
+                              _keep(lambda d: np.isin(d["position"], [1, 2, 3])))
+    assert code == 0
+    lost = "DF, DO, DIO, DOS, DII, DOO, DSS"
+    assert f"warning: positions 4, 5, 6, 7, 8, 9 not measured; {lost}" in cap.err
+    assert "not determined: DO, DIO, DOS: their averaged regressors are zero" in cap.out
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (_keep(lambda d: d["t"] < 1.0), "less than one whole revolution"),
+    (lambda d: d.__setitem__("position", np.where(d["position"] == 9, 10, d["position"])),
+     "unknown position number(s) 10"),
+    (lambda d: d["output"].__setitem__(5, np.nan), 'column "output" has 1 NaN/inf'),
+    (lambda d: d.pop("omega"), "lacks column(s) omega"),
+])
+def test_cli_bad_data_one_line_error(examples_dir, tmp_path, capsys, change, message):
+    code, cap = _fit_modified(examples_dir, tmp_path, capsys, change)
+    assert code != 0
+    assert message in cap.err
+    assert "Traceback" not in cap.err and len(cap.err.strip().splitlines()) == 1
