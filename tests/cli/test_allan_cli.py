@@ -92,6 +92,19 @@ def test_plot_written(tmp_path, capsys, gyro, fmt):
     assert "noise terms" in text and "deg/sqrt(h)" in text
 
 
+def test_html_report(tmp_path, capsys, gyro):
+    np.save(tmp_path / "g.npy", gyro)
+    report = tmp_path / "out" / "allan.html"
+    assert main(["allan", str(tmp_path / "g.npy"), "--rate", "50", "--stats", "oadev,mdev",
+                 "--json", "--report", str(report)]) == 0
+    out = _json(capsys)  # --json output is unchanged by --report
+    html = report.read_text(encoding="utf-8")
+    assert html.count("data:image/png;base64,") == 1
+    assert "Noise terms" in html and "deg/sqrt(h)" in html and "50 Hz" in html
+    # the deviation table carries the same numbers as the JSON
+    assert f"{out['oadev'][0]:.5e}" in html and f"{out['mdev'][2]:.5e}" in html
+
+
 @pytest.mark.parametrize(
     ("args", "words"),
     [

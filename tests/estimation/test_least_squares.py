@@ -80,3 +80,24 @@ def test_fewer_rows_than_unknowns_returns_the_whole_null_space():
     # Same subspace: projections onto each other's complement vanish.
     assert np.allclose(expected - fit.null_space @ (fit.null_space.T @ expected), 0, atol=1e-12)
     assert not fit.identifiable[3] and not fit.identifiable[4]
+
+
+def test_null_space_accurate_with_heavy_row_weights_and_a_zero_column():
+    # Run means of 1e18 samples weigh ~1e9; a zero column (a coefficient no position excites)
+    # next to a genuine dependency (column 2 = column 0 + column 1) must still give a null
+    # space that A annihilates to rounding, and the dependency must be recognised.
+    rng = np.random.default_rng(1)
+    b = rng.normal(size=(50, 3))
+    a = np.column_stack([b[:, 0], b[:, 1], b[:, 0] + b[:, 1], np.zeros(50), b[:, 2]])
+    for weight in (1.0, 1e9):
+        for _ in range(10):  # the SVD mixes the two null vectors differently for each ordering
+            perm = rng.permutation(5)
+            fit = weighted_least_squares(
+                a[:, perm], rng.normal(size=50), sigma=np.full(50, 1.0 / weight)
+            )
+            assert fit.rank == 3
+            assert np.abs(a[:, perm] @ fit.null_space).max() < 1e-12
+        fit = weighted_least_squares(a, rng.normal(size=50), sigma=np.full(50, 1.0 / weight))
+        assert fit.is_identifiable([1.0, 1.0, -1.0, 0.0, 0.0]) is False
+        assert fit.is_identifiable([1.0, 0.0, 1.0, 0.0, 0.0]) is True  # orthogonal to (1,1,-1)
+        assert fit.identifiable.tolist() == [False, False, False, False, True]

@@ -13,11 +13,12 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 
 from inertest.cli._common import echo_json, print_table
 from inertest.errors import InputError
-from inertest.io.atomic import target_file
+from inertest.io.atomic import target_file, write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
 from inertest.noise.identification import identify_noise
-from inertest.report.noise import allan_figure, deviation_rows, noise_rows
+from inertest.report.html import Section, page, table_html
+from inertest.report.noise import allan_figure, allan_sections, deviation_rows, noise_rows
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
 
 # Column unit -> (factor to SI, SI rate unit of the deviation, instrument kind).
@@ -79,9 +80,11 @@ def _tau_option(text: str) -> str | list[float]:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the figure (.png, .svg or .pdf).")
+@click.option("--report", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write a self-contained HTML report (figure, noise terms, deviation table).")
 def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: str | None,
           taus: str, stats: str, dtype: str | None, no_noise_id: bool, as_json: bool,
-          plot: Path | None) -> None:
+          plot: Path | None, report: Path | None) -> None:
     """Allan, modified Allan, time, Hadamard and total deviations of DATA (NIST SP 1065).
 
     Fits the IEEE Std 952-1997 noise terms (quantization, random walk, bias instability, rate
@@ -118,6 +121,16 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
         fig = allan_figure(shown, model, unit=si_unit, title=f"{data.name}")
         with target_file(plot) as tmp:
             fig.savefig(tmp, format=_FORMATS[plot.suffix.lower()], dpi=110, bbox_inches="tight")
+    if report is not None:
+        settings = [["data", data.name], ["column", column or "(the only one)"],
+                    ["samples", str(len(samples))], ["sample rate", f"{rate_hz:g} Hz"],
+                    ["input", data_type], ["unit of the column", unit],
+                    ["deviations in", si_unit]]
+        write_text(report, page(
+            f"Noise analysis of {data.name}",
+            [Section("Record", [table_html(["setting", "value"], settings)]),
+             *allan_sections(shown, model, unit=si_unit)],
+            subtitle="Allan-family deviations (NIST SP 1065) and IEEE Std 952-1997 noise terms"))
     if as_json:
         grid = sorted({float(t) for r in shown.values() for t in r.taus})
         out: dict[str, object] = {"tau": grid, "unit": si_unit, "rate_hz": rate_hz,
@@ -147,3 +160,5 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
                     header, rows)
     if plot is not None:
         click.echo(f"figure: {plot}")
+    if report is not None:
+        click.echo(f"report: {report}")

@@ -144,7 +144,12 @@ def weighted_least_squares(
     yw = y * w
     # Column scaling makes the rank decision independent of the units of each column.
     norms = np.linalg.norm(Aw, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
+    # An all-zero column is a null direction whatever its scale; give it the typical scale of the
+    # others so that mapping the null space back (divide by scale, orthonormalise) does not mix
+    # vectors of sizes 1 and 1/|w| and lose digits (heavily weighted rows, e.g. run means).
+    nonzero = norms[norms > 0]
+    typical = float(np.exp(np.mean(np.log(nonzero)))) if nonzero.size else 1.0
+    scale = np.where(norms > 0, norms, typical)
     # Full V when there are fewer rows than unknowns, so that Vt[rank:] spans the whole null space.
     U, s_val, Vt = np.linalg.svd(Aw / scale, full_matrices=n < p)
     if s_val.size == 0 or s_val[0] == 0:

@@ -663,8 +663,7 @@ def _identify_runs(
             "residuals; give the noise per sample (--sigma) or add runs (positions or rates)"
         )
     # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown): rows scaled by
-    # sqrt(n) then have unit (or common unknown) noise. Keeping the weighted design O(1) matters:
-    # with weights ~1e9 next to exactly zero columns the solver's null space loses ~1e-5.
+    # sqrt(n) then have unit (or common unknown) noise, and the weighted design stays O(1).
     known = sigma_rad_s is not None
     s = float(sigma_rad_s) if known else 1.0
     k = DEG_PER_H_TO_RAD_PER_S / s
