@@ -211,12 +211,6 @@ class StudyResult:
         return out
 
 
-def run_times(omega: float, sample_rate_hz: float, revolutions: int) -> NDArray[np.float64]:
-    """Sample times [s] of one run: from 0 to just past ``revolutions`` whole revolutions."""
-    n = int(math.floor(revolutions * 2 * math.pi / omega * sample_rate_hz)) + 2
-    return np.arange(n, dtype=float) / sample_rate_hz
-
-
 def _measured(dgamma: cf.NonSynchronisation | None,
               t: NDArray[np.float64]) -> cf.NonSynchronisation | None:
     """What the encoders would give: ``dgamma`` sampled at the output times."""
@@ -225,23 +219,31 @@ def _measured(dgamma: cf.NonSynchronisation | None,
     return cf.MeasuredDgamma(t, dgamma.evaluate(t)[0])
 
 
-def simulate_runs(plan: StudyPlan, case: ErrorCase | None = None) -> Runs:
+def simulate_runs(plan: StudyPlan, case: ErrorCase | None = None, *,
+                  ideal: Runs | None = None) -> Runs:
     """Inputs of every (position, rate) run on the ideal, the real and the modelled machine.
 
     The real machine has ``case``'s errors and non-synchronisation; the model is the same error
     model with ``dgamma`` replaced by its samples (``MeasuredDgamma``). ``Runs.f_*`` in m/s^2,
-    ``Runs.omega_*`` (inertial rates on I, O, S) in rad/s.
+    ``Runs.omega_*`` (inertial rates on I, O, S) in rad/s. ``ideal``, the result of
+    ``simulate_runs(plan)``, supplies the error-free machine instead of computing it again.
     """
     kw = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
           "latitude_rad": plan.latitude_rad, "platform_heading_rad": plan.platform_heading_rad}
     cols: dict[str, list[NDArray[np.float64]]] = {k: [] for k in Runs.__dataclass_fields__}
+    start = 0  # of the run in ``ideal`` (same runs, same order)
     for w in plan.omegas_rad_s:
-        t = run_times(w, plan.sample_rate_hz, plan.revolutions)
+        t = cf.run_times(w, plan.sample_rate_hz, plan.revolutions)
         measured = _measured(case.dgamma if case else None, t)
         for pos in cf.POSITIONS:
             # "ideal" = the error-free machine, exactly (Earth-rate Coriolis included), so that a
             # case's error is the machine error's alone; the closed form is studied separately
-            f0, w0, _ = cf.instrument_inputs(t, w, pos, **kw)
+            if ideal is None:
+                f0, w0, _ = cf.instrument_inputs(t, w, pos, **kw)
+            else:
+                f0 = ideal.f_ideal[start : start + t.size]
+                w0 = ideal.omega_ideal[start : start + t.size]
+            start += t.size
             if case is None:
                 f1, w1, fm, wm = f0, w0, f0, w0
             else:
@@ -277,23 +279,17 @@ def _run_means(runs: Runs, values: NDArray[np.float64]) -> NDArray[np.float64]:
     for w in np.unique(runs.omega):
         for pos in cf.POSITIONS:
             sel = (runs.omega == w) & (runs.position == pos)
-            t = runs.t[sel]
-            whole = t < t[0] + np.floor((t[-1] - t[0]) * w / (2 * np.pi)) * 2 * np.pi / w
+            whole, _ = cf.whole_revolution_mask(runs.t[sel], w)
             out.append(values[sel][whole].mean())
     return np.asarray(out)
 
 
 def closed_form_inputs(plan: StudyPlan, runs: Runs) -> tuple[NDArray[np.float64], ...]:
     """Inputs of the issue's closed form (no Earth-rate terms in the acceleration) for ``runs``."""
-    f = np.empty_like(runs.f_ideal)
-    w = np.empty_like(runs.omega_ideal)
-    for om in np.unique(runs.omega):
-        for pos in cf.POSITIONS:
-            sel = (runs.omega == om) & (runs.position == pos)
-            f[sel], w[sel] = cf.ideal_inputs(
-                runs.t[sel], om, pos, radius_m=plan.radius_m, gravity_m_s2=plan.gravity_m_s2,
-                latitude_rad=plan.latitude_rad, platform_heading_rad=plan.platform_heading_rad)
-    return f, w
+    return cf.ideal_inputs_per_sample(
+        runs.position, runs.omega, runs.t, radius_m=plan.radius_m,
+        gravity_m_s2=plan.gravity_m_s2, latitude_rad=plan.latitude_rad,
+        platform_heading_rad=plan.platform_heading_rad)
 
 
 def monte_carlo_std(plan: StudyPlan, fit: FitFunction, runs: Runs, n: int,
@@ -333,7 +329,7 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
           if mc_n and sigma is not None else None)
     results = []
     for case in plan.cases:
-        runs = simulate_runs(plan, case)
+        runs = simulate_runs(plan, case, ideal=base)
         out = gyro_output(runs, plan.truth)
         est_ideal = _fit(fit, runs, out, "ideal", None)[0]
         est_model = _fit(fit, runs, out, "model", None)[0]

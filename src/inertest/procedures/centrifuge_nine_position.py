@@ -28,8 +28,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment import centrifuge as machine
+from inertest.equipment.centrifuge import whole_revolution_mask
 from inertest.errors import DataError, InertestWarning, InputError, PlanError
-from inertest.estimation.least_squares import DEFAULT_RCOND, LinearFit
+from inertest.estimation.least_squares import LinearFit, weighted_least_squares
 from inertest.models.sdf_gyro import (
     COEFFICIENTS,
     ENGINEERING_UNIT,
@@ -48,10 +49,6 @@ from inertest.procedures.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 
 KIND = "centrifuge-nine-position"
-
-#: Fraction of a revolution within which a sample counts as lying *on* a revolution boundary
-#: (absorbs the rounding of ``t`` and ``omega`` in a data file; 1e-9 rev ~ 1.4 ns at 4.43 rad/s).
-BOUNDARY_TOLERANCE_REV = 1e-9
 
 _TWO_PI = 2.0 * np.pi
 
@@ -316,8 +313,9 @@ def simulate(
 
     Each run starts with the arm on ``x_P`` at ``t = 0`` and is sampled at ``sample_rate_hz``
     from ``t = 0`` up to and including the first sample at or after the end of the last
-    revolution, so that the run spans ``revolutions`` whole revolutions by the rule of
-    :func:`whole_revolution_mask`. Output rate = input rate on I (Earth rate) + drift.
+    revolution (:func:`~inertest.equipment.centrifuge.run_times`), so that the run spans
+    ``revolutions`` whole revolutions by the rule of :func:`whole_revolution_mask`. Output rate =
+    input rate on I (Earth rate) + drift.
 
     ``truth`` maps coefficient names to deg/h, deg/h/g, deg/h/g^2; missing names are 0.
 
@@ -328,10 +326,9 @@ def simulate(
     pos_l, w_l, t_l = [], [], []
     for p in spec.positions:
         for w in spec.omegas_rad_s:
-            n = int(np.ceil(spec.revolutions * _TWO_PI / w * spec.sample_rate_hz)) + 1
-            t = np.arange(n) / spec.sample_rate_hz
-            pos_l.append(np.full(n, p, dtype=np.int64))
-            w_l.append(np.full(n, w))
+            t = machine.run_times(w, spec.sample_rate_hz, spec.revolutions)
+            pos_l.append(np.full(t.size, p, dtype=np.int64))
+            w_l.append(np.full(t.size, w))
             t_l.append(t)
     pos, omega, t = np.concatenate(pos_l), np.concatenate(w_l), np.concatenate(t_l)
     f, w_ios = _ideal_inputs_all(plan, pos, omega, t)
@@ -343,19 +340,13 @@ def simulate(
 def _ideal_inputs_all(
     plan: Plan, pos: NDArray[np.int64], omega: NDArray[np.float64], t: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Ideal-machine inputs for every sample, computed run by run (one call per run)."""
+    """Ideal-machine inputs for every sample with the plan's radius, heading and site."""
     spec: CentrifugeNinePositionSpec = plan.procedure
-    f = np.empty((t.size, 3))
-    w_ios = np.empty((t.size, 3))
-    uniq, order, bounds = _group_runs(pos, omega)
-    for r, (p, w) in enumerate(uniq):
-        idx = order[bounds[r] : bounds[r + 1]]
-        f[idx], w_ios[idx] = machine.ideal_inputs(
-            t[idx], float(w), int(p), radius_m=spec.radius_m,
-            gravity_m_s2=plan.site.gravity_m_s2, latitude_rad=plan.site.latitude_rad,
-            platform_heading_rad=float(np.radians(spec.platform_heading_deg)),
-        )
-    return f, w_ios
+    return machine.ideal_inputs_per_sample(
+        pos, omega, t, radius_m=spec.radius_m, gravity_m_s2=plan.site.gravity_m_s2,
+        latitude_rad=plan.site.latitude_rad,
+        platform_heading_rad=float(np.radians(spec.platform_heading_deg)),
+    )
 
 
 def _coverage_messages(runs: RunMeans) -> list[str]:
@@ -367,40 +358,6 @@ def _coverage_messages(runs: RunMeans) -> list[str]:
             "terms DII, DOO, DSS then mix as in a 1 g tumble (run at least two rates)"
         )
     return out
-
-
-def whole_revolution_mask(t: ArrayLike, omega: float) -> tuple[NDArray[np.bool_], int]:
-    """Samples of one run that lie in whole revolutions of the arm, counted from its first sample.
-
-    With ``t0`` the first (earliest) sample, the run spans ``n = floor(w (t_last - t0) / 2 pi)``
-    whole revolutions and the kept samples are those with ``w (t - t0) / 2 pi < n``: the
-    half-open interval ``[t0, t0 + n 2 pi / w)``. A sample exactly on the closing boundary
-    repeats the phase of ``t0`` and is excluded, so uniform sampling with an integer number of
-    samples per revolution averages every harmonic of the arm exactly (seed 004, eqs. 19-21);
-    otherwise :func:`whole_cycle_weights` removes the leakage of harmonics 1 and 2. Samples
-    within :data:`BOUNDARY_TOLERANCE_REV` of a boundary are treated as on it.
-
-    Parameters
-    ----------
-    t : array_like, shape (n,)
-        Sample times of the run [s] (any order).
-    omega : float
-        Main-axis rate of the run [rad/s] (sign ignored).
-
-    Returns
-    -------
-    mask : ndarray of bool, shape (n,)
-        Samples kept.
-    revolutions : int
-        Whole revolutions ``n`` (0 when the run is shorter than one revolution).
-    """
-    tt = np.asarray(t, dtype=float)
-    w = abs(float(omega))
-    if tt.size == 0 or w == 0.0:
-        return np.zeros(tt.shape, dtype=bool), 0
-    phase = w * (tt - tt.min()) / _TWO_PI  # revolutions since the run's first sample
-    n_rev = int(np.floor(phase.max() + BOUNDARY_TOLERANCE_REV))
-    return phase < n_rev - BOUNDARY_TOLERANCE_REV, n_rev
 
 
 def whole_cycle_weights(t: ArrayLike, omega: float) -> NDArray[np.float64]:
@@ -489,10 +446,8 @@ def run_means(
     f = np.asarray(f_ios_m_s2, dtype=float)
     wi = np.asarray(omega_ios_rad_s, dtype=float)
     n = tt.shape[0] if tt.ndim == 1 else -1
-    if n < 1 or any(a.shape != (n,) for a in (pos, w, y)) or f.shape != (n, 3) or wi.shape != (
-        n,
-        3,
-    ):
+    if n < 1 or any(a.shape != (n,) for a in (pos, w, y)) or (n, 3) != f.shape or (
+            (n, 3) != wi.shape):
         raise DataError(
             "position, omega, t and output need shape (n,) and the specific force and angular "
             f"rate shape (n, 3); got {pos.shape}, {w.shape}, {tt.shape}, {y.shape}, {f.shape}, "
@@ -513,7 +468,7 @@ def run_means(
             f"main-axis rate omega must be positive [rad/s], got {w[row]:g} at data row {row + 1}; "
             "give the magnitude of the arm's rate"
         )
-    uniq, order, bounds = _group_runs(pos_i, w)
+    uniq, order, bounds = machine.group_runs(pos_i, w)
     m = uniq.shape[0]
     out = {
         "revolutions": np.zeros(m, dtype=np.int64),
@@ -538,6 +493,7 @@ def run_means(
                 "revolutions)"
             )
         keep = idx[mask]
+        f_g = f[keep] / G0
         wts = whole_cycle_weights(tt[keep], uniq[r, 1])
         out["revolutions"][r] = n_rev
         out["n_samples"][r] = keep.size
@@ -545,9 +501,9 @@ def run_means(
         out["noise"][r] = float(np.sqrt(wts @ wts))
         out["output"][r] = wts @ y[keep]
         out["input"][r] = wts @ wi[keep, 0]
-        out["phi"][r] = wts @ drift_regressors(f[keep] / G0)  # per run: no (n, 10) temporary
-        out["f"][r] = wts @ f[keep] / G0
-        out["structural"][r] = _structural_row(tt[keep], uniq[r, 1], f[keep] / G0)
+        out["phi"][r] = wts @ drift_regressors(f_g)  # per run: no (n, 10) temporary
+        out["f"][r] = wts @ f_g
+        out["structural"][r] = _structural_row(tt[keep], uniq[r, 1], f_g)
     return RunMeans(
         position=uniq[:, 0].astype(np.int64),
         omega=uniq[:, 1].copy(),
@@ -588,14 +544,8 @@ def _drop_rounding_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
 def _structural_null_space(runs: RunMeans) -> NDArray[np.float64]:
     """Orthonormal basis (10, k) of the directions the runs cannot determine even in principle."""
     a = _drop_rounding_columns(runs.structural_regressors)
-    norms = np.linalg.norm(a, axis=0)
-    scale = np.where(norms > 0, norms, 1.0)
-    _, sv, vt = np.linalg.svd(a / scale, full_matrices=True)
-    rank = int(np.sum(sv > DEFAULT_RCOND * sv[0]))
-    if rank == a.shape[1]:
-        return np.zeros((a.shape[1], 0))
-    q, _ = np.linalg.qr(vt[rank:].T / scale[:, None])
-    return q
+    # The solver's null space (column-scaled SVD); the observations do not matter for it.
+    return weighted_least_squares(a, np.zeros(a.shape[0]), sigma=1.0).null_space
 
 
 def fit_inputs(
@@ -754,25 +704,6 @@ def explain_null_space(
             "are determined (measure all nine positions at two or more rates)"
         )
     return tuple(out)
-
-
-def _group_runs(
-    pos: NDArray[np.int64], omega: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
-    """Runs = distinct (position, omega): ``(keys (m, 2), order, bounds)``.
-
-    The samples of run ``r`` are ``order[bounds[r]:bounds[r + 1]]`` in their original order.
-    Integer codes and one stable sort: ``np.unique(axis=0)`` is ~10x slower on millions of rows.
-    """
-    rates, w_code = np.unique(omega, return_inverse=True)
-    code = np.asarray(pos, dtype=np.int64) * rates.size + w_code.reshape(-1)
-    order = np.argsort(code, kind="stable")
-    sorted_code = code[order]
-    starts = np.flatnonzero(np.r_[True, sorted_code[1:] != sorted_code[:-1]])
-    bounds = np.r_[starts, code.size]
-    first = sorted_code[starts]
-    keys = np.column_stack([(first // rates.size).astype(float), rates[first % rates.size]])
-    return keys, order, bounds
 
 
 def _positions(position: NDArray) -> NDArray[np.int64]:
