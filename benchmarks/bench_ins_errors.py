@@ -1,6 +1,6 @@
 """INS error propagation (issue 4): 24 h at a 1 s step, seven states, every source separately.
 
-inertest: :func:`inertest.analysis.ins_errors.source_responses` (12 sources + combined, exact
+inertest: :func:`inertest.ins.propagation.source_responses` (12 sources + combined, exact
 matrix exponentials applied by doubling). Peer, on the same work in the same run: scipy's
 general ODE integrator ``solve_ivp(method="DOP853", rtol=1e-10, atol=tiny)`` on the same 13
 cases stacked into one 91-state system, sampled at the same 86401 times. Prints both times,
@@ -20,9 +20,9 @@ import mpmath
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from inertest.analysis.ins_error_model import InsSite, input_matrix, system_matrix
-from inertest.analysis.ins_errors import source_responses
-from inertest.analysis.ins_scenario import InsScenario, seed_scenario
+from inertest.ins.error_model import InsSite, input_matrix, system_matrix
+from inertest.ins.propagation import source_responses
+from inertest.ins.scenario import InsScenario, seed_scenario
 
 
 def main(argv: list[str] | None = None) -> None:

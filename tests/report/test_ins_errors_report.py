@@ -4,10 +4,10 @@ import math
 
 import numpy as np
 
-from inertest.analysis.ins_closed_forms import closed_forms
-from inertest.analysis.ins_error_model import InsSite
-from inertest.analysis.ins_errors import characteristic_periods, source_responses
-from inertest.analysis.ins_scenario import InsScenario
+from inertest.ins.closed_forms import closed_forms
+from inertest.ins.error_model import InsSite
+from inertest.ins.propagation import characteristic_periods, source_responses
+from inertest.ins.scenario import InsScenario
 from inertest.report.html import page
 from inertest.report.ins_errors import closed_form_rows, final_rows, ins_error_sections
 

@@ -6,7 +6,6 @@ from pathlib import Path
 
 import click
 
-from inertest.analysis import centrifuge_study as cs
 from inertest.cli._common import echo_json, print_table
 from inertest.io.atomic import write_text
 from inertest.io.plan_file import read_toml
@@ -18,6 +17,7 @@ from inertest.report.centrifuge_study import (
     study_page,
     uncertainty_rows,
 )
+from inertest.studies import centrifuge_study as cs
 
 
 @click.command("centrifuge-study")

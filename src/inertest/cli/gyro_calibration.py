@@ -13,7 +13,6 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.analysis import navigation_calibration as nav
 from inertest.api import load_data, load_plan
 from inertest.cli._common import echo_json, print_table
 from inertest.equipment.rate_table import axis_index, triad_attitude
@@ -23,11 +22,12 @@ from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 from inertest.models.triad import ImuCalibration, TriadCalibration
 from inertest.plan import Plan
+from inertest.procedures import navigation_calibration as nav
 from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit, scale_factor_unit
 from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
 from inertest.procedures.gyro_triad_rotation import truth_model
-from inertest.procedures.results import SCHEMA_VERSION
 from inertest.report.gyro_triad import navigation_page
+from inertest.results import SCHEMA_VERSION
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 

@@ -9,15 +9,15 @@ from typing import Any
 import click
 import numpy as np
 
-from inertest.analysis.ins_covariance import RandomSources, propagate_covariance
-from inertest.analysis.ins_error_model import STATE_UNITS, STATES
-from inertest.analysis.ins_errors import (
+from inertest.cli._common import echo_json, parse_float_list, print_table
+from inertest.ins.covariance import RandomSources, propagate_covariance
+from inertest.ins.error_model import STATE_UNITS, STATES
+from inertest.ins.propagation import (
     SourceResponses,
     characteristic_periods,
     source_responses,
 )
-from inertest.analysis.ins_scenario import InsScenario, scenario_from_mapping, seed_scenario
-from inertest.cli._common import echo_json, parse_float_list, print_table
+from inertest.ins.scenario import InsScenario, scenario_from_mapping, seed_scenario
 from inertest.io.atomic import target_file, write_text
 from inertest.io.plan_file import read_toml
 from inertest.report.html import page
@@ -200,7 +200,7 @@ def _document_of(sc: InsScenario) -> dict[str, Any]:
 
 def _closed_form_table(scenario: InsScenario, resp: SourceResponses) -> list[list[str]]:
     # Imported here: sympy takes ~1 s to import, and every inertest command imports this module.
-    from inertest.analysis.ins_closed_forms import closed_forms, fit_constant_and_secular
+    from inertest.ins.closed_forms import closed_forms, fit_constant_and_secular
 
     forms = closed_forms(coriolis=scenario.site.coriolis)
     mags = np.concatenate([scenario.u, scenario.x0])

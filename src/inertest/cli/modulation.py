@@ -7,10 +7,8 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.analysis import rotation_modulation as rm
-from inertest.analysis import stator_modulation as sm
-from inertest.analysis.ins_error_model import InsSite
 from inertest.cli._common import echo_json, parse_float_list, print_table
+from inertest.ins.error_model import InsSite
 from inertest.io.atomic import target_file, write_text
 from inertest.report.html import page
 from inertest.report.modulation import (
@@ -22,6 +20,8 @@ from inertest.report.modulation import (
     system_sections,
     system_summary_rows,
 )
+from inertest.studies import rotation_modulation as rm
+from inertest.studies import stator_modulation as sm
 from inertest.units import (
     ARCSEC_TO_RAD,
     DEG_PER_H_TO_RAD_PER_S,

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import click
 
-from inertest.analysis.thermal import QUANTITIES, fit_thermal, simulate_thermal
 from inertest.cli._common import echo_json, print_table
 from inertest.io.atomic import target_directory, target_file
 from inertest.io.data_file import read_table, write_table
+from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
 from inertest.report.html import page
 from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
 

@@ -5,7 +5,7 @@ Each procedure is a module listed in :data:`_MODULES` that provides
 * ``KIND``: the ``[procedure] kind`` of plan files, and ``SPEC``: its parameter class with
   ``SPEC.from_mapping(params)``;
 * ``fit(plan, data, *, sigma=None)`` -> a frozen result with ``procedure``, ``identification``
-  (:class:`~inertest.procedures.results.Identification`) and ``to_dict()``;
+  (:class:`~inertest.results.Identification`) and ``to_dict()``;
 * ``simulate(plan, truth, *, noise=0.0, rng=None)`` -> data columns, with ``truth`` a mapping of
   coefficient names to values in the procedure's engineering units;
 * optionally ``truth_quantities(truth)`` -> the truth extended by the derived quantities the

@@ -43,17 +43,17 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
+from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models import pendulous_accelerometer as model
 from inertest.plan import Plan
-from inertest.procedures.checks import (
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.identification import identify
-from inertest.procedures.results import Combination, Estimate, Identification, LinearTestResult
+from inertest.results import Combination, Estimate, Identification, LinearTestResult
 
 KIND = "accelerometer-multipoint"
 NAMES = model.COEFFICIENTS

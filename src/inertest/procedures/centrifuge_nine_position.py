@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.equipment import centrifuge as machine
 from inertest.equipment.centrifuge import whole_revolution_mask
 from inertest.errors import DataError, InertestWarning, InputError, PlanError
+from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit, weighted_least_squares
 from inertest.models.sdf_gyro import (
     COEFFICIENTS,
@@ -38,14 +39,13 @@ from inertest.models.sdf_gyro import (
     drift_regressors,
 )
 from inertest.plan import Plan
-from inertest.procedures.checks import (
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     known_sigma,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.identification import identify
-from inertest.procedures.results import Identification, LinearTestResult
+from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 
 KIND = "centrifuge-nine-position"

@@ -85,8 +85,8 @@ from inertest.errors import DataError, IdentifiabilityError, PlanError
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
 from inertest.plan import Plan
 from inertest.procedures import triad_common as tc
-from inertest.procedures.checks import check_no_unknown_keys, require_columns
-from inertest.procedures.results import Estimate, Identification
+from inertest.procedures.spec import check_no_unknown_keys, require_columns
+from inertest.results import Estimate, Identification
 from inertest.units import (
     ACCEL_UNITS,
     COUNT_UNITS,

@@ -48,13 +48,13 @@ from numpy.typing import NDArray
 from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.plan import Instrument, Plan
-from inertest.procedures.checks import (
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     known_sigma,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.results import Estimate, Identification, LinearTestResult
+from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, RATE_UNITS
 
 KIND = "gyro-rate-table"

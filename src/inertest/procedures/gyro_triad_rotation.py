@@ -52,7 +52,6 @@ from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
 from inertest.plan import Plan
-from inertest.procedures.checks import check_no_unknown_keys, noise_samples, require_columns
 from inertest.procedures.gyro_rate_table import (
     check_gyro,
     complex_step_jacobian,
@@ -60,7 +59,8 @@ from inertest.procedures.gyro_rate_table import (
     raw_rate_unit,
     scale_factor_unit,
 )
-from inertest.procedures.results import Estimate, Identification, LinearTestResult
+from inertest.procedures.spec import check_no_unknown_keys, noise_samples, require_columns
+from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 KIND = "gyro-triad-rotation"

@@ -23,15 +23,15 @@ from inertest.errors import InertestWarning, PlanError
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Plan
-from inertest.procedures.checks import (
+from inertest.procedures.sdf_drift import identify_drift
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
     known_sigma,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.results import Identification, LinearTestResult
-from inertest.procedures.sdf_drift import identify_drift
+from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 KIND = "local-level-tumble"

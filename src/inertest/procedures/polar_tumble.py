@@ -32,19 +32,19 @@ from numpy.typing import NDArray
 from inertest.equipment import polar_axis_table as table
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
+from inertest.estimation.identify import combination_name
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Plan
-from inertest.procedures.checks import (
+from inertest.procedures.sdf_drift import identify_drift
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
     known_sigma,
     noise_samples,
     require_columns,
 )
-from inertest.procedures.identification import combination_name
-from inertest.procedures.results import Combination, Estimate, Identification, LinearTestResult
-from inertest.procedures.sdf_drift import identify_drift
+from inertest.results import Combination, Estimate, Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 KIND = "polar-tumble"

@@ -12,10 +12,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
-from inertest.procedures.identification import identify
-from inertest.procedures.results import Identification
+from inertest.results import Identification
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 _SQUARES = ("DII", "DOO", "DSS")

@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import IdentifiabilityError, InputError
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
-from inertest.procedures.results import Estimate, Identification, LinearTestResult
+from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import (
     ACCEL_UNITS,
     ARCSEC_TO_RAD,

@@ -35,7 +35,7 @@ from inertest.errors import DataError, IdentifiabilityError, InertestWarning, In
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.triad import AXES, ImuCalibration
 from inertest.plan import Plan
-from inertest.procedures.checks import (
+from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
     known_sigma,

@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 from datetime import datetime
 from typing import Any
 
-from inertest.analysis.coefficient_history import QuantityHistory
+from inertest.estimation.trend import QuantityHistory
 from inertest.report.history import history_figure, history_rows
 from inertest.report.html import Section, figure_html, page, paragraph, preformatted, table_html
 from inertest.report.sections import result_sections

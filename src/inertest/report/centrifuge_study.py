@@ -5,8 +5,8 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from inertest.analysis.centrifuge_study import StudyResult
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
+from inertest.studies.centrifuge_study import StudyResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 _K = DEG_PER_H_TO_RAD_PER_S

@@ -11,9 +11,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from inertest.analysis.navigation_calibration import AXES, NavigationCalibrationResult
 from inertest.procedures.gyro_rate_table import GyroRateTableResult
 from inertest.procedures.gyro_triad_rotation import GyroTriadRotationResult
+from inertest.procedures.navigation_calibration import AXES, NavigationCalibrationResult
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 

@@ -9,7 +9,7 @@ import matplotlib.dates as mdates
 import matplotlib.pyplot as plt
 import numpy as np
 
-from inertest.analysis.coefficient_history import QuantityHistory
+from inertest.estimation.trend import QuantityHistory
 from inertest.report.identification import fmt
 
 

@@ -6,8 +6,8 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from inertest.procedures.results import Identification
 from inertest.report.html import Section, paragraph, table_html
+from inertest.results import Identification
 
 
 def fmt(value: float, std: float | None = None) -> str:

@@ -11,13 +11,13 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from inertest.analysis.ins_error_model import STATES
-from inertest.analysis.ins_errors import SOURCES, CharacteristicPeriods, SourceResponses
+from inertest.ins.error_model import STATES
+from inertest.ins.propagation import SOURCES, CharacteristicPeriods, SourceResponses
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.units import ARCMIN_TO_RAD, ARCSEC_TO_RAD, HOUR_TO_S
 
 if TYPE_CHECKING:  # sympy is slow to import; only the closed-form table needs it
-    from inertest.analysis.ins_closed_forms import ClosedForms
+    from inertest.ins.closed_forms import ClosedForms
 
 #: Display unit of each state: (label, factor SI -> unit).
 DISPLAY_UNITS: dict[str, tuple[str, float]] = {
@@ -54,7 +54,7 @@ def responses_figure(
     Parameters
     ----------
     resp : SourceResponses
-        From :func:`inertest.analysis.ins_errors.source_responses`.
+        From :func:`inertest.ins.propagation.source_responses`.
     sigma : ndarray, shape (n, 7), optional
         1-sigma of each state from the random sources at the same times, SI.
     title : str

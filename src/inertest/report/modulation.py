@@ -10,9 +10,9 @@ from collections.abc import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
-from inertest.analysis.rotation_modulation import SystemRun
-from inertest.analysis.stator_modulation import ModulationRun, drift_gain
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.studies.rotation_modulation import SystemRun
+from inertest.studies.stator_modulation import ModulationRun, drift_gain
 from inertest.units import (
     ARCSEC_TO_RAD,
     DEG_PER_H_TO_RAD_PER_S,

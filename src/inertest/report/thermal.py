@@ -6,7 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from inertest.analysis.thermal import ThermalResult
+from inertest.procedures.thermal_compensation import ThermalResult
 from inertest.report.html import Section, figure_html, paragraph, table_html
 
 _LABEL = {"scale_factor": "scale factor error", "bias": "bias"}

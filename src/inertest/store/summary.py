@@ -1,11 +1,11 @@
-"""From stored runs to per-quantity history summaries (numerics in analysis.coefficient_history)."""
+"""From stored runs to per-quantity history summaries (numerics in estimation.trend)."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from datetime import datetime
 
-from inertest.analysis.coefficient_history import QuantityHistory, summarize
+from inertest.estimation.trend import QuantityHistory, summarize
 from inertest.store.history import RunRecord, StoreError
 
 

@@ -36,9 +36,9 @@ import numpy as np
 import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.analysis.ins_error_model import INPUTS, STATES, InsSite
-from inertest.analysis.ins_errors import SOURCES, characteristic_periods
 from inertest.errors import InputError
+from inertest.ins.error_model import INPUTS, STATES, InsSite
+from inertest.ins.propagation import SOURCES, characteristic_periods
 
 __all__ = [
     "ClosedForms",
@@ -76,7 +76,7 @@ class ClosedForms:
     ]:
         """Numerical ``(c0, c1)`` arrays of shape (12, 7) for source magnitudes (12,), SI.
 
-        ``magnitudes`` follows :data:`~inertest.analysis.ins_errors.SOURCES`: ``[bE, bN, eE,
+        ``magnitudes`` follows :data:`~inertest.ins.propagation.SOURCES`: ``[bE, bN, eE,
         eN, eU, dVE0, ..., phiU0]``.
         """
         if site.coriolis != self.coriolis:
@@ -110,7 +110,7 @@ class ClosedForms:
 
 
 def symbolic_system(*, coriolis: bool = True) -> tuple[sp.Matrix, sp.Matrix]:
-    """Symbolic ``A`` (7x7) and ``B`` (7x5) of :mod:`~inertest.analysis.ins_error_model`."""
+    """Symbolic ``A`` (7x7) and ``B`` (7x5) of :mod:`~inertest.ins.error_model`."""
     k = 2 * W * sp.sin(L) if coriolis else sp.Integer(0)
     s, c, t = sp.sin(L), sp.cos(L), sp.tan(L)
     A = sp.zeros(7, 7)

@@ -6,12 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from inertest.analysis import centrifuge_study as cs
 from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as cf
 from inertest.errors import PlanError
 from inertest.io.plan_file import read_toml
 from inertest.procedures.centrifuge_nine_position import fit_inputs
+from inertest.studies import centrifuge_study as cs
 from inertest.units import ARCMIN_TO_RAD, DEG_PER_H_TO_RAD_PER_S
 
 EXAMPLE = Path(__file__).parents[2] / "examples" / "centrifuge" / "study.toml"

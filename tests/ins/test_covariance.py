@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from inertest.analysis.ins_covariance import RandomSources, propagate_covariance
-from inertest.analysis.ins_error_model import InsSite
-from inertest.analysis.ins_errors import transition
 from inertest.errors import InputError
+from inertest.ins.covariance import RandomSources, propagate_covariance
+from inertest.ins.error_model import InsSite
+from inertest.ins.propagation import transition
 
 LAT = math.radians(39.0)
 

@@ -23,8 +23,8 @@ in the source)::
 no Foucault modulation of the Schuler oscillation.
 
 This module holds only the matrices ``x' = A x + B u``; solutions live in
-:mod:`inertest.analysis.ins_errors` and the rotation-modulation study in
-:mod:`inertest.analysis.rotation_modulation`.
+:mod:`inertest.ins.propagation` and the rotation-modulation study in
+:mod:`inertest.studies.rotation_modulation`.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from inertest.estimation.least_squares import (
     identifiable_combinations,
     weighted_least_squares,
 )
-from inertest.procedures.results import Combination, Estimate, Identification
+from inertest.results import Combination, Estimate, Identification
 
 #: Explains the null space of a fit in words: (fit, design) -> statements.
 Explainer = Callable[[LinearFit, NDArray[np.float64]], Sequence[str]]

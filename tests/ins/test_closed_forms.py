@@ -8,16 +8,16 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from inertest.analysis.ins_closed_forms import (
+from inertest.ins.closed_forms import (
     L,
     W,
     closed_forms,
     fit_constant_and_secular,
     g,
 )
-from inertest.analysis.ins_error_model import STATES, InsSite, input_matrix, system_matrix
-from inertest.analysis.ins_errors import SOURCES, source_responses
-from inertest.analysis.ins_scenario import InsScenario, seed_scenario
+from inertest.ins.error_model import STATES, InsSite, input_matrix, system_matrix
+from inertest.ins.propagation import SOURCES, source_responses
+from inertest.ins.scenario import InsScenario, seed_scenario
 
 LAT = math.radians(39.0)
 DEG_H = math.pi / 180 / 3600

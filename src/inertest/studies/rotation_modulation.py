@@ -1,9 +1,9 @@
 """System-level rotation modulation: a strapdown IMU on a rotating mount in a static-base INS.
 
 Issue 7 (system part), beyond seed ``001_844b96197456cfeb.txt`` (whose component-level scheme
-is :mod:`inertest.analysis.stator_modulation`). The IMU's errors are constant (or slowly
+is :mod:`inertest.studies.stator_modulation`). The IMU's errors are constant (or slowly
 varying) in the body frame b; the mount turns the body relative to the navigation frame n
-(ENU), so the errors reach the INS error equations of :mod:`inertest.analysis.ins_error_model`
+(ENU), so the errors reach the INS error equations of :mod:`inertest.ins.error_model`
 modulated by the attitude ``C_b^n(t)`` (maps b to n)::
 
     dw^b(t) = eps^b(t) + M_g w_ib^b(t),      w_ib^b = C_n^b w_ie^n + w_nb^b      (gyro)
@@ -92,7 +92,7 @@ What rotation cannot cancel (tested)
 * slowly varying drift: a ramp ``eps1 t`` leaves, at whole periods ``t = k T``, the
   integrated horizontal drift ``k T J eps1 / W`` (``J = [[0, 1], [-1, 0]]``): an equivalent
   constant drift of magnitude ``|eps1| / W`` (the first-order residual, as at component
-  level in :func:`inertest.analysis.stator_modulation.ramp_residual`).
+  level in :func:`inertest.studies.stator_modulation.ramp_residual`).
 
 Exact propagation
 -----------------
@@ -117,7 +117,8 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.analysis.ins_error_model import (
+from inertest.errors import InputError
+from inertest.ins.error_model import (
     INPUT_UNITS,
     INPUTS,
     STATE_UNITS,
@@ -126,7 +127,6 @@ from inertest.analysis.ins_error_model import (
     input_matrix,
     system_matrix,
 )
-from inertest.errors import InputError
 
 __all__ = [
     "SCHEMES",

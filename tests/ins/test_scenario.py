@@ -6,9 +6,9 @@ import tomllib
 import numpy as np
 import pytest
 
-from inertest.analysis.ins_scenario import scenario_from_mapping, seed_scenario, time_grid
 from inertest.earth import normal_gravity
 from inertest.errors import InputError
+from inertest.ins.scenario import scenario_from_mapping, seed_scenario, time_grid
 
 
 def test_example_file_is_the_seed_scenario(examples_dir):

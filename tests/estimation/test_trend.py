@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from inertest.analysis.coefficient_history import summarize
 from inertest.errors import InputError
+from inertest.estimation.trend import summarize
 
 
 def test_mean_repeatability_trend_against_scipy():

@@ -8,8 +8,9 @@ import mpmath
 import numpy as np
 import pytest
 
-from inertest.analysis.ins_error_model import InsSite, input_matrix, system_matrix
-from inertest.analysis.ins_errors import (
+from inertest.errors import InputError
+from inertest.ins.error_model import InsSite, input_matrix, system_matrix
+from inertest.ins.propagation import (
     SOURCES,
     characteristic_periods,
     propagate,
@@ -17,8 +18,7 @@ from inertest.analysis.ins_errors import (
     source_responses,
     transition,
 )
-from inertest.analysis.ins_scenario import InsScenario, seed_scenario
-from inertest.errors import InputError
+from inertest.ins.scenario import InsScenario, seed_scenario
 
 LAT = math.radians(39.0)
 DEG_H = math.pi / 180 / 3600

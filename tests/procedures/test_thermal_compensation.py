@@ -6,8 +6,8 @@ import warnings
 import numpy as np
 import pytest
 
-from inertest.analysis import thermal as th
 from inertest.errors import DataError, IdentifiabilityError
+from inertest.procedures import thermal_compensation as th
 
 
 def cubic_data(cycles=4, noise=0.0, rng=0):

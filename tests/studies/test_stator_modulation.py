@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from inertest.analysis import stator_modulation as sm
 from inertest.errors import InputError
+from inertest.studies import stator_modulation as sm
 
 FS, F = 400.0, 2.0  # sample rate and stator frequency [Hz]
 W = 2 * np.pi * F

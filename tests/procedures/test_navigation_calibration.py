@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from inertest.analysis import navigation_calibration as nc
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError
+from inertest.procedures import navigation_calibration as nc
 
 LAT = np.radians(34.246)
 ARCSEC = np.pi / 180 / 3600

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad_vec, solve_ivp
 
-from inertest.analysis import rotation_modulation as rm
-from inertest.analysis.ins_error_model import InsSite, input_matrix, system_matrix
-from inertest.analysis.ins_errors import propagate
-from inertest.analysis.stator_modulation import ramp_residual
 from inertest.errors import InputError
+from inertest.ins.error_model import InsSite, input_matrix, system_matrix
+from inertest.ins.propagation import propagate
+from inertest.studies import rotation_modulation as rm
+from inertest.studies.stator_modulation import ramp_residual
 
 DEG_H = math.radians(1) / 3600  # rad/s per deg/h
 UG = 9.80665e-6  # m/s^2 per ug

@@ -1,6 +1,6 @@
 """An INS error-propagation scenario: where, for how long, and which error sources.
 
-A scenario gathers the linearisation point (:class:`~inertest.analysis.ins_error_model.InsSite`),
+A scenario gathers the linearisation point (:class:`~inertest.ins.error_model.InsSite`),
 the initial errors ``x0`` and the constant sources ``u`` of the static-base error equations,
 all in SI. :func:`scenario_from_mapping` builds one from engineering units (a parsed TOML file
 or command-line options); :func:`seed_scenario` is the worked example of the source.
@@ -30,9 +30,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from inertest.analysis.ins_error_model import DEFAULT_RADIUS_M, InsSite
 from inertest.earth import OMEGA_IE
 from inertest.errors import InputError
+from inertest.ins.error_model import DEFAULT_RADIUS_M, InsSite
 from inertest.plan import check_known_keys, finite_number, toml_table
 from inertest.units import (
     ARCMIN_TO_RAD,

@@ -1,7 +1,7 @@
 """Exact error propagation of a north-pointing local-level INS on a static base.
 
 Seed ``002_1196b4fb2ac75bfc.txt`` (INS error propagation report): the error equations
-``x' = A x + B u`` of :mod:`inertest.analysis.ins_error_model`, states
+``x' = A x + B u`` of :mod:`inertest.ins.error_model`, states
 ``x = [dVE, dVN, dL, dlambda, phiE, phiN, phiU]`` (m/s, m/s, rad, rad, rad, rad, rad) and
 constant sources ``u = [bE, bN, eE, eN, eU]`` (m/s^2, m/s^2, rad/s, rad/s, rad/s).
 
@@ -30,15 +30,15 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.analysis.ins_error_model import (
+from inertest.errors import InputError
+from inertest.ins.error_model import (
     INPUTS,
     STATES,
     InsSite,
     input_matrix,
     system_matrix,
 )
-from inertest.analysis.ins_scenario import InsScenario, time_grid
-from inertest.errors import InputError
+from inertest.ins.scenario import InsScenario, time_grid
 
 __all__ = [
     "SOURCES",

@@ -17,7 +17,7 @@ IEEE Trans. Autom. Control 23(3):395-404, 1978, doi:10.1109/TAC.1978.1101743)::
     expm([[-F, G Q G'], [0, F']] dt) = [[., Phi^-1 Qd], [0, Phi']]
 
 and ``P(t + dt) = Phi P(t) Phi' + Qd``. On a uniform grid the same doubling as
-:func:`inertest.analysis.ins_errors.propagate_many` fills all samples with ``log2(n)``
+:func:`inertest.ins.propagation.propagate_many` fills all samples with ``log2(n)``
 batched products, each level with its own exponential, so there is no step-size error.
 """
 
@@ -30,8 +30,8 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.analysis.ins_error_model import InsSite, input_matrix, system_matrix
 from inertest.errors import InputError
+from inertest.ins.error_model import InsSite, input_matrix, system_matrix
 
 __all__ = ["CovarianceHistory", "RandomSources", "propagate_covariance"]
 

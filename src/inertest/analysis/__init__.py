@@ -1,1 +1,0 @@
-"""System-level analyses: INS error propagation, rotation modulation."""
