@@ -22,7 +22,35 @@ Conventions (also in README.md)
   Coefficients are held in rad/s per g^k inside, reported in deg/h, deg/h/g, deg/h/g^2.
 """
 
-from inertest.api import fit, load_data, load_plan, simulate
+from __future__ import annotations
 
-__all__ = ["fit", "load_data", "load_plan", "simulate"]
+import importlib
+from typing import Any
+
+#: Public names and the module that defines them, imported on first use so that
+#: ``import inertest`` (and ``inertest --help``) does not load scipy, plotting or databases.
+_PUBLIC = {
+    "fit": "inertest.api",
+    "simulate": "inertest.api",
+    "load_plan": "inertest.api",
+    "load_data": "inertest.api",
+    "run": "inertest.runner",
+    "run_batch": "inertest.runner",
+    "RunOutcome": "inertest.runner",
+}
+
+__all__ = sorted(_PUBLIC)
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    module = _PUBLIC.get(name)
+    if module is None:
+        raise AttributeError(f"module 'inertest' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_PUBLIC])

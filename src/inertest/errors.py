@@ -28,6 +28,10 @@ class DataError(InputError):
     """A data file is missing columns, has NaN, or does not match the plan."""
 
 
+class OutputPathError(InputError):
+    """An output path would overwrite or delete something inertest did not write, or an input."""
+
+
 class IdentifiabilityError(InertestError, ValueError):
     """The data cannot determine anything that was asked for (e.g. too few positions)."""
 

@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from inertest.earth import Site
+from inertest.plan import Instrument
+
 #: Version of the JSON layout written by ``to_dict`` methods; bump on incompatible change.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,121 @@ class Combination:
 
 
 @dataclass(frozen=True)
+class Outlier:
+    """A unit of independence (position, run, reading) whose residual the noise model rejects.
+
+    Attributes
+    ----------
+    label : str
+        The unit, as the data name it (e.g. ``"O-Sp 22.5 deg"``, ``"rate -30 deg/s"``).
+    z : float
+        Standardised residual (whitened by the noise model, leverage-corrected) [1].
+    """
+
+    label: str
+    z: float
+
+    def to_dict(self) -> dict[str, object]:
+        """``{"label", "z"}``."""
+        return {"label": self.label, "z": self.z}
+
+
+@dataclass(frozen=True)
+class ModelChecks:
+    """Does the fitted model, with its noise model, describe the data?
+
+    Residuals are reduced to the natural unit of independence (a position or run: the mean of
+    its readings) and whitened by the covariance of the noise model, so that under the model
+    they are independent N(0, 1) apart from the fitted directions.
+
+    Attributes
+    ----------
+    name : str
+        ``"noise model fit"``.
+    noise_model : str
+        Noise model used (``white``, ``position-offsets``, ``random-walk``, ``flicker``).
+    unit : str
+        Unit of independence: ``"position"`` (rows grouped by position/run) or ``"reading"``.
+    n_units : int
+        Number of units.
+    statistic : str
+        What :attr:`chi_square` measures.
+    chi_square : float
+        Sum of squared whitened unit residuals, or ``dof * F`` of the lack-of-fit test when the
+        noise level comes from the scatter within positions [1].
+    dof : int
+        Its degrees of freedom.
+    p_value : float or None
+        Probability of a larger value under the model; None when the noise level was fitted
+        to these same residuals (then the sum is ``dof`` by construction and tests nothing).
+    serial_chi_square, serial_dof, serial_p_value : float, int, float or None
+        Ljung-Box portmanteau statistic of the whitened residuals in time order (Ljung & Box,
+        Biometrika 65(2), 1978, doi:10.1093/biomet/65.2.297): systematic misfit (a wrong
+        label, a missing term) and unmodelled drift make neighbouring residuals alike. None
+        with fewer than 10 units.
+    outliers : tuple of Outlier
+        Units with ``|z|`` above :attr:`outlier_threshold`.
+    outlier_threshold : float
+        ``max(4, Phi^-1(1 - alpha / (2 n_units)))`` (Bonferroni, a Grubbs-like rule) [1].
+    alpha : float
+        Significance level of the tests.
+    verdict : str
+        ``"consistent"`` or ``"model does not fit"``.
+    """
+
+    noise_model: str
+    unit: str
+    n_units: int
+    statistic: str
+    chi_square: float
+    dof: int
+    p_value: float | None
+    serial_chi_square: float | None
+    serial_dof: int
+    serial_p_value: float | None
+    outliers: tuple[Outlier, ...]
+    outlier_threshold: float
+    alpha: float
+    verdict: str
+    name: str = "noise model fit"
+
+    @property
+    def fits(self) -> bool:
+        """True when the verdict is ``"consistent"``."""
+        return self.verdict == "consistent"
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready block (``checks`` of the result)."""
+        return {
+            "name": self.name,
+            "verdict": self.verdict,
+            "noise_model": self.noise_model,
+            "unit": self.unit,
+            "n_units": self.n_units,
+            "goodness_of_fit": {
+                "statistic": self.statistic,
+                "chi_square": _finite_or_none(self.chi_square),
+                "dof": self.dof,
+                "p_value": _finite_or_none(self.p_value),
+            },
+            "serial_correlation": {
+                "statistic": "Ljung-Box",
+                "chi_square": _finite_or_none(self.serial_chi_square),
+                "dof": self.serial_dof,
+                "p_value": _finite_or_none(self.serial_p_value),
+            },
+            "outliers": [o.to_dict() for o in self.outliers],
+            "outlier_threshold": self.outlier_threshold,
+            "alpha": self.alpha,
+        }
+
+
+def _finite_or_none(x: float | None) -> float | None:
+    """JSON has no NaN: a missing or undefined number is ``null``."""
+    return None if x is None or not np.isfinite(x) else float(x)
+
+
+@dataclass(frozen=True)
 class Identification:
     """What a linear test determined about an error model, in engineering units.
 
@@ -83,7 +201,8 @@ class Identification:
     names : tuple of str
         Coefficient names in model order.
     noise_sigma : float
-        Noise per observation [noise_unit], estimated from the residuals unless given.
+        White noise per observation [noise_unit], estimated from the residuals unless given
+        (then the given value).
     noise_unit : str
     sigma_from_residuals : bool
     dof : int
@@ -92,6 +211,15 @@ class Identification:
         Rank of the design (number of independent quantities determined).
     residuals : ndarray
         Observation minus model [noise_unit].
+    noise_model : str
+        Noise model behind the uncertainties (``white``, ``position-offsets``, ``random-walk``,
+        ``flicker``; see :mod:`inertest.estimation.identify`).
+    noise_components : dict
+        Standard deviation of each component of the noise model [noise_unit]: ``white`` (per
+        reading), ``position offset`` (per position), ``random walk`` (step per reading),
+        ``flicker`` (per reading).
+    checks : ModelChecks or None
+        Goodness of fit of the model and its noise model (None when not computed).
     """
 
     coefficients: dict[str, Estimate]
@@ -105,21 +233,31 @@ class Identification:
     dof: int
     rank: int
     residuals: NDArray[np.float64] = field(repr=False)
+    noise_model: str = "white"
+    noise_components: Mapping[str, float] = field(default_factory=dict)
+    checks: ModelChecks | None = None
 
     def to_dict(self) -> dict[str, object]:
-        """JSON-ready summary (no per-sample arrays)."""
-        return {
+        """JSON-ready summary (no per-sample arrays); the checks under ``"checks"``."""
+        d: dict[str, object] = {
             "coefficients": {k: e.to_dict() for k, e in self.coefficients.items()},
             "combinations": [c.to_dict() for c in self.combinations],
             "not_separable": list(self.not_separable),
             "noise": {
-                "sigma": self.noise_sigma,
+                "sigma": _finite_or_none(self.noise_sigma),
                 "unit": self.noise_unit,
                 "source": "residuals" if self.sigma_from_residuals else "given",
+                "model": self.noise_model,
+                "components": {
+                    k: _finite_or_none(v) for k, v in self.noise_components.items()
+                },
             },
             "dof": self.dof,
             "rank": self.rank,
         }
+        if self.checks is not None:
+            d["checks"] = self.checks.to_dict()
+        return d
 
 
 class LinearTestResult:
@@ -127,8 +265,9 @@ class LinearTestResult:
 
     A result dataclass that inherits this provides the attributes ``procedure``,
     ``site_latitude_deg``, ``site_gravity_m_s2``, ``identification``, ``residual_output``,
-    ``output_unit`` and ``messages``; it gets :attr:`coefficients`, :attr:`combinations` and the
-    common part of ``to_dict()`` (DESIGN.md's ``fit --json`` layout).
+    ``output_unit``, ``messages`` and ``instrument``; it gets :attr:`kind`, :attr:`coefficients`,
+    :attr:`combinations` and ``to_dict()`` (the :func:`envelope`), and overrides
+    :meth:`details` for its own block.
     """
 
     procedure: str
@@ -138,6 +277,12 @@ class LinearTestResult:
     residual_output: NDArray[np.float64]
     output_unit: str
     messages: tuple[str, ...]
+    instrument: Instrument | None
+
+    @property
+    def kind(self) -> str:
+        """The procedure kind (``[procedure] kind`` of the plan)."""
+        return self.procedure
 
     @property
     def coefficients(self) -> dict[str, Estimate]:
@@ -149,15 +294,97 @@ class LinearTestResult:
         """Identifiable combinations of the rest."""
         return self.identification.combinations
 
+    def details(self) -> dict[str, object]:
+        """The procedure's own block (``result`` in the envelope); empty by default."""
+        return {}
+
     def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary; procedures add their own keys."""
-        d: dict[str, object] = {"schema_version": SCHEMA_VERSION, "procedure": self.procedure}
-        d["site"] = {"latitude_deg": self.site_latitude_deg, "gravity_m_s2": self.site_gravity_m_s2}
-        d.update(self.identification.to_dict())
-        d["residual_rms"] = {
+        """The result :func:`envelope` with the identification and the procedure's block."""
+        ident = self.identification.to_dict()
+        checks = ident.pop("checks", [])
+        ident["residual_rms"] = {
             "value": float(np.sqrt(np.mean(self.residual_output**2))),
             "unit": self.output_unit,
         }
-        d["n_observations"] = int(self.residual_output.size)
-        d["messages"] = list(self.messages)
-        return d
+        ident["n_observations"] = int(self.residual_output.size)
+        return envelope(
+            self.procedure,
+            site={"latitude_deg": self.site_latitude_deg, "gravity_m_s2": self.site_gravity_m_s2},
+            instrument=instrument_block(self.instrument),
+            identification=ident,
+            result=self.details(),
+            checks=checks if isinstance(checks, list) else [checks],
+            messages=self.messages,
+        )
+
+
+#: Top-level keys of every result's JSON, in order (:func:`envelope`).
+ENVELOPE_KEYS: tuple[str, ...] = (
+    "kind", "schema_version", "site", "instrument", "identification", "result", "checks",
+    "messages",
+)
+
+
+def envelope(
+    kind: str,
+    *,
+    site: Mapping[str, object] | None = None,
+    instrument: Mapping[str, object] | None = None,
+    identification: Mapping[str, object] | None = None,
+    result: Mapping[str, object] | None = None,
+    checks: Sequence[Mapping[str, object]] = (),
+    messages: Sequence[str] = (),
+) -> dict[str, object]:
+    """The one JSON layout of every inertest result (``--json`` of every command).
+
+    Parameters
+    ----------
+    kind : str
+        What produced it: a procedure kind (``"polar-tumble"``) or an analysis (``"allan"``,
+        ``"ins-errors"``, ``"modulation-system"``, ``"centrifuge-study"``, ``"history"``, ...).
+    site : mapping, optional
+        ``{"latitude_deg", "gravity_m_s2", ...}`` where the result depends on a site.
+    instrument : mapping, optional
+        ``{"kind", "serial", "output_unit", "scale_factor"}`` of the instrument under test.
+    identification : mapping, optional
+        What the data determine (:meth:`Identification.to_dict`): ``coefficients`` ``{NAME:
+        {"value", "std", "unit"}}``, ``combinations``, ``not_separable``, ``noise``, ``dof``.
+    result : mapping, optional
+        The kind's own block (harmonics, calibration, deviations, time histories, ...).
+    checks : sequence of mapping
+        Self-checks of the result, each ``{"name", "verdict", ...}``.
+    messages : sequence of str
+        Notes and warnings in plain language.
+
+    Returns
+    -------
+    dict
+        Keys :data:`ENVELOPE_KEYS`; every number inside carries its unit beside it.
+    """
+    return {
+        "kind": kind,
+        "schema_version": SCHEMA_VERSION,
+        "site": None if site is None else dict(site),
+        "instrument": None if instrument is None else dict(instrument),
+        "identification": None if identification is None else dict(identification),
+        "result": {} if result is None else dict(result),
+        "checks": [dict(c) for c in checks],
+        "messages": [str(m) for m in messages],
+    }
+
+
+def instrument_block(instrument: Instrument | None) -> dict[str, object] | None:
+    """``{"kind", "serial", "output_unit", "scale_factor"}`` of a plan's instrument."""
+    if instrument is None:
+        return None
+    return {
+        "kind": instrument.kind,
+        "serial": instrument.serial,
+        "output_unit": instrument.output_unit,
+        "scale_factor": instrument.scale_factor,
+    }
+
+
+def site_block(site: Site) -> dict[str, object]:
+    """``{"latitude_deg", "gravity_m_s2"}`` of a site."""
+    return {"latitude_deg": float(np.degrees(site.latitude_rad)), "gravity_m_s2": site.gravity_m_s2}

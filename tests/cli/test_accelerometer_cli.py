@@ -24,26 +24,26 @@ def test_multipoint_simulate_fit_json(examples_dir, tmp_path, capsys):
     assert set(read_table(data)) == {"mounting", "angle_deg", "output"}
     assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["procedure"] == "accelerometer-multipoint"
-    k1 = out["coefficients"]["K1"]
+    assert out["kind"] == "accelerometer-multipoint"
+    k1 = out["identification"]["coefficients"]["K1"]
     assert k1["unit"] == "mA/g" and abs(k1["value"] - 1.2345) < 5 * k1["std"]
-    assert out["coefficients"]["dO"]["unit"] == "urad"
-    assert abs(out["coefficients"]["dO"]["value"] - 45.0) < 5 * out["coefficients"]["dO"]["std"]
-    assert "KPO" not in out["coefficients"]
-    assert any(s.startswith("KPO: not excited") for s in out["not_separable"])
-    assert set(out["fourier"]) == {"IA-PA", "IA-OA"}
+    assert out["identification"]["coefficients"]["dO"]["unit"] == "urad"
+    assert abs(out["identification"]["coefficients"]["dO"]["value"] - 45.0) < 5 * out["identification"]["coefficients"]["dO"]["std"]
+    assert "KPO" not in out["identification"]["coefficients"]
+    assert any(s.startswith("KPO: not excited") for s in out["identification"]["not_separable"])
+    assert set(out["result"]["fourier"]) == {"IA-PA", "IA-OA"}
 
 
 def test_triad_simulate_fit_json_and_report(examples_dir, tmp_path, capsys):
     plan, data = _run(examples_dir, tmp_path, "triad_multiposition", 2.0, capsys)
     assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
     out = json.loads(capsys.readouterr().out)
-    cal = out["calibration"]["accelerometer"]
+    cal = out["result"]["calibration"]["accelerometer"]
     assert np.shape(cal["matrix"]) == (3, 3) and cal["unit"] == "m/s^2"
     for k, v in {"K_x": 1671.2, "M_yz": 1200.0, "B_z": 21.0}.items():
-        e = out["coefficients"][k]
+        e = out["identification"]["coefficients"][k]
         assert abs(e["value"] - v) < 5 * e["std"], k
-    assert out["triads"]["accelerometer"]["scale_factor_ppm"]["K_x"]["unit"] == "ppm"
+    assert out["result"]["triads"]["accelerometer"]["scale_factor_ppm"]["K_x"]["unit"] == "ppm"
     assert main(["fit", str(plan), str(data), "--no-store", "--report", str(tmp_path / "r")]) == 0
     html = (tmp_path / "r" / "index.html").read_text()
     assert "data:image/png;base64," in html and "matrix @ (raw" in html

@@ -29,14 +29,14 @@ def test_rate_table_simulate_fit_json_and_report(rate_table, tmp_path, capsys):
     capsys.readouterr()
     assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["procedure"] == "gyro-rate-table"
-    assert set(out["coefficients"]) == {"K", "B", "K2", "K_pos", "K_neg", "asymmetry"}
-    k = out["coefficients"]["K"]
+    assert out["kind"] == "gyro-rate-table"
+    assert set(out["identification"]["coefficients"]) == {"K", "B", "K2", "K_pos", "K_neg", "asymmetry"}
+    k = out["identification"]["coefficients"]["K"]
     assert k["unit"] == "count/deg" and abs(k["value"] - 7200.0) < 5 * k["std"]
-    a = out["coefficients"]["asymmetry"]
+    a = out["identification"]["coefficients"]["asymmetry"]
     assert a["unit"] == "ppm" and abs(a["value"] - 25.0) < 5 * a["std"]
-    assert out["nonlinearity"]["unit"] == "ppm of full scale"
-    assert out["earth_rate_along_axis"]["unit"] == "deg/h"
+    assert out["result"]["nonlinearity"]["unit"] == "ppm of full scale"
+    assert out["result"]["earth_rate_along_axis"]["unit"] == "deg/h"
     assert main(["fit", str(plan), str(data), "--report", str(tmp_path / "rep"),
                  "--no-store"]) == 0
     html = (tmp_path / "rep" / "index.html").read_text()
@@ -51,12 +51,12 @@ def test_rotation_fit_json_has_the_calibration_block(rotation, tmp_path, capsys)
     capsys.readouterr()
     assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
     out = json.loads(capsys.readouterr().out)
-    gyro = out["calibration"]["gyroscope"]
+    gyro = out["result"]["calibration"]["gyroscope"]
     assert np.shape(gyro["matrix"]) == (3, 3) and len(gyro["offset"]) == 3
     assert gyro["unit"] == "rad/s" and gyro["raw_unit"] == "count/s"
-    m = out["coefficients"]["M_yz"]
-    assert m["unit"] == "arcsec" and abs(m["value"] - 48.0) < 5 * m["std"]
-    assert out["coefficients"]["B_z"]["unit"] == "deg/h"
+    m = out["identification"]["coefficients"]["M_yz"]
+    assert m["unit"] == "urad" and abs(m["value"] - 232.711) < 5 * m["std"]
+    assert out["identification"]["coefficients"]["B_z"]["unit"] == "deg/h"
     assert main(["fit", str(plan), str(data), "--report", str(tmp_path / "rep"),
                  "--no-store"]) == 0
     assert "Residual counts per window" in (tmp_path / "rep" / "index.html").read_text()
@@ -108,13 +108,14 @@ def test_navigation_mode_iteration_end_to_end(rotation, tmp_path, capsys):
     assert main(["nav-calibrate", str(plan), str(nav), "--initial", str(fit_json), "--json",
                  "--report", str(tmp_path / "navrep")]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["converged"] and len(out["iterations"]) >= 2
-    first = out["iterations"][0]["attitude_error_rms_arcsec"]
-    last = out["iterations"][-1]["attitude_error_rms_arcsec"]
+    assert out["result"]["converged"] and len(out["result"]["iterations"]) >= 2
+    first = out["result"]["iterations"][0]["attitude_error_rms_arcsec"]
+    last = out["result"]["iterations"][-1]["attitude_error_rms_arcsec"]
     assert last < 1e-3 * first
-    assert out["coefficients"]["K_x"]["value"] == pytest.approx(7200.0, rel=1e-9)
-    assert out["coefficients"]["M_zx"]["value"] == pytest.approx(-30.0, abs=1e-3)
-    assert np.shape(out["calibration"]["gyroscope"]["matrix"]) == (3, 3)
+    assert out["identification"]["coefficients"]["K_x"]["value"] == pytest.approx(7200.0, rel=1e-9)
+    m_zx = out["identification"]["coefficients"]["M_zx"]
+    assert m_zx["unit"] == "urad" and m_zx["value"] == pytest.approx(-145.444, abs=5e-3)
+    assert np.shape(out["result"]["calibration"]["gyroscope"]["matrix"]) == (3, 3)
     html = (tmp_path / "navrep" / "index.html").read_text()
     assert "Attitude error and corrections per iteration" in html
 
@@ -133,4 +134,4 @@ def test_navigation_mode_bad_input(rotation, rate_table, tmp_path, capsys):
     assert 'needs a plan of kind "gyro-triad-rotation"' in capsys.readouterr().err
     bad.write_text("{not json")
     assert main(["nav-calibrate", str(plan), str(nav), "--initial", str(bad)]) == 2
-    assert "is not valid JSON" in capsys.readouterr().err
+    assert "is not JSON" in capsys.readouterr().err

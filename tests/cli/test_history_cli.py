@@ -28,7 +28,7 @@ def test_fit_stores_and_history_summarises(campaign, capsys):
     for i, data in enumerate(files):
         assert main(["fit", str(plan), str(data), "--db", str(db), "--json",
                      "--tested-at", f"2026-0{i + 1}-15"]) == 0
-        di.append(json.loads(capsys.readouterr().out)["coefficients"]["DI"]["value"])
+        di.append(json.loads(capsys.readouterr().out)["identification"]["coefficients"]["DI"]["value"])
     assert main(["history", "FG-0417", "--db", str(db), "--json", "--plot",
                  str(tmp / "h.png")]) == 0
     out = json.loads(capsys.readouterr().out)

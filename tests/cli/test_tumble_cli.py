@@ -26,16 +26,16 @@ def test_simulate_fit_json_layout(files, capsys):
     capsys.readouterr()
     assert main(["fit", str(plan), str(data), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["procedure"] == "polar-tumble" and out["schema_version"] == 1
-    assert set(out["coefficients"]) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
-    di = out["coefficients"]["DI"]
+    assert out["kind"] == "polar-tumble" and out["schema_version"] == 2
+    assert set(out["identification"]["coefficients"]) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
+    di = out["identification"]["coefficients"]["DI"]
     assert di["unit"] == "deg/h/g" and abs(di["value"] - 0.85) < 5 * di["std"]
-    assert len(out["combinations"]) == 3
-    for c in out["combinations"]:
+    assert len(out["identification"]["combinations"]) == 3
+    for c in out["identification"]["combinations"]:
         assert set(c) == {"name", "terms", "value", "std", "unit"}
         assert set(c["terms"]) <= {"DF", "DII", "DOO", "DSS"}
-    assert set(out["harmonics"]) == {"O-Np", "O-Sp", "S-Np", "S-Sp"}
-    assert out["noise"]["unit"] == "deg/h" and out["noise"]["source"] == "residuals"
+    assert set(out["result"]["harmonics"]) == {"O-Np", "O-Sp", "S-Np", "S-Sp"}
+    assert out["identification"]["noise"]["unit"] == "deg/h" and out["identification"]["noise"]["source"] == "residuals"
 
 
 def test_fit_table_and_self_contained_report(files, capsys):

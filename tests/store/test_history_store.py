@@ -11,9 +11,7 @@ from alembic.runtime.migration import MigrationContext
 from inertest.store import HistoryStore, RunRecord, StoreError
 from inertest.store.schema import Base
 
-RESULT = {
-    "procedure": "polar-tumble",
-    "site": {"latitude_deg": 34.246, "gravity_m_s2": 9.7966},
+IDENTIFICATION = {
     "coefficients": {"DI": {"value": 0.85, "std": 0.002, "unit": "deg/h/g"}},
     "combinations": [{"name": "DOO - DII", "terms": {"DOO": 1.0, "DII": -1.0}, "value": -0.07,
                       "std": 0.008, "unit": "deg/h/g^2"}],
@@ -22,10 +20,22 @@ RESULT = {
     "dof": 311,
     "n_observations": 320,
 }
+RESULT = {
+    "kind": "polar-tumble",
+    "schema_version": 2,
+    "site": {"latitude_deg": 34.246, "gravity_m_s2": 9.7966},
+    "instrument": None,
+    "identification": IDENTIFICATION,
+    "result": {},
+    "checks": [],
+    "messages": [],
+}
 
 
 def record(serial="FG-1", days=0, di=0.85):
-    res = dict(RESULT, coefficients={"DI": {"value": di, "std": 0.002, "unit": "deg/h/g"}})
+    ident = dict(IDENTIFICATION, coefficients={"DI": {"value": di, "std": 0.002,
+                                                      "unit": "deg/h/g"}})
+    res = dict(RESULT, identification=ident)
     return RunRecord.from_result(
         res, serial=serial, instrument_kind="sdf-gyro", plan_text="[site]\n",
         data_sha256="ab" * 32, software_version="0.1.0",
@@ -41,7 +51,7 @@ def test_round_trip_in_time_order(db_url):
     assert [r.tested_at.day for r in runs] == [1, 11]
     assert runs[0].estimates[0].value == 0.85 and runs[0].estimates[0].unit == "deg/h/g"
     assert runs[0].estimates[1].terms == {"DOO": 1.0, "DII": -1.0}
-    assert runs[1].result["dof"] == 311 and runs[1].noise_sigma == 0.02
+    assert runs[1].result["identification"]["dof"] == 311 and runs[1].noise_sigma == 0.02
     assert store.serials() == ["FG-1", "FG-2"]
     with pytest.raises(StoreError, match='no runs stored for serial "FG-9".*FG-1, FG-2'):
         store.runs("FG-9")

@@ -10,16 +10,15 @@ stays and the unit is the dataset attribute ``unit``. Other columns are copied u
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
 import numpy as np
 
-from inertest.errors import DataError, InputError
+from inertest.errors import DataError
+from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import is_hdf5
-from inertest.models.triad import ImuCalibration
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -31,20 +30,6 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
         raise click.BadParameter(f"expected three comma-separated column names, got {text!r}",
                                  param_hint=option)
     return names  # type: ignore[return-value]
-
-
-def load_calibration(path: Path) -> ImuCalibration:
-    """The calibration in a ``fit --json`` result or a bare calibration block."""
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"calibration file {path} is not JSON: {exc}") from None
-    if not isinstance(doc, dict):
-        raise InputError(f"calibration file {path} must hold a JSON object")
-    block = doc.get("calibration", doc)
-    if not isinstance(block, dict):
-        raise InputError(f'"calibration" in {path} must be an object')
-    return ImuCalibration.from_dict(block)
 
 
 @click.command(name="apply")

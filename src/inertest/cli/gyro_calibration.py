@@ -7,7 +7,6 @@ starts from a calibration JSON, e.g. the output of ``inertest fit PLAN DATA --js
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import click
@@ -18,16 +17,18 @@ from inertest.cli._common import echo_json, print_table
 from inertest.equipment.rate_table import axis_index, triad_attitude
 from inertest.errors import InputError, PlanError
 from inertest.io.atomic import target_directory
+from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
+from inertest.models import triad
 from inertest.models.triad import ImuCalibration, TriadCalibration
 from inertest.plan import Plan
 from inertest.procedures import navigation_calibration as nav
-from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit, scale_factor_unit
+from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit
 from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
 from inertest.procedures.gyro_triad_rotation import truth_model
 from inertest.report.gyro_triad import navigation_page
-from inertest.results import SCHEMA_VERSION
+from inertest.results import envelope, instrument_block, site_block
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -45,7 +46,7 @@ def _rotation_plan(path: Path) -> Plan:
 @click.command("nav-simulate")
 @click.argument("plan", type=_FILE)
 @click.option("--truth", type=_FILE, required=True,
-              help="TOML of the triad's K_x..K_z, M_ij [arcsec], B_x..B_z [deg/h].")
+              help="TOML of the triad's K_x..K_z, M_ij [urad], B_x..B_z [deg/h].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Time-series data file to write (.csv or .parquet).")
 @click.option("--rate-hz", type=float, default=100.0, show_default=True,
@@ -80,14 +81,7 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
 
 
 def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise InputError(f"initial calibration {path} is not valid JSON: {exc}") from None
-    if not isinstance(doc, dict):
-        raise InputError(f"initial calibration {path} must be a JSON object")
-    block = doc.get("calibration", doc)
-    gyro = ImuCalibration.from_dict(block).gyroscope
+    gyro = load_calibration(path, what="initial calibration").gyroscope
     if gyro is None:
         raise InputError(f'initial calibration {path} has no "gyroscope" block; use the output '
                          f"of inertest fit --json of a {ROTATION_KIND} test")
@@ -126,10 +120,12 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
         records, gyro.forward / per_si, gyro.offset / per_si,
         latitude_rad=p.site.latitude_rad, check_interval_s=check_interval,
         estimate_bias=not no_bias, max_iterations=max_iterations)
-    k_unit, k_si = scale_factor_unit(p.instrument.output_unit)
-    final = TriadCalibration(matrix=np.linalg.inv(result.forward) / per_si,
-                             offset=result.offset * per_si, unit="rad/s",
-                             raw_unit=raw_rate_unit(p.instrument.output_unit))
+    raw_unit = raw_rate_unit(p.instrument.output_unit)
+    su = triad.scale_unit(raw_unit, "gyroscope")
+    k_unit, k_si = su.unit, su.si_per_unit
+    final = triad.calibration_from_parameters(
+        triad.stack_parameters(result.forward, result.offset), sensor="gyroscope", scale=su,
+        raw_unit=raw_unit)
     if report_dir is not None:
         html = navigation_page(result, scale_unit=k_unit, si_per_scale_unit=k_si,
                                serial=p.instrument.serial)
@@ -137,14 +133,17 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
             (tmp / "index.html").write_text(html, encoding="utf-8")
     d = result.to_dict(scale_unit=k_unit, si_per_scale_unit=k_si)
     if as_json:
-        echo_json({"schema_version": SCHEMA_VERSION, "procedure": "navigation-calibration",
-                   **d, "calibration": ImuCalibration(gyroscope=final).to_dict()})
+        body = {k: v for k, v in d.items() if k != "coefficients"}
+        body["calibration"] = ImuCalibration(gyroscope=final).to_dict()
+        echo_json(envelope("navigation-calibration", site=site_block(p.site),
+                           instrument=instrument_block(p.instrument),
+                           identification={"coefficients": d["coefficients"]}, result=body))
         return
     rows = [[h.iteration, f"{h.attitude_error_rms_arcsec:.4g}",
              ", ".join(f"{v:+.4g}" for v in h.scale_correction_ppm),
-             f"{np.max(np.abs(h.misalignment_correction_arcsec)):.4g}"] for h in result.history]
+             f"{np.max(np.abs(h.misalignment_correction_urad)):.4g}"] for h in result.history]
     print_table("navigation-mode iterations", ["iteration", "attitude error rms [arcsec]",
-                                               "dK x, y, z [ppm]", "max |dM| [arcsec]"], rows)
+                                               "dK x, y, z [ppm]", "max |dM| [urad]"], rows)
     coef = d["coefficients"]
     print_table("calibration after the iteration", ["quantity", "value", "std", "unit"],
                 [[k, f"{v['value']:.9g}", "-" if v["std"] is None else f"{v['std']:.2g}",

@@ -6,8 +6,10 @@ import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
+
+from inertest.errors import OutputPathError
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> Path:
@@ -39,21 +41,66 @@ def target_file(path: str | os.PathLike[str]) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
+#: File that marks a folder as written by inertest (a report); only such folders are replaced.
+REPORT_MARKER = ".inertest-report"
+
+
+def check_outputs(outputs: Iterable[str | os.PathLike[str]],
+                  inputs: Iterable[str | os.PathLike[str]]) -> None:
+    """Refuse an output that is an input, or a folder that holds an input (also via symlinks).
+
+    Called before any work starts, so that a mistyped output never overwrites the user's data.
+    """
+    ins = [Path(i).resolve() for i in inputs]
+    for o in outputs:
+        out = Path(o).resolve()
+        for i in ins:
+            if out == i or out in i.parents:
+                raise OutputPathError(
+                    f"output {o} would overwrite the input {i}; choose another output path")
+
+
+def check_report_directory(path: str | os.PathLike[str]) -> None:
+    """Refuse a report folder that exists, is not empty and was not written by inertest."""
+    final = Path(path)
+    if final.name in ("", ".", ".."):
+        raise OutputPathError(
+            f"report folder {str(path)!r} has no name of its own; give a new folder such as "
+            "./report")
+    if final.exists() and not final.is_dir():
+        raise OutputPathError(f"report folder {final} is an existing file; give a folder name")
+    if final.is_dir() and any(final.iterdir()) and not (final / REPORT_MARKER).is_file():
+        raise OutputPathError(
+            f"report folder {final} already holds files that inertest did not write (no "
+            f"{REPORT_MARKER} marker); give a new folder, or an earlier inertest report folder")
+
+
 @contextlib.contextmanager
-def target_directory(path: str | os.PathLike[str]) -> Iterator[Path]:
+def target_directory(
+    path: str | os.PathLike[str], *, inputs: Iterable[str | os.PathLike[str]] = ()
+) -> Iterator[Path]:
     """Yield a temporary directory beside ``path``; it replaces ``path`` if the block succeeds.
 
-    An existing directory at ``path`` is replaced whole, so a report never mixes old and new files.
+    Only a new folder, an empty one, or an earlier inertest report (marked by
+    :data:`REPORT_MARKER`) is replaced, and never one that holds an input: anything else raises
+    :class:`~inertest.errors.OutputPathError` before the block runs. The replaced report is
+    replaced whole, so a report never mixes old and new files.
     """
     final = Path(path)
+    check_report_directory(final)
+    check_outputs([final], inputs)
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
     os.chmod(tmp, 0o777 & ~_umask())
     try:
         yield tmp
+        (tmp / REPORT_MARKER).write_text(
+            "This folder was written by inertest; inertest may replace it with a newer report.\n",
+            encoding="utf-8")
         for f in tmp.rglob("*"):
             os.chmod(f, (0o777 if f.is_dir() else 0o666) & ~_umask())
         if final.exists():
+            check_report_directory(final)  # still ours, also if it changed meanwhile
             old = final.with_name(f".{final.name}.old")
             shutil.rmtree(old, ignore_errors=True)
             os.replace(final, old)

@@ -6,17 +6,17 @@ import hashlib
 import os
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.compute as pc
-import pyarrow.csv as pacsv
-import pyarrow.parquet as pq
 from numpy.typing import NDArray
 
 from inertest.errors import DataError
 from inertest.io.atomic import target_file
-from inertest.io.hdf5_table import HDF5_SUFFIXES, read_hdf5_table, write_hdf5_table
+from inertest.io.hdf5_table import HDF5_SUFFIXES
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 _SUFFIXES = (".csv", ".parquet", ".pq")
 
@@ -27,9 +27,15 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     Numeric columns become float arrays (empty cells -> NaN, so the procedures can name them);
     text columns become arrays of str.
     """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix in HDF5_SUFFIXES:
+        from inertest.io.hdf5_table import read_hdf5_table
+
         return read_hdf5_table(p)
     if suffix not in _SUFFIXES:
         raise DataError(f"data file {p}: unknown format {suffix!r}; use .csv, .parquet or .h5")
@@ -60,6 +66,9 @@ def _text_column(col: pa.ChunkedArray) -> NDArray:
     Test data repeat a few labels (mountings, directions), so the distinct values are converted
     once and indexed, much faster than one Python object per row.
     """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     enc = pc.dictionary_encode(pc.fill_null(pc.cast(col, pa.string()), "")).combine_chunks()
     labels = np.asarray(enc.dictionary.to_pylist(), dtype=str)
     return labels[enc.indices.to_numpy(zero_copy_only=False)]
@@ -87,9 +96,15 @@ def write_table(
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix in HDF5_SUFFIXES:
+        from inertest.io.hdf5_table import write_hdf5_table
+
         return write_hdf5_table(p, columns, units)
     if suffix not in _SUFFIXES:
         raise DataError(f"output file {p}: unknown format {suffix!r}; use .csv, .parquet or .h5")
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
     table = pa.table({k: np.asarray(v) for k, v in columns.items()})
     with target_file(p) as tmp:
         if suffix == ".csv":

@@ -11,7 +11,6 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-import h5py
 import numpy as np
 from numpy.typing import NDArray
 
@@ -28,6 +27,8 @@ def is_hdf5(path: str | os.PathLike[str]) -> bool:
 
 def read_hdf5_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     """Read the root-level 1-D datasets of an HDF5 file into ``{column: ndarray}``."""
+    import h5py
+
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(2, "no such file", str(p))
@@ -54,6 +55,8 @@ def write_hdf5_table(
     units: Mapping[str, str] | None = None,
 ) -> Path:
     """Write columns as root-level datasets (with a ``unit`` attribute when given), atomically."""
+    import h5py
+
     p = Path(path)
     with target_file(p) as tmp:
         with h5py.File(tmp, "w") as fh:

@@ -91,37 +91,46 @@ class RunRecord:
         software_version: str,
         tested_at: datetime | None = None,
     ) -> RunRecord:
-        """Build from a result's ``to_dict()`` (the ``fit --json`` layout)."""
+        """Build from any result's ``to_dict()`` (the result envelope, schema version 2).
+
+        Every kind can be stored: the identification block (coefficients and combinations),
+        when the kind has one, becomes the run's estimates; the whole envelope is kept as the
+        run's result document.
+        """
         if not serial:
             raise StoreError(
                 "the plan gives no [instrument] serial; a run cannot be stored without one "
                 "(add serial = \"...\" or use --no-store)"
             )
+        if "kind" not in result or "schema_version" not in result:
+            raise StoreError("only results in the inertest envelope (kind, schema_version, ...) "
+                             "can be stored; pass result.to_dict()")
+        ident = result.get("identification") or {}
         ests = [
             StoredEstimate(n, "coefficient", float(e["value"]), float(e["std"]), str(e["unit"]))
-            for n, e in result.get("coefficients", {}).items()
+            for n, e in (ident.get("coefficients") or {}).items()
         ]
         ests += [
             StoredEstimate(c["name"], "combination", float(c["value"]), float(c["std"]),
                            str(c["unit"]), dict(c["terms"]))
-            for c in result.get("combinations", [])
+            for c in ident.get("combinations") or []
         ]
-        site = result.get("site", {})
-        noise = result.get("noise", {})
-        rms = result.get("residual_rms", {})
+        site = result.get("site") or {}
+        noise = ident.get("noise") or {}
+        rms = ident.get("residual_rms") or {}
         sigma = noise.get("sigma")
         return cls(
             serial=serial,
             instrument_kind=instrument_kind,
-            procedure=str(result["procedure"]),
+            procedure=str(result["kind"]),
             tested_at=_utc(tested_at or datetime.now(UTC)),
             software_version=software_version,
             latitude_deg=float(site.get("latitude_deg", float("nan"))),
             gravity_m_s2=float(site.get("gravity_m_s2", float("nan"))),
             plan_text=plan_text,
             data_sha256=data_sha256,
-            n_observations=int(result.get("n_observations", 0)),
-            dof=int(result.get("dof", 0)),
+            n_observations=int(ident.get("n_observations", 0)),
+            dof=int(ident.get("dof", 0)),
             estimates=tuple(ests),
             result=result,
             residual_rms=None if rms.get("value") is None else float(rms["value"]),
@@ -181,6 +190,11 @@ class HistoryStore:
             self.engine.dispose()
             raise
 
+    @property
+    def display_url(self) -> str:
+        """The database URL with any password masked (for messages and logs)."""
+        return self._shown
+
     def _migrate(self) -> None:
         cfg = Config()
         cfg.set_main_option("script_location", str(_MIGRATIONS))
@@ -216,6 +230,13 @@ class HistoryStore:
                 session.add(run)
         except (OperationalError, DBAPIError) as exc:
             raise StoreError(f"could not store the run in {self._shown}: {_reason(exc)}") from None
+
+    def runs_with_data(self, serial: str, procedure: str, data_sha256: str) -> list[str]:
+        """UUIDs of stored runs of ``serial`` and ``procedure`` made from the same data file."""
+        stmt = select(Run.run_uuid).where(
+            Run.serial == serial, Run.procedure == procedure, Run.data_sha256 == data_sha256)
+        with Session(self.engine) as session:
+            return list(session.scalars(stmt))
 
     def serials(self) -> list[str]:
         """Serial numbers with stored runs."""

@@ -1,0 +1,31 @@
+"""Triad calibration files: the ``fit --json`` result of a triad procedure, or a bare block."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from inertest.errors import InputError
+from inertest.models.triad import ImuCalibration
+
+
+def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration") -> ImuCalibration:
+    """The triad calibration held in ``path``.
+
+    Accepted: a result envelope (``result.calibration``, schema version 2), an older ``fit
+    --json`` result (top-level ``calibration``), or a bare ``{"accelerometer": ..., "gyroscope":
+    ...}`` block.
+    """
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise InputError(f"{what} file {p} is not JSON: {exc}") from None
+    if not isinstance(doc, dict):
+        raise InputError(f"{what} file {p} must hold a JSON object")
+    body = doc.get("result") if isinstance(doc.get("result"), dict) else doc
+    block = body.get("calibration", body)
+    if not isinstance(block, dict):
+        raise InputError(f'"calibration" in {p} must be an object')
+    return ImuCalibration.from_dict(block)

@@ -1,0 +1,395 @@
+"""Run a test end to end as one transaction: fit, report, store (``inertest fit``, ``batch``).
+
+:func:`run` does what ``inertest fit`` does, from Python: identify the coefficients, render the
+report into a temporary folder, check the history database for the same data filed twice, store
+the run, and only then move the report into place. A failure at any step leaves nothing behind:
+no stored run, no report, no half-written folder. :func:`run_batch` does it for many (plan, data)
+pairs, computing on any ``concurrent.futures``-style executor (a process pool, a
+``dask.distributed.Client``) while this process files every run, one transaction each.
+
+Example
+-------
+>>> import inertest
+>>> out = inertest.run("plan.toml", "data.csv", store="history.db", report_dir="report")
+...                                                                   # doctest: +SKIP
+>>> out.result.coefficients["DI"], out.stored_run, out.report               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from inertest.api import fit, load_data, load_plan
+from inertest.errors import InertestError, PlanError
+from inertest.io.atomic import check_outputs, target_directory
+from inertest.io.data_file import file_sha256
+from inertest.io.plan_file import read_toml
+from inertest.plan import Plan
+
+if TYPE_CHECKING:
+    from inertest.store import HistoryStore
+
+PathLike = str | os.PathLike[str]
+
+
+class DuplicateRunError(InertestError):
+    """The same data file is already filed for this instrument and procedure."""
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What :func:`run` did.
+
+    Attributes
+    ----------
+    result : procedure result
+        With ``kind``, ``identification`` and ``to_dict()`` (the result envelope).
+    plan : Plan
+    data_sha256 : str
+        SHA-256 of the data file (or of the columns, for in-memory data).
+    tested_at : datetime
+        When the test was run (UTC).
+    stored_run : str or None
+        UUID of the stored run; None when not stored.
+    database : str or None
+        The database it was stored in (password masked).
+    report : Path or None
+        The report's ``index.html``.
+    warnings : tuple of str
+        Warnings raised while fitting (also shown by the command line).
+    """
+
+    result: Any
+    plan: Plan
+    data_sha256: str
+    tested_at: datetime
+    stored_run: str | None = None
+    database: str | None = None
+    report: Path | None = None
+    warnings: tuple[str, ...] = field(default=())
+
+
+def run(
+    plan: Plan | PathLike,
+    data: Mapping[str, Any] | PathLike,
+    *,
+    sigma: float | None = None,
+    store: bool | str | HistoryStore = False,
+    report_dir: PathLike | None = None,
+    pdf: bool = False,
+    tested_at: datetime | None = None,
+    allow_duplicate: bool = False,
+) -> RunOutcome:
+    """Fit, report and store one test as a single transaction (``inertest fit``).
+
+    Parameters
+    ----------
+    plan : Plan or path
+        The test plan (TOML file or :class:`~inertest.plan.Plan`).
+    data : mapping of columns, or path
+        The measurements (CSV, Parquet or HDF5 file, or ``{column: array}``).
+    sigma : float, optional
+        Known noise per reading [output unit]; estimated from the residuals when omitted.
+    store : bool, str or HistoryStore
+        False: do not store. True: the default database (``$INERTEST_DB`` or
+        ``~/.local/share/inertest/history.db``). A URL or path, or an open
+        :class:`~inertest.store.HistoryStore`.
+    report_dir : path, optional
+        Folder for the self-contained HTML report: a new folder, an empty one or an earlier
+        inertest report; never one holding other files or an input.
+    pdf : bool
+        Also write ``report.pdf`` (needs Chromium).
+    tested_at : datetime, optional
+        When the test was run (default: now); naive datetimes are UTC.
+    allow_duplicate : bool
+        File a data file again that is already stored for this instrument and procedure.
+
+    Returns
+    -------
+    RunOutcome
+
+    Raises
+    ------
+    InertestError
+        Bad plan or data, an unsafe report folder, a duplicate run, or an unusable database;
+        nothing was stored or written.
+    """
+    plan_path = None if isinstance(plan, Plan) else Path(plan)
+    data_path = None if isinstance(data, Mapping) else Path(data)
+    if report_dir is not None:
+        check_outputs([report_dir], [p for p in (plan_path, data_path) if p is not None])
+    if pdf and report_dir is None:
+        raise PlanError("a PDF is part of the report: give report_dir as well")
+    p = plan if isinstance(plan, Plan) else load_plan(plan)
+    d = data if isinstance(data, Mapping) else load_data(data)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fit(p, d, sigma=sigma)
+    messages = tuple(str(w.message) for w in caught)
+    when = _utc(tested_at) if tested_at is not None else datetime.now(UTC)
+    digest = file_sha256(data_path) if data_path is not None else columns_sha256(d)
+    plan_text = plan_path.read_text(encoding="utf-8") if plan_path is not None else repr(p)
+    return file_run(
+        result, p, plan_text=plan_text, data_sha256=digest, data_summary=_data_summary(
+            data_path, d, digest), tested_at=when, store=store, report_dir=report_dir, pdf=pdf,
+        allow_duplicate=allow_duplicate, warnings_=messages,
+        inputs=[x for x in (plan_path, data_path) if x is not None])
+
+
+def file_run(
+    result: Any,
+    plan: Plan,
+    *,
+    plan_text: str,
+    data_sha256: str,
+    data_summary: Mapping[str, object],
+    tested_at: datetime,
+    store: bool | str | HistoryStore = False,
+    report_dir: PathLike | None = None,
+    pdf: bool = False,
+    allow_duplicate: bool = False,
+    warnings_: Sequence[str] = (),
+    inputs: Sequence[PathLike] = (),
+) -> RunOutcome:
+    """Report and store an already computed result, as one transaction (see :func:`run`)."""
+    from inertest.store import HistoryStore, RunRecord, StoreError
+
+    version = metadata.version("inertest")
+    own_store = store is True or isinstance(store, str)
+    db: HistoryStore | None
+    if store is False or store is None:
+        db = None
+    elif isinstance(store, HistoryStore):
+        db = store
+    else:
+        db = HistoryStore(None if store is True else str(store))
+    try:
+        record = None
+        if db is not None:
+            record = RunRecord.from_result(
+                result.to_dict(), serial=plan.instrument.serial,
+                instrument_kind=plan.instrument.kind, plan_text=plan_text,
+                data_sha256=data_sha256, software_version=version, tested_at=tested_at)
+            if not allow_duplicate:
+                earlier = db.runs_with_data(plan.instrument.serial, result.kind, data_sha256)
+                if earlier:
+                    raise DuplicateRunError(
+                        f"this data file (sha256 {data_sha256[:12]}...) is already filed for "
+                        f"{plan.instrument.serial} / {result.kind} (run {earlier[0]}); nothing "
+                        "stored. Use --allow-duplicate to file it again, or --no-store")
+        report_path = None
+        if report_dir is not None:
+            history: list = []
+            if db is not None and record is not None:
+                from inertest.store.summary import summarize_runs
+
+                try:
+                    earlier_runs = db.runs(plan.instrument.serial, procedure=result.kind)
+                except StoreError:
+                    earlier_runs = []
+                history = summarize_runs(sorted([*earlier_runs, record],
+                                                key=lambda r: r.tested_at))
+            html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
+                                history)
+            with target_directory(report_dir, inputs=inputs) as tmp:
+                (tmp / "index.html").write_text(html, encoding="utf-8")
+                if pdf:
+                    from inertest.report.pdf import html_to_pdf
+
+                    html_to_pdf(tmp / "index.html", tmp / "report.pdf")
+                # Store last inside the block: a failed store leaves no report, and a failed
+                # report leaves no stored run.
+                if db is not None and record is not None:
+                    db.add(record)
+            report_path = Path(report_dir) / "index.html"
+        elif db is not None and record is not None:
+            db.add(record)
+        return RunOutcome(
+            result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
+            stored_run=None if record is None else record.run_uuid,
+            database=None if db is None else db.display_url, report=report_path,
+            warnings=tuple(warnings_))
+    finally:
+        if db is not None and own_store:
+            db.close()
+
+
+def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[str, object],
+                 tested_at: datetime, version: str, history: list) -> str:
+    from inertest.report.campaign import campaign_page
+
+    inst = plan.instrument
+    return campaign_page(
+        result,
+        instrument={"serial": inst.serial or "-", "kind": inst.kind,
+                    "output unit": inst.output_unit, "scale factor": inst.scale_factor or "-"},
+        site={"latitude [deg]": f"{plan.site.latitude_deg:.6f}",
+              "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
+        plan_text=plan_text, data=data_summary, tested_at=tested_at,
+        software_version=version, history=history)
+
+
+def _data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:
+    n = len(next(iter(data.values()))) if data else 0
+    return {"file": str(path) if path is not None else "(in memory)", "rows": n,
+            "columns": ", ".join(map(str, data)), "sha256": digest}
+
+
+def columns_sha256(data: Mapping[str, Any]) -> str:
+    """SHA-256 over the column names and values of in-memory data (stable across runs)."""
+    import numpy as np
+
+    h = hashlib.sha256()
+    for name in sorted(data):
+        a = np.asarray(data[name])
+        h.update(name.encode("utf-8") + b"\0" + str(a.dtype).encode() + b"\0")
+        h.update(a.astype(str).tobytes() if a.dtype.kind in "OUS" else a.tobytes())
+    return h.hexdigest()
+
+
+def _utc(t: datetime) -> datetime:
+    return t.replace(tzinfo=UTC) if t.tzinfo is None else t.astimezone(UTC)
+
+
+# --- many runs -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BatchTask:
+    """One (plan, data) pair of a batch, with its options."""
+
+    plan: Path
+    data: Path
+    sigma: float | None = None
+    report_dir: Path | None = None
+
+
+@dataclass(frozen=True)
+class BatchItem:
+    """The outcome of one batch task: an outcome, or the one-line error that stopped it."""
+
+    task: BatchTask
+    outcome: RunOutcome | None
+    error: str | None
+
+
+def read_manifest(path: PathLike) -> list[BatchTask]:
+    """Read a batch manifest (TOML).
+
+    ``[[run]]`` tables with ``plan``, ``data``, optional ``sigma`` and ``report``; paths are
+    relative to the manifest's folder.
+    """
+    mpath = Path(path)
+    doc = read_toml(mpath, "batch manifest")
+    runs = doc.get("run")
+    unknown = sorted(set(doc) - {"run"})
+    if unknown:
+        raise PlanError(f"batch manifest {mpath}: unknown table(s) {', '.join(unknown)}; "
+                        "list the runs as [[run]] tables")
+    if not isinstance(runs, list) or not runs:
+        raise PlanError(f"batch manifest {mpath} lists no [[run]] tables with plan and data")
+    tasks = []
+    for k, r in enumerate(runs, start=1):
+        extra = sorted(set(r) - {"plan", "data", "sigma", "report"})
+        if extra or "plan" not in r or "data" not in r:
+            raise PlanError(f"batch manifest {mpath}, run {k}: needs plan and data (optional "
+                            f"sigma, report); unknown: {', '.join(extra) or 'none'}")
+        sigma = r.get("sigma")
+        if sigma is not None and (isinstance(sigma, bool) or not isinstance(sigma, int | float)):
+            raise PlanError(f"batch manifest {mpath}, run {k}: sigma must be a number")
+        tasks.append(BatchTask(
+            plan=mpath.parent / str(r["plan"]), data=mpath.parent / str(r["data"]),
+            sigma=None if sigma is None else float(sigma),
+            report_dir=None if r.get("report") is None else mpath.parent / str(r["report"])))
+    return tasks
+
+
+def _compute(task: BatchTask) -> tuple[Any, Plan, str, str, tuple[str, ...], dict[str, object]]:
+    """Worker side of a batch task: read and fit (no database, no report)."""
+    p = load_plan(task.plan)
+    d = load_data(task.data)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fit(p, d, sigma=task.sigma)
+    digest = file_sha256(task.data)
+    return (result, p, task.plan.read_text(encoding="utf-8"), digest,
+            tuple(str(w.message) for w in caught), _data_summary(task.data, d, digest))
+
+
+def run_batch(
+    tasks: PathLike | Iterable[BatchTask | tuple[PathLike, PathLike]],
+    *,
+    executor: Any = None,
+    store: bool | str | HistoryStore = False,
+    allow_duplicate: bool = False,
+    tested_at: datetime | None = None,
+) -> list[BatchItem]:
+    """Run many tests: fits on ``executor``, then each filed here as its own transaction.
+
+    Parameters
+    ----------
+    tasks : path of a manifest, or iterable of BatchTask or (plan, data) pairs
+        What to run (:func:`read_manifest` for the manifest layout).
+    executor : optional
+        Anything with ``submit(fn, *args)`` returning futures with ``result()``:
+        :class:`concurrent.futures.ProcessPoolExecutor`, ``dask.distributed.Client``. None runs
+        the fits here, one after the other.
+    store, allow_duplicate, tested_at
+        As in :func:`run`; the database is written only by this process.
+
+    Returns
+    -------
+    list of BatchItem
+        In task order; a task that failed carries its one-line error and stored nothing.
+    """
+    if isinstance(tasks, str | os.PathLike):
+        todo = read_manifest(tasks)
+    else:
+        todo = [t if isinstance(t, BatchTask) else BatchTask(Path(t[0]), Path(t[1]))
+                for t in tasks]
+    for t in todo:
+        if t.report_dir is not None:
+            check_outputs([t.report_dir], [t.plan, t.data])
+    if executor is None:
+        pending: list[Any] = [_Immediate(_compute, t) for t in todo]
+    else:
+        pending = [executor.submit(_compute, t) for t in todo]
+    from inertest.store import HistoryStore
+
+    own = store is True or isinstance(store, str)
+    db = HistoryStore(None if store is True else str(store)) if own else store
+    when = _utc(tested_at) if tested_at is not None else datetime.now(UTC)
+    out: list[BatchItem] = []
+    try:
+        for t, fut in zip(todo, pending, strict=True):
+            try:
+                result, p, plan_text, digest, msgs, summary = fut.result()
+                outcome = file_run(
+                    result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
+                    tested_at=when, store=db if db else False, report_dir=t.report_dir,
+                    allow_duplicate=allow_duplicate, warnings_=msgs, inputs=[t.plan, t.data])
+                out.append(BatchItem(t, outcome, None))
+            except (InertestError, OSError) as exc:
+                out.append(BatchItem(t, None, str(exc)))
+    finally:
+        if own and db:
+            db.close()  # type: ignore[union-attr]
+    return out
+
+
+class _Immediate:
+    """A future computed on demand (serial batches)."""
+
+    def __init__(self, fn: Any, *args: Any) -> None:
+        self._fn, self._args = fn, args
+
+    def result(self) -> Any:
+        return self._fn(*self._args)
