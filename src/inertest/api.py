@@ -11,6 +11,7 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Mapping
 from typing import Any
@@ -58,7 +59,13 @@ def fit(
     """
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     d = data if isinstance(data, Mapping) else load_data(data)
-    return procedure_module(p.kind).fit(p, d, sigma=sigma)
+    result = procedure_module(p.kind).fit(p, d, sigma=sigma)
+    if dataclasses.is_dataclass(result) and "instrument" in {
+        f.name for f in dataclasses.fields(result)
+    }:
+        # The result envelope names the instrument under test (``to_dict()["instrument"]``).
+        result = dataclasses.replace(result, instrument=p.instrument)
+    return result
 
 
 def simulate(

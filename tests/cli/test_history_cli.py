@@ -32,9 +32,9 @@ def test_fit_stores_and_history_summarises(campaign, capsys):
     assert main(["history", "FG-0417", "--db", str(db), "--json", "--plot",
                  str(tmp / "h.png")]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert [r["tested_at"][:10] for r in out["runs"]] == ["2026-01-15", "2026-02-15",
+    assert [r["tested_at"][:10] for r in out["result"]["runs"]] == ["2026-01-15", "2026-02-15",
                                                           "2026-03-15"]
-    q = {h["name"]: h for h in out["quantities"]}
+    q = {h["name"]: h for h in out["result"]["quantities"]}
     assert q["DI"]["values"] == di
     assert q["DI"]["repeatability"] == pytest.approx(np.std(di, ddof=1))
     assert q["DI"]["unit"] == "deg/h/g" and q["DI"]["trend_per_day"] is not None

@@ -12,7 +12,9 @@ def test_simulate_fit_json_plot_report(tmp_path, capsys):
     png, rep = tmp_path / "t.png", tmp_path / "rep"
     assert main(["thermal", "fit", str(data), "--json", "--plot", str(png),
                  "--report", str(rep)]) == 0
-    d = json.loads(capsys.readouterr().out)
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["kind"] == "thermal-compensation" and doc["checks"][0]["verdict"] == "ok"
+    d = doc["result"]
     assert d["quantity"] == "scale_factor" and d["validation_cycles"] == [3]
     assert d["neural_network"]["validation_rms"]["unit"] == "ppm"
     assert d["polynomial"]["validation_rms"]["value"] < d["before"]["validation_rms"]["value"] / 10

@@ -75,13 +75,13 @@ def test_network_is_reproducible_and_non_convergence_is_reported_not_warned():
         short = th.fit_thermal(data, max_iter=2)
     assert not short.network.converged
     assert any("did not converge" in m for m in short.messages)
-    assert short.to_dict()["neural_network"]["converged"] is False
+    assert short.to_dict()["result"]["neural_network"]["converged"] is False
 
 
 def test_split_is_by_cycle():
     data = th.simulate_thermal(cycles=5, rng=5)
     r = th.fit_thermal(data, validation_cycles=2)
-    d = r.to_dict()
+    d = r.to_dict()["result"]
     assert d["train_cycles"] == [1, 2, 3] and d["validation_cycles"] == [4, 5]
 
 

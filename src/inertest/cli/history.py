@@ -9,6 +9,7 @@ import click
 from inertest.cli._common import echo_json, print_table
 from inertest.io.atomic import target_file
 from inertest.report.history import history_figure, history_rows
+from inertest.results import envelope
 from inertest.store import HistoryStore
 from inertest.store.summary import summarize_runs
 
@@ -40,13 +41,12 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
             fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=120,
                         bbox_inches="tight")
     if as_json:
-        echo_json({
-            "serial": serial,
+        echo_json(envelope("history", instrument={"serial": serial}, result={
             "runs": [{"tested_at": r.tested_at.isoformat(), "procedure": r.procedure,
                       "run_uuid": r.run_uuid, "software_version": r.software_version,
                       "data_sha256": r.data_sha256} for r in runs],
             "quantities": [h.to_dict() for h, _ in summaries],
-        })
+        }))
         return
     click.echo(f"{serial}: {len(runs)} run(s) from {runs[0].tested_at:%Y-%m-%d %H:%M} to "
                f"{runs[-1].tested_at:%Y-%m-%d %H:%M} UTC")

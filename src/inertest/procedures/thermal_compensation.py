@@ -30,6 +30,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +43,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
+from inertest.results import envelope
 
 #: Quantities that can be compensated: data column and unit of the residuals.
 QUANTITIES: dict[str, tuple[str, str]] = {
@@ -87,8 +89,8 @@ class ThermalModelFit:
             X = np.column_stack([X[:, 0], np.asarray(rate_c_per_min, dtype=float)])
         return np.asarray(self.model.predict(X), dtype=float)  # type: ignore[attr-defined]
 
-    def to_dict(self, unit: str) -> dict[str, object]:
-        """JSON-ready summary."""
+    def summary(self, unit: str) -> dict[str, object]:
+        """JSON-ready summary, residuals in ``unit`` (a block of :meth:`ThermalResult.to_dict`)."""
         return {
             "model": self.name,
             "description": self.description,
@@ -141,11 +143,20 @@ class ThermalResult:
     cv_rms: dict[int, float]
     messages: tuple[str, ...] = ()
 
+    kind: ClassVar[str] = "thermal-compensation"
+
     def to_dict(self) -> dict[str, object]:
-        """JSON-ready dictionary (no per-row arrays)."""
+        """The result envelope (no per-row arrays); the models' residuals in :attr:`unit`."""
         u = self.unit
-        return {
-            "analysis": "thermal-compensation",
+        best = min(self.polynomial.validation_rms, self.network.validation_rms)
+        improved = best < self.before_validation_rms
+        check = {
+            "name": "compensation on the held-out cycles",
+            "verdict": "ok" if improved else "warning",
+            "before_rms": {"value": self.before_validation_rms, "unit": u},
+            "best_after_rms": {"value": best, "unit": u},
+        }
+        return envelope(self.kind, result={
             "quantity": self.quantity,
             "reference": self.reference,
             "inputs": list(self.inputs),
@@ -153,12 +164,11 @@ class ThermalResult:
             "validation_cycles": sorted({int(c) for c in self.cycle[~self.train]}),
             "before": {"train_rms": {"value": self.before_train_rms, "unit": u},
                        "validation_rms": {"value": self.before_validation_rms, "unit": u}},
-            "polynomial": {**self.polynomial.to_dict(u),
+            "polynomial": {**self.polynomial.summary(u),
                            "cv_rms": {str(k): v for k, v in self.cv_rms.items()},
                            "cv_unit": u},
-            "neural_network": self.network.to_dict(u),
-            "messages": list(self.messages),
-        }
+            "neural_network": self.network.summary(u),
+        }, checks=[check], messages=self.messages)
 
 
 # ---------------------------------------------------------------------------------------------
