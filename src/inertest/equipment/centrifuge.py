@@ -9,8 +9,10 @@ Conventions (ideal machine)
 ---------------------------
 Platform frame P, fixed to the ground: ``x_P`` along the arm at ``t = 0``, pointing to the
 azimuth ``platform_heading`` (clockwise from north), ``z_P`` up, ``y_P = z_P x x_P``. The arm
-angle ``alpha = w t`` is right-handed about ``z_P``. Specific force in P (centripetal plus the
-reaction to gravity)::
+angle ``alpha = w t`` is right-handed about ``z_P``: the signed main-axis rate ``w`` is positive
+when the arm turns counter-clockwise seen from above and negative when it turns clockwise (every
+function here accepts both senses). Specific force in P (centripetal plus the reaction to
+gravity)::
 
     f_P = -R w^2 (cos alpha, sin alpha, 0) + (0, 0, g)
 
@@ -102,7 +104,7 @@ def ideal_specific_force_platform(
     t : array_like, shape (n,)
         Time since the arm passed ``x_P`` [s].
     omega : float
-        Main-axis rate ``w`` [rad/s], positive right-handed about up.
+        Main-axis rate ``w`` [rad/s], right-handed about up (negative: clockwise from above).
     radius_m : float
         Arm radius R to the instrument [m].
     gravity_m_s2 : float
@@ -147,109 +149,12 @@ def run_times(omega: float, sample_rate_hz: float, revolutions: int) -> NDArray[
     """Sample times [s] of one run of ``revolutions`` whole revolutions at ``omega`` [rad/s].
 
     From ``t = 0`` (arm on ``x_P``) up to and including the first sample at or after the end of
-    the last revolution, so that the run spans them by the nine-position procedure's rule.
+    the last revolution, so that the run spans them by the rule of
+    :func:`inertest.estimation.reduction.whole_cycle_mask`. The sign of ``omega`` (the sense of
+    the arm) does not matter.
     """
     n = int(np.ceil(revolutions * 2.0 * np.pi / abs(float(omega)) * sample_rate_hz)) + 1
     return np.arange(n, dtype=float) / sample_rate_hz
-
-
-def ideal_inputs_per_sample(
-    position: ArrayLike,
-    omega: ArrayLike,
-    t: ArrayLike,
-    *,
-    radius_m: float,
-    gravity_m_s2: float,
-    latitude_rad: float,
-    platform_heading_rad: float = 0.0,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`ideal_inputs` for per-sample columns of many runs, one call per run.
-
-    Parameters
-    ----------
-    position, omega, t : array_like, shape (n,)
-        Position 1..9, main-axis rate [rad/s] and time since the arm passed ``x_P`` [s] of
-        every sample; a run is a distinct (position, omega).
-    radius_m, gravity_m_s2, latitude_rad, platform_heading_rad : float
-        As in :func:`ideal_inputs`.
-
-    Returns
-    -------
-    f_ios, omega_ios : ndarray, shape (n, 3)
-        Specific force [m/s^2] and inertial angular rate [rad/s] on I, O, S, sample by sample.
-    """
-    pos = np.asarray(position)
-    w = np.asarray(omega, dtype=float)
-    tt = np.asarray(t, dtype=float)
-    f = np.empty((tt.size, 3))
-    w_ios = np.empty((tt.size, 3))
-    keys, order, bounds = group_runs(pos, w)
-    for r, (p, w_run) in enumerate(keys):
-        idx = order[bounds[r] : bounds[r + 1]]
-        f[idx], w_ios[idx] = ideal_inputs(
-            tt[idx], float(w_run), int(p), radius_m=radius_m, gravity_m_s2=gravity_m_s2,
-            latitude_rad=latitude_rad, platform_heading_rad=platform_heading_rad,
-        )
-    return f, w_ios
-
-
-#: Fraction of a revolution within which a sample counts as lying *on* a revolution boundary
-#: (absorbs the rounding of ``t`` and ``omega`` in a data file; 1e-9 rev ~ 1.4 ns at 4.43 rad/s).
-BOUNDARY_TOLERANCE_REV = 1e-9
-
-
-def whole_revolution_mask(t: ArrayLike, omega: float) -> tuple[NDArray[np.bool_], int]:
-    """Samples of one run that lie in whole revolutions of the arm, counted from its first sample.
-
-    With ``t0`` the first (earliest) sample, the run spans ``n = floor(w (t_last - t0) / 2 pi)``
-    whole revolutions and the kept samples are those with ``w (t - t0) / 2 pi < n``: the
-    half-open interval ``[t0, t0 + n 2 pi / w)``. A sample exactly on the closing boundary
-    repeats the phase of ``t0`` and is excluded, so uniform sampling with an integer number of
-    samples per revolution averages every harmonic of the arm exactly (seed 004, eqs. 19-21);
-    otherwise the nine-position procedure's ``whole_cycle_weights`` removes the leakage of
-    harmonics 1 and 2. Samples within :data:`BOUNDARY_TOLERANCE_REV` of a boundary are treated
-    as on it.
-
-    Parameters
-    ----------
-    t : array_like, shape (n,)
-        Sample times of the run [s] (any order).
-    omega : float
-        Main-axis rate of the run [rad/s] (sign ignored).
-
-    Returns
-    -------
-    mask : ndarray of bool, shape (n,)
-        Samples kept.
-    revolutions : int
-        Whole revolutions ``n`` (0 when the run is shorter than one revolution).
-    """
-    tt = np.asarray(t, dtype=float)
-    w = abs(float(omega))
-    if tt.size == 0 or w == 0.0:
-        return np.zeros(tt.shape, dtype=bool), 0
-    phase = w * (tt - tt.min()) / (2.0 * np.pi)  # revolutions since the run's first sample
-    n_rev = int(np.floor(phase.max() + BOUNDARY_TOLERANCE_REV))
-    return phase < n_rev - BOUNDARY_TOLERANCE_REV, n_rev
-
-
-def group_runs(
-    pos: NDArray[np.int64], omega: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
-    """Runs = distinct (position, omega) of per-sample columns: ``(keys (m, 2), order, bounds)``.
-
-    The samples of run ``r`` are ``order[bounds[r]:bounds[r + 1]]`` in their original order.
-    Integer codes and one stable sort: ``np.unique(axis=0)`` is ~10x slower on millions of rows.
-    """
-    rates, w_code = np.unique(omega, return_inverse=True)
-    code = np.asarray(pos, dtype=np.int64) * rates.size + w_code.reshape(-1)
-    order = np.argsort(code, kind="stable")
-    sorted_code = code[order]
-    starts = np.flatnonzero(np.r_[True, sorted_code[1:] != sorted_code[:-1]])
-    bounds = np.r_[starts, code.size]
-    first = sorted_code[starts]
-    keys = np.column_stack([(first // rates.size).astype(float), rates[first % rates.size]])
-    return keys, order, bounds
 
 
 def _check_position(position: int) -> None:
@@ -473,7 +378,10 @@ def centrifuge_motion(
     t : array_like, shape (n,)
         Time since the arm passed ``x_P`` [s].
     omega : float
-        Main-axis rate ``w`` [rad/s] (right-handed about up).
+        Main-axis rate ``w`` [rad/s], right-handed about up (negative: clockwise seen from
+        above). The Earth-rate terms depend on the sense: the Coriolis term ``2 W x v`` adds
+        ``2 W sin(L) w R`` to the centripetal force when ``w`` and the vertical Earth rate have
+        the same sign and takes it away otherwise.
     position : int
         Position 1..9 (mounting and fixture angle).
     radius_m, gravity_m_s2, latitude_rad, platform_heading_rad : float

@@ -1,15 +1,29 @@
 """Nine-position identification of an SDF gyro's drift model on a dual-axis centrifuge.
 
-Seed ``004_f16e7c07e7c35fdc.txt`` (Sun, Ren & Wang), sec. 4: the gyro sits on the counter-rotating
-platform of a dual-axis centrifuge in nine attitudes (three mountings x fixture angles 0, +45,
--45 deg, see :mod:`inertest.equipment.centrifuge`) and the main axis turns at two or more rates.
-Each run (one position at one rate) is reduced by *whole-cycle integration* (seed eqs. 18-22):
-the gyro output is averaged over whole revolutions of the arm, and the ten regressors of the
-static drift model (:mod:`inertest.models.sdf_gyro`) are averaged over exactly the same samples
-with the same weights (:func:`whole_cycle_weights`: equal weights, corrected so that the arm's
-first and second harmonics average to exactly zero when a revolution does not hold an integer
-number of samples). The averaged input rate on I (Earth rate on an ideal machine) is subtracted
-and the ten coefficients are found by least squares with their analytic covariance.
+Ref. [centrifuge paper] (seed ``004_f16e7c07e7c35fdc.txt``, Sun, Ren & Wang), sec. 4: the gyro
+sits on the counter-rotating platform of a dual-axis centrifuge in nine attitudes (three
+mountings x fixture angles 0, +45, -45 deg, see :mod:`inertest.equipment.centrifuge`) and the main
+axis turns at two or more rates. Each run (one position at one rate) is reduced by *whole-cycle
+integration* (eqs. 18-22): the gyro output is averaged over whole revolutions of the arm, and the
+ten regressors of the static drift model (:mod:`inertest.models.sdf_gyro`) are averaged over
+exactly the same samples with the same weights
+(:func:`inertest.estimation.reduction.whole_cycle_weights`: equal weights, corrected so that the
+arm's first and second harmonics average to exactly zero when a revolution does not hold an
+integer number of samples). The averaged input rate on I is subtracted and the ten coefficients
+are found by least squares with their analytic covariance.
+
+Inputs: the regressors are built from the exact inputs of the error-free machine
+(:func:`inertest.equipment.centrifuge.instrument_inputs`), Earth rotation included: the specific
+force contains the Earth-rate Coriolis term ``2 W x v`` (up to ``2 W w R``, 2.3e-4 g at 8.85 rad/s
+and R = 2.5 m) and ``W x (W x p)``, and the rate on I is the Earth rate. Leaving them out (the
+closed form :func:`~inertest.equipment.centrifuge.ideal_inputs`) biases DII by about one standard
+uncertainty at the source's settings, and the bias does not shrink with more data.
+
+Sense of rotation: ``omega`` is the *signed* main-axis rate, right-handed about up, i.e. positive
+when the arm turns counter-clockwise seen from above and negative when it turns clockwise. The
+Coriolis term adds ``2 W sin(latitude) |w| R`` to the centripetal force in one sense and takes it
+away in the other, so the data must say which way the arm turned; runs at ``+w`` and ``-w`` are
+distinct runs.
 
 Why the centrifuge separates what a 1 g tumble cannot: over a revolution the specific force in the
 platform frame has mean ``(0, 0, g)`` and second moment ``diag(A^2/2, A^2/2, g^2)`` with
@@ -27,18 +41,19 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as machine
-from inertest.equipment.centrifuge import whole_revolution_mask
 from inertest.errors import DataError, InertestWarning, InputError, PlanError
 from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit, weighted_least_squares
+from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
 from inertest.models.sdf_gyro import (
     COEFFICIENTS,
     ENGINEERING_UNIT,
     coefficients_from_deg_h,
     drift_regressors,
 )
-from inertest.plan import Plan
+from inertest.plan import Instrument, Plan
 from inertest.procedures.spec import (
     check_no_unknown_keys,
     known_sigma,
@@ -62,7 +77,7 @@ class RunMeans:
     position : ndarray of int, shape (m,)
         Position 1..9 of each run.
     omega : ndarray, shape (m,)
-        Main-axis rate [rad/s].
+        Signed main-axis rate [rad/s] (positive counter-clockwise seen from above).
     revolutions : ndarray of int, shape (m,)
         Whole revolutions kept.
     n_samples : ndarray of int, shape (m,)
@@ -119,8 +134,9 @@ class CentrifugeNinePositionSpec:
         Azimuth of ``x_P`` (the arm at ``t = 0``), clockwise from north [deg]; sets how the
         Earth rate projects on the gyro axes.
     omegas_rad_s : tuple of float
-        Main-axis rates [rad/s] run at every position (for simulation; the fit takes the rates
-        from the data). Default 4.43 and 8.85 rad/s (5 g and 20 g at R = 2.5 m, seed 004).
+        Signed main-axis rates [rad/s] run at every position (for simulation; the fit takes the
+        rates from the data): positive counter-clockwise, negative clockwise seen from above.
+        Default 4.43 and 8.85 rad/s (5 g and 20 g at R = 2.5 m, Ref. [centrifuge paper]).
     revolutions : int
         Whole revolutions recorded per run (for simulation).
     sample_rate_hz : float
@@ -158,7 +174,7 @@ class CentrifugeNinePositionSpec:
             raise PlanError(
                 "omegas_rad_s must be a non-empty list of rates [rad/s], e.g. [4.43, 8.85]"
             )
-        omegas = tuple(_positive_number(w, "omegas_rad_s", "rad/s") for w in raw_w)
+        omegas = tuple(_nonzero_number(w, "omegas_rad_s", "rad/s") for w in raw_w)
         if len(set(omegas)) != len(omegas):
             raise PlanError(f"omegas_rad_s lists a rate twice: {list(omegas)}; give each once")
         revs = params.get("revolutions", cls.revolutions)
@@ -178,6 +194,17 @@ class CentrifugeNinePositionSpec:
 
 
 SPEC = CentrifugeNinePositionSpec
+
+
+def _nonzero_number(value: object, key: str, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
+        np.isfinite(value) and value != 0
+    ):
+        raise PlanError(
+            f"{key} must hold finite nonzero signed rates [{unit}] (positive counter-clockwise, "
+            f"negative clockwise seen from above), got {value!r}"
+        )
+    return float(value)
 
 
 def _positive_number(value: object, key: str, unit: str) -> float:
@@ -226,10 +253,11 @@ class CentrifugeNinePositionResult(LinearTestResult):
     output_unit: str = "deg/h"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """Common layout plus the machine and one row per run."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
         d["machine"] = {"radius_m": self.radius_m,
                         "platform_heading_deg": self.platform_heading_deg}
         d["runs"] = [
@@ -248,16 +276,18 @@ def fit(
 ) -> CentrifugeNinePositionResult:
     """Identify the ten drift coefficients from nine-position centrifuge data.
 
-    The inputs are those of the ideal machine (:func:`inertest.equipment.centrifuge.ideal_inputs`
-    with the plan's radius, heading and site); machine errors are the business of the study.
+    The inputs are the exact ones of the error-free machine with Earth rotation
+    (:func:`inertest.equipment.centrifuge.instrument_inputs` with the plan's radius, heading and
+    site, no machine error); machine errors are the business of the centrifuge study.
 
     Parameters
     ----------
     plan : Plan
         Site, instrument and a :class:`CentrifugeNinePositionSpec`.
     data : mapping
-        Columns ``position`` (1..9), ``omega`` (nominal main-axis rate of the run, rad/s: the
-        same value on every sample of a run, since runs are told apart by it), ``t`` (time since
+        Columns ``position`` (1..9), ``omega`` (nominal signed main-axis rate of the run, rad/s,
+        positive counter-clockwise and negative clockwise seen from above: the same value on
+        every sample of a run, since runs are told apart by it), ``t`` (time since
         the arm passed ``x_P``, s; each run may have its own clock) and ``output`` [instrument
         output unit], one row per sample.
     sigma : float, optional
@@ -268,7 +298,7 @@ def fit(
     site, inst = plan.site, plan.instrument
     pos = _positions(cols["position"])
     omega = cols["omega"]
-    f, w_ios = _ideal_inputs_all(plan, pos, omega, cols["t"])
+    f, w_ios = machine_inputs(plan, pos, omega, cols["t"])
     runs = run_means(pos, omega, cols["t"], inst.output_to_rate(cols["output"]), f, w_ios)
     messages = _coverage_messages(runs)
     lsq, ident = _identify_runs(runs, known_sigma(sigma, inst.rad_s_per_output_unit))
@@ -309,13 +339,14 @@ def simulate(
     noise: float = 0.0,
     rng: np.random.Generator | int | None = None,
 ) -> dict[str, NDArray]:
-    """Samples of a virtual gyro on an ideal centrifuge: every position at every rate.
+    """Samples of a virtual gyro on the error-free centrifuge: every position at every rate.
 
     Each run starts with the arm on ``x_P`` at ``t = 0`` and is sampled at ``sample_rate_hz``
     from ``t = 0`` up to and including the first sample at or after the end of the last
     revolution (:func:`~inertest.equipment.centrifuge.run_times`), so that the run spans
-    ``revolutions`` whole revolutions by the rule of :func:`whole_revolution_mask`. Output rate =
-    input rate on I (Earth rate) + drift.
+    ``revolutions`` whole revolutions by the rule of
+    :func:`~inertest.estimation.reduction.whole_cycle_mask`. Inputs from :func:`machine_inputs`
+    (exact, Earth rotation included); output rate = input rate on I (Earth rate) + drift.
 
     ``truth`` maps coefficient names to deg/h, deg/h/g, deg/h/g^2; missing names are 0.
 
@@ -331,77 +362,59 @@ def simulate(
             w_l.append(np.full(t.size, w))
             t_l.append(t)
     pos, omega, t = np.concatenate(pos_l), np.concatenate(w_l), np.concatenate(t_l)
-    f, w_ios = _ideal_inputs_all(plan, pos, omega, t)
+    f, w_ios = machine_inputs(plan, pos, omega, t)
     rate = w_ios[:, 0] + drift_regressors(f / G0) @ coef
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"position": pos, "omega": omega, "t": t, "output": output}
 
 
-def _ideal_inputs_all(
-    plan: Plan, pos: NDArray[np.int64], omega: NDArray[np.float64], t: NDArray[np.float64]
+def machine_inputs(
+    plan: Plan, position: ArrayLike, omega: ArrayLike, t: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Ideal-machine inputs for every sample with the plan's radius, heading and site."""
+    """Exact inputs of the error-free machine for every sample, Earth rotation included.
+
+    One call of :func:`inertest.equipment.centrifuge.instrument_inputs` per run (distinct
+    position and signed rate) with the plan's radius, platform heading, latitude and gravity.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site and a :class:`CentrifugeNinePositionSpec`.
+    position, omega, t : array_like, shape (n,)
+        Position 1..9, signed main-axis rate [rad/s] (positive counter-clockwise seen from
+        above) and time since the arm passed ``x_P`` [s] of every sample.
+
+    Returns
+    -------
+    f_ios, omega_ios : ndarray, shape (n, 3)
+        Specific force [m/s^2] (with the Earth-rate terms ``2 W x v + W x (W x p)``) and
+        inertial angular rate [rad/s] on I, O, S.
+    """
     spec: CentrifugeNinePositionSpec = plan.procedure
-    return machine.ideal_inputs_per_sample(
-        pos, omega, t, radius_m=spec.radius_m, gravity_m_s2=plan.site.gravity_m_s2,
-        latitude_rad=plan.site.latitude_rad,
-        platform_heading_rad=float(np.radians(spec.platform_heading_deg)),
-    )
+    pos = np.asarray(position)
+    tt = np.asarray(t, dtype=float)
+    f = np.empty((tt.size, 3))
+    w_ios = np.empty((tt.size, 3))
+    groups = group_rows(pos, np.asarray(omega, dtype=float))
+    for r, (p, w) in enumerate(zip(*groups.keys, strict=True)):
+        idx = groups.rows(r)
+        f[idx], w_ios[idx], _ = machine.instrument_inputs(
+            tt[idx], float(w), int(p), radius_m=spec.radius_m,
+            gravity_m_s2=plan.site.gravity_m_s2, latitude_rad=plan.site.latitude_rad,
+            platform_heading_rad=float(np.radians(spec.platform_heading_deg)),
+        )
+    return f, w_ios
 
 
 def _coverage_messages(runs: RunMeans) -> list[str]:
     """Warnings about the test's coverage (rates), before the fit says what is lost."""
     out = []
-    if np.unique(runs.omega).size == 1:
+    if np.unique(np.abs(runs.omega)).size == 1:
         out.append(
-            f"only one main-axis rate ({runs.omega[0]:g} rad/s) in the data; DF and the square "
-            "terms DII, DOO, DSS then mix as in a 1 g tumble (run at least two rates)"
+            f"only one main-axis rate ({abs(runs.omega[0]):g} rad/s) in the data; DF and the "
+            "square terms DII, DOO, DSS then mix as in a 1 g tumble (run at least two rates)"
         )
     return out
-
-
-def whole_cycle_weights(t: ArrayLike, omega: float) -> NDArray[np.float64]:
-    """Averaging weights over the samples of whole revolutions that integrate the arm's harmonics.
-
-    A plain mean over ``n`` revolutions averages ``cos(w t)`` to exactly zero only when a
-    revolution holds an integer number of samples; otherwise ``O(1/samples)`` leaks (e.g. 50 Hz
-    at 4.43 rad/s is 70.9 samples per revolution). The ideal specific force and its products
-    contain only the harmonics 0, 1 and 2 of the arm, so the weights are the equal weights
-    ``1/n`` corrected by the least amount that makes the weighted mean of ``cos k a`` and
-    ``sin k a`` (``k = 1, 2``, ``a = w (t - t0)``) exactly zero, as the integral over whole
-    revolutions is (seed 004, eqs. 19-21). With an integer number of samples per revolution the
-    correction vanishes. Output and regressors are averaged with the same weights, so the
-    averaged model holds exactly whatever the weights.
-
-    Parameters
-    ----------
-    t : array_like, shape (n,)
-        Sample times of the kept samples of one run [s].
-    omega : float
-        Main-axis rate [rad/s].
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        Weights summing to 1.
-
-    Raises
-    ------
-    DataError
-        Fewer than five samples per revolution (the second harmonic cannot be averaged out).
-    """
-    tt = np.asarray(t, dtype=float)
-    a = abs(float(omega)) * (tt - tt.min())
-    basis = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a), np.cos(2 * a), np.sin(2 * a)])
-    u = np.full(a.size, 1.0 / a.size)
-    target = np.array([1.0, 0.0, 0.0, 0.0, 0.0])
-    gram = basis.T @ basis
-    if a.size < 5 or np.linalg.cond(gram) > 1e10:
-        raise DataError(
-            f"a run at {omega:g} rad/s has too few samples per revolution to average the arm's "
-            "first and second harmonics; sample at least 5 times per revolution"
-        )
-    return u + basis @ np.linalg.solve(gram, target - basis.T @ u)
 
 
 def run_means(
@@ -423,7 +436,8 @@ def run_means(
     position : array_like of int, shape (n,)
         Position 1..9 of each sample.
     omega : array_like, shape (n,)
-        Main-axis rate [rad/s]; samples with the same (position, omega) form one run.
+        Signed main-axis rate [rad/s] (positive counter-clockwise, negative clockwise seen from
+        above); samples with the same (position, omega) form one run.
     t : array_like, shape (n,)
         Time [s] (each run's revolutions are counted from its own first sample).
     output_rate_rad_s : array_like, shape (n,)
@@ -436,7 +450,7 @@ def run_means(
     Raises
     ------
     DataError
-        Mismatched shapes, non-finite values, unknown positions, a non-positive rate, or a run
+        Mismatched shapes, non-finite values, unknown positions, a zero rate, or a run
         shorter than one whole revolution.
     """
     pos = np.asarray(position)
@@ -462,14 +476,15 @@ def run_means(
                 f"{bad[0] + 1}); remove or repair those rows"
             )
     pos_i = _positions(pos)
-    if np.any(w <= 0.0):
-        row = int(np.flatnonzero(w <= 0.0)[0])
+    if np.any(w == 0.0):
+        row = int(np.flatnonzero(w == 0.0)[0])
         raise DataError(
-            f"main-axis rate omega must be positive [rad/s], got {w[row]:g} at data row {row + 1}; "
-            "give the magnitude of the arm's rate"
+            f"main-axis rate omega must be nonzero [rad/s], got 0 at data row {row + 1}; give "
+            "the arm's signed rate (positive counter-clockwise, negative clockwise seen from above)"
         )
-    uniq, order, bounds = machine.group_runs(pos_i, w)
-    m = uniq.shape[0]
+    groups = group_rows(pos_i, w)
+    run_pos, run_w = groups.keys
+    m = len(groups)
     out = {
         "revolutions": np.zeros(m, dtype=np.int64),
         "n_samples": np.zeros(m, dtype=np.int64),
@@ -482,19 +497,22 @@ def run_means(
         "structural": np.zeros((m, len(COEFFICIENTS))),
     }
     for r in range(m):
-        idx = order[bounds[r] : bounds[r + 1]]
-        mask, n_rev = whole_revolution_mask(tt[idx], uniq[r, 1])
+        idx = groups.rows(r)
+        mask, n_rev = whole_cycle_mask(tt[idx], run_w[r])
+        where = f"run at position {int(run_pos[r])}, omega {run_w[r]:g} rad/s"
         if n_rev < 1:
             span = float(tt[idx].max() - tt[idx].min())
             raise DataError(
-                f"run at position {int(uniq[r, 0])}, omega {uniq[r, 1]:g} rad/s covers "
-                f"{span:g} s, less than one whole revolution ({_TWO_PI / uniq[r, 1]:g} s); "
-                "record at least one full revolution per run (the method averages whole "
-                "revolutions)"
+                f"{where} covers {span:g} s, less than one whole revolution "
+                f"({_TWO_PI / abs(run_w[r]):g} s); record at least one full revolution per run "
+                "(the method averages whole revolutions)"
             )
         keep = idx[mask]
         f_g = f[keep] / G0
-        wts = whole_cycle_weights(tt[keep], uniq[r, 1])
+        try:
+            wts = whole_cycle_weights(tt[keep], run_w[r], harmonics=2)
+        except DataError as exc:
+            raise DataError(f"{where}: {exc}") from None
         out["revolutions"][r] = n_rev
         out["n_samples"][r] = keep.size
         out["n_dropped"][r] = idx.size - keep.size
@@ -503,10 +521,10 @@ def run_means(
         out["input"][r] = wts @ wi[keep, 0]
         out["phi"][r] = wts @ drift_regressors(f_g)  # per run: no (n, 10) temporary
         out["f"][r] = wts @ f_g
-        out["structural"][r] = _structural_row(tt[keep], uniq[r, 1], f_g)
+        out["structural"][r] = _structural_row(tt[keep], run_w[r], f_g)
     return RunMeans(
-        position=uniq[:, 0].astype(np.int64),
-        omega=uniq[:, 1].copy(),
+        position=run_pos.astype(np.int64),
+        omega=run_w.astype(float),
         revolutions=out["revolutions"],
         n_samples=out["n_samples"],
         n_dropped=out["n_dropped"],
@@ -541,9 +559,30 @@ def _drop_rounding_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
+def _structural_zero_columns(runs: RunMeans) -> NDArray[np.bool_]:
+    """Regressors whose exact whole-cycle means are zero in every run, by the test's design.
+
+    Besides rounding, the Earth's rotation puts a whisker into regressors that the geometry of
+    the positions measured leaves at zero (e.g. the Coriolis term ``2 W x v`` has a vertical
+    first harmonic ``~ 2 W cos(L) w R`` that correlates with the centripetal force and gives the
+    cross products a mean ``~ (R w^2)^2 W / |w|``). Such a column would pass for information with
+    an uncertainty ~1e5 times the others, so an element counts as zero when it is below
+    ``2 s (2 W / |w| + W^2 / w^2)`` with ``s = (fI^2 + fO^2 + fS^2)`` of its run (``>= (R w^2)^2``
+    in g0^2). Genuine means are at least ~(g/g0)^2 / 2, far above this below ~100 g.
+    """
+    a = np.abs(runs.structural_regressors)
+    sq = [COEFFICIENTS.index(n) for n in ("DII", "DOO", "DSS")]
+    w = np.abs(runs.omega)
+    tol = 2.0 * a[:, sq].sum(axis=1) * (2.0 * OMEGA_IE / w + (OMEGA_IE / w) ** 2)
+    tol = np.maximum(tol, 1e-12 * a.max())
+    return np.all(a <= tol[:, None], axis=0)
+
+
 def _structural_null_space(runs: RunMeans) -> NDArray[np.float64]:
     """Orthonormal basis (10, k) of the directions the runs cannot determine even in principle."""
-    a = _drop_rounding_columns(runs.structural_regressors)
+    a = runs.structural_regressors.copy()
+    a[:, _structural_zero_columns(runs)] = 0.0
+    a = _drop_rounding_columns(a)
     # The solver's null space (column-scaled SVD); the observations do not matter for it.
     return weighted_least_squares(a, np.zeros(a.shape[0]), sigma=1.0).null_space
 
@@ -658,8 +697,7 @@ def explain_null_space(
     out: list[str] = []
     explained: list[NDArray[np.float64]] = []
     # Zero in the exact whole-cycle means (not just rounding noise in the sampled ones).
-    structural = np.abs(runs.structural_regressors)
-    zero = [i for i in range(A.shape[1]) if structural[:, i].max() <= 1e-12 * structural.max()]
+    zero = [int(i) for i in np.flatnonzero(_structural_zero_columns(runs))]
     if zero:
         out.append(
             f"{', '.join(COEFFICIENTS[i] for i in zero)}: their averaged regressors are zero in "

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as cf
 from inertest.errors import InputError, PlanError
+from inertest.estimation.reduction import group_rows, whole_cycle_mask
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, coefficients_from_deg_h, drift
 from inertest.plan import check_known_keys, finite_number, toml_table
 from inertest.units import ARCMIN_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, G0
@@ -279,17 +280,23 @@ def _run_means(runs: Runs, values: NDArray[np.float64]) -> NDArray[np.float64]:
     for w in np.unique(runs.omega):
         for pos in cf.POSITIONS:
             sel = (runs.omega == w) & (runs.position == pos)
-            whole, _ = cf.whole_revolution_mask(runs.t[sel], w)
+            whole, _ = whole_cycle_mask(runs.t[sel], w)
             out.append(values[sel][whole].mean())
     return np.asarray(out)
 
 
 def closed_form_inputs(plan: StudyPlan, runs: Runs) -> tuple[NDArray[np.float64], ...]:
     """Inputs of the issue's closed form (no Earth-rate terms in the acceleration) for ``runs``."""
-    return cf.ideal_inputs_per_sample(
-        runs.position, runs.omega, runs.t, radius_m=plan.radius_m,
-        gravity_m_s2=plan.gravity_m_s2, latitude_rad=plan.latitude_rad,
-        platform_heading_rad=plan.platform_heading_rad)
+    f = np.empty((runs.t.size, 3))
+    w_ios = np.empty((runs.t.size, 3))
+    groups = group_rows(runs.position, runs.omega)
+    for r, (pos, w) in enumerate(zip(*groups.keys, strict=True)):
+        idx = groups.rows(r)
+        f[idx], w_ios[idx] = cf.ideal_inputs(
+            runs.t[idx], float(w), int(pos), radius_m=plan.radius_m,
+            gravity_m_s2=plan.gravity_m_s2, latitude_rad=plan.latitude_rad,
+            platform_heading_rad=plan.platform_heading_rad)
+    return f, w_ios
 
 
 def monte_carlo_std(plan: StudyPlan, fit: FitFunction, runs: Runs, n: int,
