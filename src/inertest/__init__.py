@@ -20,6 +20,14 @@ Conventions (also in README.md)
                  + DII fI^2 + DOO fO^2 + DSS fS^2
 
   Coefficients are held in rad/s per g^k inside, reported in deg/h, deg/h/g, deg/h/g^2.
+* **IMU triads** (one model, :mod:`inertest.models.triad`): ``raw = K (I + M) u + b [+ G a]``.
+  ``M_ij`` is the sensitivity of sensor i (first index) to the input along / about reference
+  axis j (second index), ``M_ij = S_ij / S_ii``, in urad. Scale factor ``K_i``: raw output per
+  unit input -- accelerometers per (m/s^2); gyros per (deg/s) of the raw *rate reading*, so a
+  digital reading gives count/(deg/s) and a pulse output (count/s) gives count/deg, the same
+  number; ``1`` (with a ppm deviation) when the raw output is already a physical unit. The bias
+  adds to the output; it is reported input-referred, ``B = S^-1 b``, in mg or deg/h (positive:
+  the sensor reads high). A negative ``K_i`` is an axis mounted reversed.
 """
 
 from __future__ import annotations

@@ -33,6 +33,10 @@ G_TO_M_PER_S2 = G0
 MICRO_G_TO_M_PER_S2 = 1e-6 * G0
 MILLI_G_TO_M_PER_S2 = 1e-3 * G0
 PPM_TO_RATIO = 1e-6
+#: Microradian -> rad (misalignment angles are reported in urad, IEEE Std 952 specification format).
+MICRORAD_TO_RAD = 1e-6
+#: Gyro g-sensitivity: deg/h per g -> rad/s per m/s^2.
+DEG_PER_H_PER_G_TO_RAD_PER_S_PER_M_PER_S2 = DEG_PER_H_TO_RAD_PER_S / G0
 #: International nautical mile, m.
 NAUTICAL_MILE_M = 1852.0
 

@@ -85,3 +85,14 @@ def test_system_bad_input(tmp_path, capsys):
     assert "3 comma-separated" in capsys.readouterr().err
     assert main(["modulation", "system", "--step", "0"]) == 2
     assert "step" in capsys.readouterr().err
+
+
+def test_system_gyro_misalignment_in_urad_by_triad_convention(capsys):
+    """--gyro-misalignment-urad lists M_xy, M_xz, M_yx, M_yz, M_zx, M_zy: entry (0, 1) of the
+    matrix is M_xy (gyro x, rate about y), in rad in the JSON."""
+    assert main(["modulation", "system", "--hours", "1", "--step", "600", "--scheme", "none",
+                 "--gyro-misalignment-urad", "5,0,0,0,0,0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    m = out["imu"]["gyro_misalignment"]
+    assert m["unit"] == "rad" and abs(m["value"][0][1] - 5e-6) < 1e-20
+    assert m["value"][1][0] == 0.0

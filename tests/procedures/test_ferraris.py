@@ -184,11 +184,12 @@ def test_real_session_calibrates_sensibly(real):
     # a MEMS IMU: scale factors near the nominal 2048 count/g and 16.4 count/(deg/s)
     for a_ in "xyz":
         assert r.coefficients[f"Ka_{a_}"].value == pytest.approx(2048 / G0, rel=0.05)
-        assert r.coefficients[f"Kg_{a_}"].value == pytest.approx(np.degrees(16.4), rel=0.05)
+        assert r.coefficients[f"Kg_{a_}"].value == pytest.approx(16.4, rel=0.05)
     assert r.coefficients["Ka_x"].unit == "count/(m/s^2)" and r.coefficients["Ma_xy"].unit == "urad"
+    assert r.coefficients["Kg_x"].unit == "count/(deg/s)" and r.coefficients["Mg_xy"].unit == "urad"
     d = r.to_dict()
-    assert d["triads"]["gyroscope"]["misalignment_arcsec"]["M_xy"]["unit"] == "arcsec"
-    assert d["triads"]["accelerometer"]["scale_factor"]["K_x"]["value"] == pytest.approx(
+    assert d["result"]["triads"]["gyroscope"]["misalignment"]["M_xy"]["unit"] == "urad"
+    assert d["result"]["triads"]["accelerometer"]["scale_factor"]["K_x"]["value"] == pytest.approx(
         r.coefficients["Ka_x"].value, rel=1e-12)
 
 
@@ -322,3 +323,33 @@ def test_second_real_session_in_si_units_with_clockwise_turns():
     W = np.abs(np.diag(r.stats.turn_gyr_integral)).min()
     ours = r.calibration.gyroscope.matrix
     assert np.abs(ours - gyr_m).max() <= 2 * db * T / W * np.abs(np.diag(ours)).max()
+
+
+def test_convention_misalignment_scale_bias_by_hand():
+    """A perfect IMU's session (m/s^2, rad/s: kinematics only), turned into counts by hand with
+    raw = K (I + M) u + K (I + M) B (numpy, not the model): only Ma_xy = 1500 urad and
+    Mg_xy = 2000 urad (sensor x sees input along/about y), Kg = 16.4 count/(deg/s) (a rate
+    reading per sample), positive Ba_x and Bg_x. The fit reports exactly these and
+    Ma_yx = Mg_yx = 0."""
+    phys = make_plan(acc_unit="m/s^2", gyr_unit="rad/s", earth_rate=False)
+    d = ferraris.simulate(phys, {})
+    f = np.column_stack([d[c] for c in ferraris.ACC_COLUMNS])
+    w = np.column_stack([d[c] for c in ferraris.GYR_COLUMNS])
+    Ma, Mg = np.zeros((3, 3)), np.zeros((3, 3))
+    Ma[0, 1], Mg[0, 1] = 1500e-6, 2000e-6
+    Sa = np.diag([208.8, 209.2, 208.4]) @ (np.eye(3) + Ma)  # count/(m/s^2)
+    Sg = np.diag([16.4, 16.3, 16.5]) * 180 / np.pi @ (np.eye(3) + Mg)  # count/(rad/s)
+    Ba = np.array([5.0 * MG, 0.0, 0.0])
+    Bg = np.array([100.0 * np.pi / 180 / 3600, 0.0, 0.0])
+    acc = f @ Sa.T + Sa @ Ba
+    gyr = w @ Sg.T + Sg @ Bg
+    data = {"part": d["part"], **{c: acc[:, i] for i, c in enumerate(ferraris.ACC_COLUMNS)},
+            **{c: gyr[:, i] for i, c in enumerate(ferraris.GYR_COLUMNS)}}
+    c = ferraris.fit(make_plan(earth_rate=False), data).coefficients
+    assert c["Ma_xy"].value == pytest.approx(1500.0, abs=1e-6) and abs(c["Ma_yx"].value) < 1e-6
+    assert c["Mg_xy"].value == pytest.approx(2000.0, abs=1e-6) and abs(c["Mg_yx"].value) < 1e-6
+    assert c["Mg_xy"].unit == "urad"
+    assert c["Kg_z"].value == pytest.approx(16.5, rel=1e-10) and c["Kg_z"].unit == "count/(deg/s)"
+    assert c["Ka_y"].value == pytest.approx(209.2, rel=1e-10) and c["Ka_y"].unit == "count/(m/s^2)"
+    assert c["Ba_x"].value == pytest.approx(5.0, rel=1e-9) and c["Ba_x"].unit == "mg"
+    assert c["Bg_x"].value == pytest.approx(100.0, rel=1e-9) and c["Bg_x"].unit == "deg/h"

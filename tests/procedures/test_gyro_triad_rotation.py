@@ -12,10 +12,11 @@ from inertest.procedures import gyro_triad_rotation as gtr
 
 LAT_DEG = 34.246
 L = np.radians(LAT_DEG)
-TRUTH = dict(K_x=7200.0, K_y=7195.5, K_z=7203.2, M_xy=35.0, M_xz=-20.0, M_yx=12.0, M_yz=48.0,
-             M_zx=-30.0, M_zy=8.0, B_x=0.5, B_y=-0.3, B_z=1.1)
+TRUTH = dict(K_x=7200.0, K_y=7195.5, K_z=7203.2, M_xy=169.685, M_xz=-96.963, M_yx=58.178,
+             M_yz=232.711, M_zx=-145.444, M_zy=38.785, B_x=0.5, B_y=-0.3, B_z=1.1)  # M in urad
 ARCSEC = np.pi / 180 / 3600
 DEG_H = ARCSEC  # 1 deg/h = 1 arcsec/s
+URAD = 1e-6
 
 
 def make_plan(unit="count", **params):
@@ -46,7 +47,7 @@ def test_exact_recovery_and_closed_form_scale():
     res = gtr.fit(plan, gtr.simulate(plan, TRUTH), sigma=0.5)
     for name, value in TRUTH.items():
         e = res.coefficients[name]
-        tol = {"count/deg": 1e-9, "arcsec": 1e-6, "deg/h": 1e-8}[e.unit]
+        tol = {"count/deg": 1e-9, "urad": 5e-6, "deg/h": 1e-8}[e.unit]
         assert e.value == pytest.approx(value, abs=tol), name
     # Closed form (N_j(+) - N_j(-))/(4 pi): the Earth rate cancels between the directions.
     for name, value in res.closed_form_scale.items():
@@ -71,7 +72,7 @@ def test_calibration_block_inverts_the_output_model():
     gyro = res.calibration.gyroscope
     assert gyro.raw_unit == "count/s" and gyro.unit == "rad/s"
     np.testing.assert_allclose(gyro.matrix @ (raw[0] - gyro.offset), w[0], rtol=1e-9)
-    back = TriadCalibration.from_dict(res.to_dict()["calibration"]["gyroscope"])
+    back = TriadCalibration.from_dict(res.to_dict()["result"]["calibration"]["gyroscope"])
     np.testing.assert_allclose(back.apply(raw), w, rtol=1e-9, atol=1e-12)
 
 
@@ -182,6 +183,26 @@ def test_real_imucal_session_agrees_with_imucal_ferraris(realdata_dir):
     for i in range(3):
         for j in range(3):
             if i != j:
-                std = res.coefficients[f"M_{'xyz'[i]}{'xyz'[j]}"].std * ARCSEC * ours[i, i]
+                std = res.coefficients[f"M_{'xyz'[i]}{'xyz'[j]}"].std * URAD * ours[i, i]
                 assert abs(ours[i, j] - peer_forward[i, j]) < 3 * std
     np.testing.assert_allclose(res.offset, peer.b_g, atol=0.1)  # LSB; Earth rate 0.07 LSB
+
+
+def test_convention_misalignment_scale_bias_by_hand():
+    """Counts written by hand, N = K (I + M) Theta + K (I + M) B T (numpy, not the model), for a
+    pulse triad of 7200 count/deg with only M_xy = 100 urad (gyro x sees rate about y) and a
+    positive B_x: the fit reports M_xy = 100 urad, M_yx = 0, K = 7200 count/deg, B_x = +0.5 deg/h.
+    Theta (table turn plus Earth rate) is the equipment kinematics, not the triad model."""
+    plan = make_plan(rate_deg_s=20.0, rotation_window_s=22.0)
+    rows = gtr.plan_rows(plan.procedure)
+    theta = gtr.body_angles(rows["attitude"], rows["axis"], rows["direction"],
+                            rows["duration_s"], plan.procedure, plan.site.latitude_rad)
+    A = 7200.0 * 180 / np.pi * (np.eye(3) + np.array([[0, 100e-6, 0], [0, 0, 0], [0, 0, 0]]))
+    b = A @ np.array([0.5 * DEG_H, 0.0, 0.0])
+    counts = theta @ A.T + np.outer(rows["duration_s"], b)
+    data = {**rows, **{f"counts_{a}": counts[:, i] for i, a in enumerate("xyz")}}
+    c = gtr.fit(plan, data, sigma=0.5).coefficients
+    assert c["M_xy"].value == pytest.approx(100.0, abs=1e-6) and c["M_xy"].unit == "urad"
+    assert abs(c["M_yx"].value) < 1e-6
+    assert c["K_z"].value == pytest.approx(7200.0, rel=1e-12) and c["K_z"].unit == "count/deg"
+    assert c["B_x"].value == pytest.approx(0.5, rel=1e-9) and c["B_x"].unit == "deg/h"

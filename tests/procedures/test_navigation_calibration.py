@@ -160,3 +160,21 @@ def test_monte_carlo_stated_uncertainties():
         std[r] = np.concatenate([res.scale_std, res.misalignment_std_rad, res.bias_std_rad_s])
     ratio = std.mean(axis=0) / est.std(axis=0, ddof=1)
     np.testing.assert_allclose(ratio, 1.0, atol=0.2)
+
+
+def test_convention_misalignment_scale_bias_by_hand():
+    """The true triad written by hand, A = K (I + M) with only M_xy = 50 urad (gyro x sees rate
+    about y) and b = A B with a positive B_x (numpy, not the model); starting from A0 = K (no
+    misalignment), the refined result reports M_xy = 50 urad, M_yx = 0 and B_x = +0.5 deg/h, and
+    K in count/deg."""
+    prof = table.RotationProfile(np.radians(20.0), np.radians(10.0))
+    k = 7200.0 * 180 / np.pi  # count/rad = 7200 count/deg
+    A = k * (np.eye(3) + np.array([[0, 50e-6, 0], [0, 0, 0], [0, 0, 0]]))
+    b = A @ np.array([0.5 * ARCSEC, 0.0, 0.0])
+    recs = segments(prof, rate_hz=20.0, A=A, b=b)
+    res = nc.iterate_calibration(recs, np.eye(3) * k, np.zeros(3), latitude_rad=LAT)
+    c = res.to_dict(scale_unit="count/deg", si_per_scale_unit=180 / np.pi)["coefficients"]
+    assert c["M_xy"]["value"] == pytest.approx(50.0, abs=1e-3) and c["M_xy"]["unit"] == "urad"
+    assert abs(c["M_yx"]["value"]) < 1e-3
+    assert c["K_x"]["value"] == pytest.approx(7200.0, rel=1e-10)
+    assert c["B_x"]["value"] == pytest.approx(0.5, abs=1e-4) and c["B_x"]["unit"] == "deg/h"

@@ -38,7 +38,7 @@ def test_calibration_inverts_the_simulated_triad():
     r = tm.fit(plan, data, sigma=1.0)
     raw = np.column_stack([data[c] for c in tm.OUTPUT_COLUMNS])
     f = mp.specific_force_body(data["position"], plan.site.gravity_m_s2)
-    cal = TriadCalibration.from_dict(r.to_dict()["calibration"]["accelerometer"])
+    cal = TriadCalibration.from_dict(r.to_dict()["result"]["calibration"]["accelerometer"])
     np.testing.assert_allclose(cal.apply(raw), f, atol=1e-9)
 
 
@@ -154,15 +154,14 @@ def test_plan_errors():
 def test_json_has_calibration_block_and_engineering_units():
     plan = make_plan("12", spp=3, nominal=1670.7)
     d = tm.fit(plan, tm.simulate(plan, TRUTH, noise=2.0, rng=4)).to_dict()
-    acc = d["calibration"]["accelerometer"]
+    acc = d["result"]["calibration"]["accelerometer"]
     assert np.shape(acc["matrix"]) == (3, 3) and len(acc["offset"]) == 3
     assert acc["unit"] == "m/s^2" and acc["raw_unit"] == "count"
-    t = d["triads"]["accelerometer"]
+    t = d["result"]["triads"]["accelerometer"]
     assert t["scale_factor_ppm"]["K_x"]["unit"] == "ppm"
-    assert t["misalignment_arcsec"]["M_xy"]["value"] == pytest.approx(
-        t["misalignment"]["M_xy"]["value"] * 0.206264806, rel=1e-8)
-    assert set(d["noise_per_axis"]) == {"output_x", "output_y", "output_z"}
-    cov = d["triads"]["accelerometer"]["covariance"]
+    assert t["misalignment"]["M_xy"]["unit"] == "urad" and "misalignment_arcsec" not in t
+    assert set(d["result"]["noise_per_axis"]) == {"output_x", "output_y", "output_z"}
+    cov = d["result"]["triads"]["accelerometer"]["covariance"]
     i = cov["names"].index("M_xy")
     assert np.sqrt(cov["matrix"][i][i]) == pytest.approx(t["misalignment"]["M_xy"]["std"])
 
@@ -181,3 +180,25 @@ def test_monte_carlo_reported_std_matches_scatter():
     assert np.all(np.abs(ratio - 1) < 0.2), dict(zip(names, ratio, strict=True))
     z = (np.mean(est, axis=0) - [TRUTH[n] for n in names]) / (np.mean(std, axis=0) / 20)
     assert np.all(np.abs(z) < 4)
+
+
+def test_convention_misalignment_scale_bias_by_hand():
+    """Readings written by hand from raw = K (I + M) f + K B (numpy, not the model), with only
+    M_xy = 300 urad (sensor x sees specific force along reference y) and a positive B_x: the fit
+    reports M_xy = 300 urad, M_yx = 0, K in count/(m/s^2) and B_x = +2 mg."""
+    plan = make_plan("12")
+    labels = np.array(plan.procedure.positions)
+    f = mp.specific_force_body(labels, plan.site.gravity_m_s2)  # m/s^2, fixture axes
+    K = np.diag([1000.0, 1100.0, 900.0])  # count/(m/s^2)
+    M = np.zeros((3, 3))
+    M[0, 1] = 300e-6
+    B = np.array([2.0, 0.0, 0.0]) * 9.80665e-3  # +2 mg on x
+    raw = f @ (K @ (np.eye(3) + M)).T + K @ (np.eye(3) + M) @ B
+    data = {"position": labels, **{c: raw[:, i] for i, c in enumerate(tm.OUTPUT_COLUMNS)}}
+    r = tm.fit(plan, data, sigma=1e-3)
+    c = r.coefficients
+    assert c["M_xy"].value == pytest.approx(300.0, abs=1e-6) and c["M_xy"].unit == "urad"
+    assert abs(c["M_yx"].value) < 1e-6
+    assert c["K_y"].value == pytest.approx(1100.0, rel=1e-12)
+    assert c["K_y"].unit == "count/(m/s^2)"
+    assert c["B_x"].value == pytest.approx(2.0, rel=1e-9) and c["B_x"].unit == "mg"

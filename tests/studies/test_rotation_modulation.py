@@ -352,3 +352,19 @@ def test_cycle_mean_inputs_match_quadrature_for_four_position():
     w_n = SITE.earth_rate_rad_s * math.cos(SITE.latitude_rad)
     expected_e = (40e-6 + 10e-6) / 2 * w_n * 4 / W10 / s.cycle_s
     assert rm.cycle_mean_inputs(SITE, s, sf)[2] == pytest.approx(expected_e, rel=1e-9)
+
+
+def test_convention_gyro_misalignment_by_name_from_the_triad_model():
+    """Static IMU, body = ENU, only M_xy = 5 urad built by name through the triad model: by hand,
+    gyro x reads M_xy times the Earth rate about y (north), W cos L, so eE = M_xy W cos L and
+    eN = eU = 0 (the transposed order, M_yx, would have gyro y read the east rate: zero)."""
+    from inertest.models.triad import TriadErrors
+
+    imu = rm.ImuErrors.from_triads(TriadErrors.from_engineering(
+        "gyroscope", misalignment_urad={"M_xy": 5.0}, bias=[0.01, 0.0, 0.0]))
+    s = rm.make_scheme("none", 600.0)
+    u = rm.navigation_inputs(SITE, s, imu, [0.0])[0]
+    w, lat = SITE.earth_rate_rad_s, SITE.latitude_rad
+    np.testing.assert_allclose(u[2:], [5e-6 * w * math.cos(lat) + 0.01 * DEG_H, 0.0, 0.0],
+                               rtol=1e-12, atol=1e-24)
+    assert imu.gyro_misalignment[0, 1] == pytest.approx(5e-6, rel=1e-15)

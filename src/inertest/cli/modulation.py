@@ -10,6 +10,7 @@ import numpy as np
 from inertest.cli._common import echo_json, parse_float_list, print_table
 from inertest.ins.error_model import InsSite
 from inertest.io.atomic import target_file, write_text
+from inertest.models import triad
 from inertest.report.html import page
 from inertest.report.modulation import (
     SYSTEM_RESIDUAL_HEADER,
@@ -23,7 +24,6 @@ from inertest.report.modulation import (
 from inertest.studies import rotation_modulation as rm
 from inertest.studies import stator_modulation as sm
 from inertest.units import (
-    ARCSEC_TO_RAD,
     DEG_PER_H_TO_RAD_PER_S,
     DEG_PER_S_TO_RAD_PER_S,
     HOUR_TO_S,
@@ -145,9 +145,9 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
               help="Gyro scale-factor errors X,Y,Z [ppm] (couple with mount and Earth rate).")
 @click.option("--accel-scale-factor-ppm", default="0,0,0", show_default=True,
               help="Accelerometer scale-factor errors X,Y,Z [ppm].")
-@click.option("--gyro-misalignment-arcsec", default="0,0,0,0,0,0", show_default=True,
-              help="Gyro non-orthogonality XY,XZ,YX,YZ,ZX,ZY [arcsec]: entry ij is gyro i's "
-                   "sensitivity to the rate about body axis j.")
+@click.option("--gyro-misalignment-urad", default="0,0,0,0,0,0", show_default=True,
+              help="Gyro misalignment M_xy,M_xz,M_yx,M_yz,M_zx,M_zy [urad]: M_ij is gyro i's "
+                   "sensitivity to the rate about body axis j (triad model convention).")
 @click.option("--compare", is_flag=True,
               help="Run every scheme on the same IMU errors and tabulate the errors.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (SI, with units).")
@@ -158,7 +158,7 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
 def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_deg_s: float,
            dwell_s: float, alternate: bool, revolutions: int, heading_deg: float,
            gyro_drift_deg_h: str, gyro_drift_trend_deg_h_per_h: str, accel_bias_ug: str,
-           scale_factor_ppm: str, accel_scale_factor_ppm: str, gyro_misalignment_arcsec: str,
+           scale_factor_ppm: str, accel_scale_factor_ppm: str, gyro_misalignment_urad: str,
            compare: bool, as_json: bool, plot: Path | None, report: Path | None) -> None:
     """IMU on a rotating mount in a static-base INS: navigation errors with and without it."""
     if not (np.isfinite(hours) and hours > 0):
@@ -172,7 +172,7 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         np.arange(n + 1) * step_s)
     site = InsSite(np.radians(latitude_deg))
     imu = _imu_errors(gyro_drift_deg_h, gyro_drift_trend_deg_h_per_h, accel_bias_ug,
-                      scale_factor_ppm, accel_scale_factor_ppm, gyro_misalignment_arcsec)
+                      scale_factor_ppm, accel_scale_factor_ppm, gyro_misalignment_urad)
     rate = rate_deg_s * DEG_PER_S_TO_RAD_PER_S
     heading = np.radians(heading_deg)
     if compare:
@@ -211,18 +211,17 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
 def _imu_errors(drift: str, trend: str, bias: str, sf: str, asf: str,
                 mis: str) -> rm.ImuErrors:
     vec = lambda text, name: np.array(parse_float_list(text, name=name, count=3))  # noqa: E731
-    off = parse_float_list(mis, name="--gyro-misalignment-arcsec", count=6)
-    m = np.zeros((3, 3))
-    m[[0, 0, 1, 1, 2, 2], [1, 2, 0, 2, 0, 1]] = np.array(off) * ARCSEC_TO_RAD
-    return rm.ImuErrors(
-        gyro_drift=vec(drift, "--gyro-drift-deg-h") * DEG_PER_H_TO_RAD_PER_S,
-        gyro_drift_rate=vec(trend, "--gyro-drift-trend-deg-h-per-h") * DEG_PER_H_TO_RAD_PER_S
-        / HOUR_TO_S,
-        accel_bias=vec(bias, "--accel-bias-ug") * MICRO_G_TO_M_PER_S2,
-        gyro_scale_factor=vec(sf, "--scale-factor-ppm") * PPM_TO_RATIO,
-        accel_scale_factor=vec(asf, "--accel-scale-factor-ppm") * PPM_TO_RATIO,
-        gyro_misalignment=m,
-    )
+    off = parse_float_list(mis, name="--gyro-misalignment-urad", count=6)
+    gyro = triad.TriadErrors.from_engineering(
+        "gyroscope", scale_ppm=vec(sf, "--scale-factor-ppm"),
+        misalignment_urad=dict(zip(triad.MISALIGNMENT_NAMES, off, strict=True)),
+        bias=vec(drift, "--gyro-drift-deg-h"))
+    accel = triad.TriadErrors(
+        scale_deviation=vec(asf, "--accel-scale-factor-ppm") * PPM_TO_RATIO,
+        bias=vec(bias, "--accel-bias-ug") * MICRO_G_TO_M_PER_S2)
+    return rm.ImuErrors.from_triads(
+        gyro, accel, gyro_drift_rate=vec(trend, "--gyro-drift-trend-deg-h-per-h")
+        * DEG_PER_H_TO_RAD_PER_S / HOUR_TO_S)
 
 
 def _imu_json(imu: rm.ImuErrors) -> dict:

@@ -59,10 +59,10 @@ the body and averages out except over the rests at either end (``W_ie cos L`` x 
 360 deg for 2 s at 50 deg latitude); in ``G`` it is up to ``W_ie cos L`` per g (9.7 deg/h/g at
 50 deg: below the noise of a MEMS session, not of a FOG triad). Nor the wobble of a hand turn.
 
-Results (units of :mod:`~inertest.procedures.triad_common`): ``Ka_*`` [count/(m/s^2)], ``Kg_*``
-[count/(rad/s)] (``1`` with a ppm deviation when the raw unit is physical), misalignments
-``Ma_ij``, ``Mg_ij`` [urad; arcsec in the JSON ``triads`` block], biases ``Ba_*`` [mg], ``Bg_*``
-[deg/h], g-sensitivity ``Gg_ij`` [deg/h/g], and the ``calibration`` block.
+Results (units and conventions of :mod:`inertest.models.triad`): ``Ka_*`` [count/(m/s^2)],
+``Kg_*`` [count/(deg/s): a count column is a rate reading per sample] (``1`` with a ppm
+deviation when the raw unit is physical), misalignments ``Ma_ij``, ``Mg_ij`` [urad], biases
+``Ba_*`` [mg], ``Bg_*`` [deg/h], g-sensitivity ``Gg_ij`` [deg/h/g], and the ``calibration`` block.
 
 Data columns: ``part`` (x_p, x_a, y_p, y_a, z_p, z_a, x_rot, y_rot, z_rot; other labels are
 ignored), ``acc_x``, ``acc_y``, ``acc_z`` [acc_unit], ``gyr_x``, ``gyr_y``, ``gyr_z``
@@ -82,15 +82,15 @@ from scipy.spatial.transform import Rotation
 from inertest.earth import OMEGA_IE, earth_rate_enu
 from inertest.equipment import ferraris_session as session
 from inertest.errors import DataError, IdentifiabilityError, PlanError
+from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
 from inertest.plan import Plan
-from inertest.procedures import triad_common as tc
 from inertest.procedures.spec import check_no_unknown_keys, require_columns
+from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
 from inertest.results import Estimate, Identification
 from inertest.units import (
     ACCEL_UNITS,
     COUNT_UNITS,
-    DEG_PER_H_TO_RAD_PER_S,
     DEG_TO_RAD,
     G0,
     MILLI_G_TO_M_PER_S2,
@@ -108,9 +108,9 @@ def _prefixed(names: tuple[str, ...], letter: str) -> tuple[str, ...]:
     return tuple(f"{n[0]}{letter}{n[1:]}" for n in names)
 
 
-ACC_NAMES = _prefixed(tc.parameter_names(False), "a")
-GYR_NAMES = _prefixed(tc.parameter_names(False), "g")
-G_NAMES = _prefixed(tc.G_SENSITIVITY_NAMES, "g")
+ACC_NAMES = _prefixed(triad.parameter_names(False), "a")
+GYR_NAMES = _prefixed(triad.parameter_names(False), "g")
+G_NAMES = _prefixed(triad.G_SENSITIVITY_NAMES, "g")
 #: Tolerance of the calibrated face gravity check [m/s^2] (10 mg): a face whose |a| misses g by
 #: more moved during the recording or is mislabelled (tilt and MEMS noise give < 1 mg).
 FACE_GRAVITY_TOLERANCE_M_S2 = 10e-3 * G0
@@ -191,14 +191,17 @@ class FerrarisSpec:
         return cls(**kw)  # type: ignore[arg-type]
 
     @property
-    def acc_scale(self) -> tc.ScaleUnit:
+    def acc_scale(self) -> triad.ScaleUnit:
         """How the accelerometer scale factors are reported (``count/(m/s^2)`` or ``1``)."""
-        return tc.scale_unit(self.acc_unit, "accelerometer")
+        return triad.scale_unit(self.acc_unit, "accelerometer")
 
     @property
-    def gyr_scale(self) -> tc.ScaleUnit:
-        """How the gyro scale factors are reported (``count/(rad/s)`` or ``1``)."""
-        return tc.scale_unit(self.gyr_unit, "gyroscope")
+    def gyr_scale(self) -> triad.ScaleUnit:
+        """How the gyro scale factors are reported (``count/(deg/s)`` or ``1``).
+
+        A ``count`` gyro column is a rate reading per sample (:mod:`inertest.models.triad`).
+        """
+        return triad.scale_unit(self.gyr_unit, "gyroscope")
 
 
 SPEC = FerrarisSpec
@@ -239,20 +242,20 @@ class FaceStats:
 
 
 @dataclass(frozen=True, kw_only=True)
-class FerrarisResult(tc.TriadResult):
-    """Outcome of :func:`fit` for a Ferraris session (a :class:`~.triad_common.TriadResult`).
+class FerrarisResult(TriadResult):
+    """Outcome of :func:`fit` for a Ferraris session (a :class:`~.triad_multiposition.TriadResult`).
 
     Attributes
     ----------
     identification : Identification
         Scale factors ``Ka_*`` [count/(m/s^2), or 1 for a physical raw unit], ``Kg_*``
-        [count/(rad/s) or 1], misalignments ``Ma_ij``, ``Mg_ij`` [urad], input-referred biases
+        [count/(deg/s) or 1], misalignments ``Ma_ij``, ``Mg_ij`` [urad], input-referred biases
         ``Ba_*`` [mg], ``Bg_*`` [deg/h] and, if asked, ``Gg_ij`` [deg/h/g]; the residuals are
         the six off-axis face-pair sums [acc_unit].
     calibration : ImuCalibration
         ``calibrated = matrix @ (raw - offset)`` (gyro: ``raw - G @ a_cal - offset``), SI.
     triads : tuple of TriadEstimates
-        The same estimates per triad (JSON ``"triads"``, misalignments also in arcsec).
+        The same estimates per triad (JSON ``"triads"``).
     stats : FaceStats
     face_gravity_error_m_s2 : ndarray, shape (6,)
         ``|a_cal| - g`` of each face mean after calibration [m/s^2].
@@ -271,9 +274,9 @@ class FerrarisResult(tc.TriadResult):
     rotation_deg: float
     procedure: str = KIND
 
-    def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary with the calibration block and the checks."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d = super().details()
         d["calibration"] = self.calibration.to_dict()
         d["checks"] = {
             "face_gravity_error": {
@@ -433,10 +436,10 @@ def _parameters(
     A_a: NDArray, b_a: NDArray, A_g: NDArray, b_g: NDArray, G: NDArray, with_g: bool,
     spec: FerrarisSpec,
 ) -> tuple[NDArray, NDArray]:
-    """triad_common parameter vectors ``[S.ravel(), b, (G.ravel())]`` in raw SI."""
+    """Triad-model parameter vectors ``[S.ravel(), b, (G.ravel())]`` in raw SI."""
     ra, rg = spec.acc_scale.raw_si_per_raw, spec.gyr_scale.raw_si_per_raw
-    p_a = tc.stack_parameters(A_a * ra, b_a * ra)
-    p_g = tc.stack_parameters(A_g * rg, b_g * rg, G * rg if with_g else None)
+    p_a = triad.stack_parameters(A_a * ra, b_a * ra)
+    p_g = triad.stack_parameters(A_g * rg, b_g * rg, G * rg if with_g else None)
     return p_a, p_g
 
 
@@ -522,23 +525,23 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
     sa, sg = spec.acc_scale, spec.gyr_scale
     n_a = 12
 
-    def engineering(p: NDArray) -> NDArray:
-        return np.concatenate([tc.engineering(p[:n_a], "accelerometer", sa),
-                               tc.engineering(p[n_a:], "gyroscope", sg)])
-
-    values = engineering(p0)
-    Je = _jacobian(engineering, p0, np.sqrt(np.clip(np.diag(cov_p), 0.0, None)))
+    # The triad model's Jacobian, block-diagonal over the two triads (cross terms kept).
+    v_a, J_a = triad.engineering_jacobian(p0[:n_a], "accelerometer", sa)
+    v_g, J_g = triad.engineering_jacobian(p0[n_a:], "gyroscope", sg)
+    values = np.concatenate([v_a, v_g])
+    Je = np.block([[J_a, np.zeros((J_a.shape[0], J_g.shape[1]))],
+                   [np.zeros((J_g.shape[0], J_a.shape[1])), J_g]])
     cov_out = Je @ cov_p @ Je.T
     std = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
     triads = (
-        tc.TriadEstimates.from_parameters(p0[:n_a], cov_p[:n_a, :n_a], sensor="accelerometer",
-                                          scale=sa),
-        tc.TriadEstimates.from_parameters(p0[n_a:], cov_p[n_a:, n_a:], sensor="gyroscope",
-                                          scale=sg),
+        TriadEstimates.from_parameters(p0[:n_a], cov_p[:n_a, :n_a], sensor="accelerometer",
+                                       scale=sa),
+        TriadEstimates.from_parameters(p0[n_a:], cov_p[n_a:, n_a:], sensor="gyroscope",
+                                       scale=sg),
     )
 
     names = ACC_NAMES + GYR_NAMES + (G_NAMES if with_g else ())
-    ua, ug = tc.units_of("accelerometer", sa), tc.units_of("gyroscope", sg, with_g)
+    ua, ug = triad.units_of("accelerometer", sa), triad.units_of("gyroscope", sg, with_g)
     units = tuple(ua.values()) + tuple(ug.values())
     coefficients = {
         nm: Estimate(nm, float(v), float(s), u)
@@ -565,7 +568,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
         accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
         gyroscope=TriadCalibration(np.linalg.inv(A_g), b_g, unit="rad/s",
                                    raw_unit=spec.gyr_unit, g_sensitivity=G if with_g else None),
-    )  # in the recorded raw units: the same as tc.calibration_from_parameters
+    )  # in the recorded raw units: the same as triad.calibration_from_parameters
     face_acc = (stats.acc_mean - b_a) @ cal_a.T
     face_err = np.linalg.norm(face_acc, axis=1) - g
     acc_int = (stats.turn_acc_integral - turn_s[:, None] * b_a) @ cal_a.T
@@ -630,30 +633,16 @@ def _model_from_truth(
             "Gg_xx.. [deg/h/g], face_tilt_deg, acc_noise, gyr_noise"
         )
 
-    mats = []
-    for letter, sensor, scale, b_si in (
-        ("a", "accelerometer", spec.acc_scale, MILLI_G_TO_M_PER_S2),
-        ("g", "gyroscope", spec.gyr_scale, DEG_PER_H_TO_RAD_PER_S),
-    ):
-        K = []
-        for a in AXES:
-            key = f"K{letter}_{a}"
-            if key in truth:
-                K.append(float(truth[key]))
-            elif scale.nominal is not None:
-                K.append(scale.nominal)
-            else:
-                raise PlanError(f"truth needs {key} (the {sensor} scale factor in {scale.unit})")
-        M = np.zeros((3, 3))
-        for i, j in _OFF:
-            M[i, j] = float(truth.get(f"M{letter}_{AXES[i]}{AXES[j]}", 0.0)) * tc.URAD_TO_RAD
-        # raw unit per input SI unit (the scale is in raw-SI per SI; divide by raw-SI per raw)
-        A = np.diag(np.array(K) * scale.si_per_unit / scale.raw_si_per_raw) @ (np.eye(3) + M)
-        B = np.array([float(truth.get(f"B{letter}_{a}", 0.0)) for a in AXES]) * b_si
-        mats += [A, A @ B]
-    Gi = np.array([float(truth.get(nm, 0.0)) for nm in G_NAMES]).reshape(3, 3)
-    G = mats[2] @ (Gi * DEG_PER_H_TO_RAD_PER_S / G0)
-    return mats[0], mats[1], mats[2], mats[3], G
+    out = []
+    for letter, sensor, scale in (("a", "accelerometer", spec.acc_scale),
+                                  ("g", "gyroscope", spec.gyr_scale)):
+        p = triad.parameters_from_engineering(truth, sensor, scale, prefix=letter,
+                                              what=f"truth of the {sensor}")
+        r = scale.raw_si_per_raw  # raw unit per input SI unit: divide the raw-SI parameters
+        out += [p[:9].reshape(3, 3) / r, p[9:12] / r]
+        if sensor == "gyroscope":
+            out.append(p[12:21].reshape(3, 3) / r if p.size == 21 else np.zeros((3, 3)))
+    return out[0], out[1], out[2], out[3], out[4]
 
 
 def simulate(
@@ -666,7 +655,7 @@ def simulate(
     """A virtual Ferraris session: six faces (random tilts if asked), three turns.
 
     ``truth``: ``Ka_*`` [count/(m/s^2) or 1], ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``
-    [count/(rad/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], ``Gg_ij`` [deg/h/g] (the units of
+    [count/(deg/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], ``Gg_ij`` [deg/h/g] (the units of
     the fit's result), and
     ``face_tilt_deg`` (std of each face's random tilt about each horizontal axis, default 0),
     ``acc_noise``, ``gyr_noise`` (white noise per sample in the raw units; default ``noise``,

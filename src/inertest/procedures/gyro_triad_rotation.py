@@ -4,8 +4,10 @@ Output model of the triad (seed ``003_f374f866dfe7c99f.txt``, eq. (1), written f
 
     raw = K (I + M) w + b = A w + b,     bias B = A^-1 b (input-referred) [deg/h]
 
-``K = diag(K_x, K_y, K_z)`` scale factors, ``M`` the misalignment (zero diagonal; ``M_ij`` is
-gyro i's sensitivity to rate about axis j, the seed's ``DH_ji``), ``w`` the body rate on the
+The model, its names, units and conventions are those of :mod:`inertest.models.triad`:
+``K = diag(K_x, K_y, K_z)`` scale factors [count/deg for a pulse output read as count/s],
+``M`` the misalignment [urad] (zero diagonal; ``M_ij`` is gyro i's sensitivity to rate about
+axis j, the seed's ``DH_ji``), ``w`` the body rate on the
 triad's orthogonal reference axes. The seed writes it per pulse count: ``k_x N_gx = w_x + DH_yx
 w_y + DH_zx w_z + e_x0``, i.e. ``k_x = 1/K_x`` (rate per pulse), ``DH_yx = M_xy`` and
 ``e = K^-1 b = (I + M) B`` (equal to ``B`` to first order; ``B`` is the rate input that gives
@@ -50,25 +52,17 @@ from numpy.typing import NDArray
 
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
-from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
-from inertest.plan import Plan
-from inertest.procedures.gyro_rate_table import (
-    check_gyro,
-    complex_step_jacobian,
-    raw_rate_per_si,
-    raw_rate_unit,
-    scale_factor_unit,
-)
+from inertest.models import triad
+from inertest.models.triad import AXES, ImuCalibration
+from inertest.plan import Instrument, Plan
+from inertest.procedures.gyro_rate_table import check_gyro, raw_rate_per_si, raw_rate_unit
 from inertest.procedures.spec import check_no_unknown_keys, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
-from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
+from inertest.units import DEG_TO_RAD
 
 KIND = "gyro-triad-rotation"
-#: Coefficient names in result order.
-SCALE_NAMES = tuple(f"K_{a}" for a in AXES)
-MISALIGNMENT_NAMES = tuple(f"M_{a}{b}" for a in AXES for b in AXES if a != b)
-BIAS_NAMES = tuple(f"B_{a}" for a in AXES)
-NAMES = SCALE_NAMES + MISALIGNMENT_NAMES + BIAS_NAMES
+#: Coefficient names in result order (those of :mod:`inertest.models.triad`).
+NAMES = triad.parameter_names()
 #: Attitude with each axis up, used to suggest the missing rotation.
 _UP_ATTITUDE = {"x": "UEN", "y": "NUE", "z": "ENU"}
 _STATIC = "static"
@@ -205,7 +199,7 @@ class GyroTriadRotationResult(LinearTestResult):
     Attributes
     ----------
     identification : Identification
-        ``K_x..K_z`` [K unit], ``M_xy..M_zy`` [arcsec], ``B_x..B_z`` [deg/h] with covariance.
+        ``K_x..K_z`` [K unit], ``M_xy..M_zy`` [urad], ``B_x..B_z`` [deg/h] with covariance.
     calibration : ImuCalibration
         The gyroscope correction ``calibrated = matrix @ (raw - offset)`` (raw rate).
     forward : ndarray, shape (3, 3)
@@ -243,10 +237,11 @@ class GyroTriadRotationResult(LinearTestResult):
     output_unit: str = "count"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary with the calibration block."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
         d["calibration"] = self.calibration.to_dict()
         d["closed_form_scale"] = {
             k: {"value": v, "unit": self.scale_unit} for k, v in self.closed_form_scale.items()
@@ -419,23 +414,22 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
         sig = np.full(3, sigma / per_si)
     cov_unit = P @ P.T
-    p = coef.T.reshape(-1)  # per gyro i: A_ix, A_iy, A_iz, b_i
-    cov_p = np.kron(np.diag(sig**2), cov_unit)
-    k_unit, k_si = scale_factor_unit(inst.output_unit)
-    values = engineering(p, k_si)
-    J = complex_step_jacobian(lambda q: engineering(q, k_si), p)
-    cov = J @ cov_p @ J.T
+    # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k, all rows share the
+    # design); reorder to the triad model's p = [A.ravel(), b].
+    cov_i = np.kron(np.diag(sig**2), cov_unit)
+    order = [4 * i + j for i in range(3) for j in range(3)] + [4 * i + 3 for i in range(3)]
+    A = coef[:3].T
+    b = coef[3]
+    p = triad.stack_parameters(A, b)
+    raw_unit = raw_rate_unit(inst.output_unit)
+    su = triad.scale_unit(raw_unit, "gyroscope")
+    values, cov = triad.propagate(p, cov_i[np.ix_(order, order)], "gyroscope", su)
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    units = {**dict.fromkeys(SCALE_NAMES, k_unit), **dict.fromkeys(MISALIGNMENT_NAMES, "arcsec"),
-             **dict.fromkeys(BIAS_NAMES, "deg/h")}
+    units = triad.units_of("gyroscope", su)
     coefficients = {
         nm: Estimate(nm, float(values[i]), float(std[i]), units[nm]) for i, nm in enumerate(NAMES)
     }
-    A = coef[:3].T
-    b = coef[3]
-    raw_unit = raw_rate_unit(inst.output_unit)
-    gyro = TriadCalibration(matrix=np.linalg.inv(A) / per_si, offset=b * per_si, unit="rad/s",
-                            raw_unit=raw_unit)
+    gyro = triad.calibration_from_parameters(p, sensor="gyroscope", scale=su, raw_unit=raw_unit)
     ident = Identification(
         coefficients=coefficients,
         combinations=(),
@@ -457,7 +451,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         calibration=ImuCalibration(gyroscope=gyro),
         forward=A * per_si,
         offset=b * per_si,
-        scale_unit=k_unit,
+        scale_unit=su.unit,
         raw_unit=raw_unit,
         part=rows.part,
         axis=rows.axis,
@@ -466,7 +460,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         body_angle_rad=theta,
         counts=rows.counts,
         fitted_counts=(X @ coef) * per_si,
-        closed_form_scale=_closed_form_scale(rows, k_si * per_si),
+        closed_form_scale=_closed_form_scale(rows, su.si_per_unit * per_si),
         residual_output=resid * per_si,
         output_unit=_count_unit(inst.output_unit),
         messages=(),
@@ -475,22 +469,6 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
 
 def _count_unit(output_unit: str) -> str:
     return "count" if output_unit == "count" else f"{output_unit}*s"
-
-
-def engineering(p: NDArray, k_si: float) -> NDArray:
-    """``(K, M, B)`` in engineering units from ``p = [A_x., b_x, A_y., b_y, A_z., b_z]`` (SI).
-
-    ``K_i = A_ii`` [K unit], ``M_ij = A_ij / A_ii`` [arcsec], ``B = A^-1 b`` [deg/h]. Works on
-    complex input (for the complex-step Jacobian).
-    """
-    q = p.reshape(3, 4)
-    A, b = q[:, :3], q[:, 3]
-    d = np.diag(A)
-    M = A / d[:, None]
-    mis = [M[i, j] for i in range(3) for j in range(3) if i != j]
-    B = np.linalg.solve(A, b)
-    return np.concatenate([d / k_si, np.array(mis) / ARCSEC_TO_RAD,
-                           B / DEG_PER_H_TO_RAD_PER_S])
 
 
 def _closed_form_scale(rows: _Rows, k_per_count: float) -> dict[str, float]:
@@ -508,7 +486,8 @@ def truth_model(truth: Mapping[str, float], output_unit: str
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``A`` [raw SI per rad/s] and ``b`` [raw SI rate] from truth names in engineering units.
 
-    ``K_x..K_z`` [K unit; default 1 for rate outputs], ``M_ij`` [arcsec], ``B_x..B_z`` [deg/h].
+    ``K_x..K_z`` [K unit; default 1 for rate outputs], ``M_ij`` [urad], ``B_x..B_z`` [deg/h]
+    (:func:`inertest.models.triad.parameters_from_engineering`).
     """
     unknown = sorted(set(truth) - set(NAMES))
     if unknown:
@@ -516,19 +495,9 @@ def truth_model(truth: Mapping[str, float], output_unit: str
             f"truth for a gyro triad has unknown name(s) {', '.join(unknown)}; known: "
             f"{', '.join(NAMES)}"
         )
-    k_unit, k_si = scale_factor_unit(output_unit)
-    missing = [k for k in SCALE_NAMES if k not in truth]
-    if missing and k_unit != "1":
-        raise PlanError(f"truth needs the scale factors {', '.join(missing)} in {k_unit}")
-    K = np.array([float(truth.get(k, 1.0)) for k in SCALE_NAMES]) * k_si
-    M = np.zeros((3, 3))
-    for i, a in enumerate(AXES):
-        for j, c in enumerate(AXES):
-            if i != j:
-                M[i, j] = float(truth.get(f"M_{a}{c}", 0.0)) * ARCSEC_TO_RAD
-    A = np.diag(K) @ (np.eye(3) + M)
-    B = np.array([float(truth.get(k, 0.0)) for k in BIAS_NAMES]) * DEG_PER_H_TO_RAD_PER_S
-    return A, A @ B
+    su = triad.scale_unit(raw_rate_unit(output_unit), "gyroscope")
+    p = triad.parameters_from_engineering(truth, "gyroscope", su)
+    return p[:9].reshape(3, 3), p[9:12]
 
 
 def plan_rows(spec: GyroTriadRotationSpec) -> dict[str, NDArray]:
@@ -561,7 +530,7 @@ def simulate(
 ) -> dict[str, NDArray]:
     """Counts of a virtual gyro triad over the plan's rotations and static windows.
 
-    ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [arcsec], ``B_i``
+    ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [urad], ``B_i``
     [deg/h]. ``noise``: noise of each window's count [count], or [count/sqrt(s)] times the
     square root of the window with the random-walk noise model.
     """

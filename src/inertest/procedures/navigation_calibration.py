@@ -45,13 +45,16 @@ from inertest.earth import earth_rate_enu
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S
+from inertest.models import triad
+from inertest.models.triad import AXES, decompose
+from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, MICRORAD_TO_RAD
 
-AXES = ("x", "y", "z")
+__all__ = ["AXES", "decompose"]  # re-exported from the triad model
 E_NAMES = tuple(f"E_{a}{b}" for a in AXES for b in AXES)
 BIAS_NAMES = tuple(f"dB_{a}" for a in AXES)
-_OFF = [(i, j) for i in range(3) for j in range(3) if i != j]
 RAD_TO_ARCSEC = 1.0 / ARCSEC_TO_RAD
+#: Parameters in SI: the scale factor is reported in the raw-SI unit (count/rad, 1).
+_SI_SCALE = triad.ScaleUnit("raw SI per rad/s", 1.0, 1.0, None)
 
 
 @dataclass(frozen=True)
@@ -120,8 +123,8 @@ class IterationRecord:
         ``phi`` (E, N, U) at the end of each segment, after the whole turn [arcsec].
     scale_correction_ppm : ndarray, shape (3,)
         ``E_ii`` [ppm] (relative scale-factor error corrected).
-    misalignment_correction_arcsec : ndarray, shape (6,)
-        ``E_ij`` [arcsec], order xy, xz, yx, yz, zx, zy.
+    misalignment_correction_urad : ndarray, shape (6,)
+        ``E_ij`` [urad], order of :data:`inertest.models.triad.MISALIGNMENT_NAMES`.
     bias_correction_deg_h : ndarray, shape (3,)
         ``dbeta`` [deg/h] (zero when the bias is not estimated).
     """
@@ -131,7 +134,7 @@ class IterationRecord:
     attitude_error_max_arcsec: float
     end_error_arcsec: NDArray[np.float64]
     scale_correction_ppm: NDArray[np.float64]
-    misalignment_correction_arcsec: NDArray[np.float64]
+    misalignment_correction_urad: NDArray[np.float64]
     bias_correction_deg_h: NDArray[np.float64]
 
     def to_dict(self) -> dict[str, object]:
@@ -142,7 +145,7 @@ class IterationRecord:
             "attitude_error_max_arcsec": self.attitude_error_max_arcsec,
             "end_error_arcsec": self.end_error_arcsec.tolist(),
             "scale_correction_ppm": self.scale_correction_ppm.tolist(),
-            "misalignment_correction_arcsec": self.misalignment_correction_arcsec.tolist(),
+            "misalignment_correction_urad": self.misalignment_correction_urad.tolist(),
             "bias_correction_deg_h": self.bias_correction_deg_h.tolist(),
         }
 
@@ -189,21 +192,23 @@ class NavigationCalibrationResult:
     dof: int
 
     def to_dict(self, *, scale_unit: str, si_per_scale_unit: float) -> dict[str, object]:
-        """JSON-ready summary; scale factors in ``scale_unit``, angles arcsec, bias deg/h."""
+        """JSON-ready summary in the units of :mod:`inertest.models.triad`.
+
+        Scale factors in ``scale_unit``, misalignments urad, biases deg/h; attitude errors arcsec.
+        """
+        b_unit, b_si = triad.bias_unit("gyroscope")
         coef: dict[str, dict[str, object]] = {}
-        for i, a in enumerate(AXES):
-            coef[f"K_{a}"] = {"value": float(self.scale[i] / si_per_scale_unit),
-                              "std": float(self.scale_std[i] / si_per_scale_unit),
-                              "unit": scale_unit}
-        for k, (i, j) in enumerate(_OFF):
-            coef[f"M_{AXES[i]}{AXES[j]}"] = {
-                "value": float(self.misalignment_rad[k] * RAD_TO_ARCSEC),
-                "std": float(self.misalignment_std_rad[k] * RAD_TO_ARCSEC), "unit": "arcsec"}
-        for i, a in enumerate(AXES):
+        for i, nm in enumerate(triad.SCALE_NAMES):
+            coef[nm] = {"value": float(self.scale[i] / si_per_scale_unit),
+                        "std": float(self.scale_std[i] / si_per_scale_unit), "unit": scale_unit}
+        for k, nm in enumerate(triad.MISALIGNMENT_NAMES):
+            coef[nm] = {"value": float(self.misalignment_rad[k] / MICRORAD_TO_RAD),
+                        "std": float(self.misalignment_std_rad[k] / MICRORAD_TO_RAD),
+                        "unit": triad.MISALIGNMENT_UNIT}
+        for i, nm in enumerate(triad.BIAS_NAMES):
             std = self.bias_std_rad_s[i]
-            coef[f"B_{a}"] = {"value": float(self.bias_rad_s[i] / DEG_PER_H_TO_RAD_PER_S),
-                              "std": None if np.isnan(std) else float(std / DEG_PER_H_TO_RAD_PER_S),
-                              "unit": "deg/h"}
+            coef[nm] = {"value": float(self.bias_rad_s[i] / b_si),
+                        "std": None if np.isnan(std) else float(std / b_si), "unit": b_unit}
         return {
             "coefficients": coef,
             "converged": self.converged,
@@ -211,18 +216,6 @@ class NavigationCalibrationResult:
             "noise": {"sigma": self.noise_arcsec, "unit": "arcsec per check interval"},
             "dof": self.dof,
         }
-
-
-def decompose(A: ArrayLike, b: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-    """Scale factors, misalignments and input-referred bias of ``raw = A w + b``.
-
-    Returns ``K = diag(A)``, the off-diagonals of ``M = K^-1 A - I`` (``A_ij / A_ii``, order
-    xy, xz, yx, yz, zx, zy) and ``B = A^-1 b``; works on complex arrays (complex step).
-    """
-    A = np.asarray(A)
-    d = np.diag(A)
-    M = A / d[:, None]
-    return d, np.array([M[i, j] for i, j in _OFF]), np.linalg.solve(A, np.asarray(b))
 
 
 def cumulative_rotation(increments: Rotation) -> Rotation:
@@ -422,7 +415,7 @@ def iterate_calibration(
             attitude_error_max_arcsec=float(mag.max()),
             end_error_arcsec=np.array([e[-1] for e in per_seg]) * RAD_TO_ARCSEC,
             scale_correction_ppm=np.diag(E) * 1e6,
-            misalignment_correction_arcsec=np.array([E[i, j] for i, j in _OFF]) * RAD_TO_ARCSEC,
+            misalignment_correction_urad=triad.misalignment_values(E) / MICRORAD_TO_RAD,
             bias_correction_deg_h=dbeta / DEG_PER_H_TO_RAD_PER_S,
         ))
         A_prev, b_prev = A, b
@@ -435,14 +428,18 @@ def iterate_calibration(
     p = fit.x
     cov = fit.covariance
 
-    def engineering(x: NDArray) -> NDArray:
-        # The last pass corrected (A_prev, b_prev) by x; its covariance is that of (K, M, B).
-        db = x[9:12] if estimate_bias else np.zeros(3)
-        k, m, bias = decompose(A_prev @ (np.eye(3) + x[:9].reshape(3, 3)), b_prev + A_prev @ db)
-        return np.concatenate([k, m, bias])
-
-    J = _complex_jacobian(engineering, p)
-    std = np.sqrt(np.clip(np.diag(J @ cov @ J.T), 0.0, None))
+    # The last pass corrected (A_prev, b_prev) by x = [E.ravel(), (dbeta)]: the triad model's
+    # p = [S.ravel(), b] with S = A_prev (I + E), b = b_prev + A_prev dbeta is linear in x,
+    # dp/dx = [[kron(A_prev, I), 0], [0, A_prev]]; then the model's Jacobian to (K, M, B).
+    L = np.zeros((12, p.size))
+    L[:9, :9] = np.kron(A_prev, np.eye(3))
+    if estimate_bias:
+        L[9:, 9:12] = A_prev
+    p_model = triad.stack_parameters(A_prev @ (np.eye(3) + E), b_prev + A_prev @ dbeta)
+    _, cov_eng = triad.propagate(p_model, L @ cov @ L.T, "gyroscope", _SI_SCALE)
+    _, b_si = triad.bias_unit("gyroscope")
+    std = np.sqrt(np.clip(np.diag(cov_eng), 0.0, None)) * np.repeat(
+        [1.0, MICRORAD_TO_RAD, b_si], [3, 6, 3])
     k, m, bias = decompose(A, b)
     return NavigationCalibrationResult(
         forward=A, offset=b, initial_forward=A0, initial_offset=b0,
@@ -452,17 +449,6 @@ def iterate_calibration(
         bias_std_rad_s=std[9:12] if estimate_bias else np.full(3, np.nan),
         noise_arcsec=float(fit.sigma * RAD_TO_ARCSEC), dof=fit.dof,
     )
-
-
-def _complex_jacobian(fun, x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Complex-step Jacobian (Squire & Trapp 1998, doi:10.1137/S003614459631241X)."""
-    cols = []
-    for k in range(x.size):
-        h = 1e-20 * max(abs(x[k]), 1e-30)
-        xc = x.astype(complex)
-        xc[k] += 1j * h
-        cols.append(np.imag(fun(xc)) / h)
-    return np.column_stack(cols)
 
 
 def simulate_segment(

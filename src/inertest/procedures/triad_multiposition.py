@@ -10,7 +10,7 @@ known attitude, :mod:`inertest.equipment.multiposition`), ``S`` a general 3x3 ma
 m/s^2] and ``b`` the bias [raw]. The model is linear in the 12 unknowns (``S`` row-wise, ``b``),
 solved by least squares axis by axis (each output with its own noise level) and decomposed into
 3 scale factors ``K_i = S_ii``, 6 misalignments ``M_ij = S_ij / S_ii`` (reference frame = the
-fixture's axes, so all six are identifiable; see :mod:`inertest.procedures.triad_common`) and
+fixture's axes, so all six are identifiable; conventions in :mod:`inertest.models.triad`) and
 input-referred biases ``B = S^-1 b``. Identifiability: each output needs the specific force to
 span all three reference axes *and* to vary along each (up and down), i.e. the design
 ``[f^T, 1]`` of rank 4; otherwise the error names the scale factor / misalignment that is lost
@@ -28,13 +28,23 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment import multiposition as mp
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.models.triad import AXES, ImuCalibration
-from inertest.plan import Plan
+from inertest.models import triad
+from inertest.models.triad import (
+    AXES,
+    BIAS_NAMES,
+    MISALIGNMENT_NAMES,
+    SCALE_NAMES,
+    ImuCalibration,
+    ScaleUnit,
+    calibration_from_parameters,
+    stack_parameters,
+)
+from inertest.plan import Instrument, Plan
 from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
@@ -42,19 +52,8 @@ from inertest.procedures.spec import (
     noise_samples,
     require_columns,
 )
-from inertest.procedures.triad_common import (
-    BIAS_NAMES,
-    MISALIGNMENT_NAMES,
-    SCALE_NAMES,
-    URAD_TO_RAD,
-    ScaleUnit,
-    TriadResult,
-    bias_unit,
-    calibration_from_parameters,
-    scale_unit,
-    stack_parameters,
-    triad_identification,
-)
+from inertest.results import Estimate, Identification, LinearTestResult
+from inertest.units import MICRORAD_TO_RAD
 
 KIND = "triad-multiposition"
 OUTPUT_COLUMNS = tuple(f"output_{a}" for a in AXES)
@@ -110,6 +109,168 @@ class TriadMultipositionSpec:
 SPEC = TriadMultipositionSpec
 
 
+# ---------------------------------------------------------------------------------------------
+# Result types of every triad procedure (this one and :mod:`inertest.procedures.ferraris`): the
+# engineering estimates of the model of :mod:`inertest.models.triad`, and the calibration block.
+
+
+@dataclass(frozen=True)
+class TriadEstimates:
+    """One triad's scale factors, misalignments and biases with standard uncertainties.
+
+    Attributes
+    ----------
+    sensor : {"accelerometer", "gyroscope"}
+    scale, misalignment, bias : dict of Estimate
+        ``K_i`` [scale unit], ``M_ij`` [urad], ``B_i`` [mg or deg/h].
+    scale_ppm : dict of Estimate
+        Deviation of ``K_i`` from the nominal [ppm]; empty when there is no nominal.
+    g_sensitivity : dict of Estimate
+        ``G_ij`` [deg/h/g] (gyros with a g-sensitivity model; otherwise empty).
+    covariance : ndarray
+        Covariance of all values in :func:`~inertest.models.triad.parameter_names` order,
+        engineering units.
+    """
+
+    sensor: str
+    scale: dict[str, Estimate]
+    misalignment: dict[str, Estimate]
+    bias: dict[str, Estimate]
+    scale_ppm: dict[str, Estimate] = field(default_factory=dict)
+    g_sensitivity: dict[str, Estimate] = field(default_factory=dict)
+    covariance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
+
+    @classmethod
+    def from_parameters(
+        cls, p: ArrayLike, covariance: ArrayLike, *, sensor: str, scale: triad.ScaleUnit
+    ) -> TriadEstimates:
+        """Build from the SI parameter vector ``[S.ravel(), b, (G.ravel())]`` and its covariance."""
+        value, cov = triad.propagate(p, covariance, sensor, scale)
+        names = triad.parameter_names(value.size == 21)
+        units = triad.units_of(sensor, scale, value.size == 21)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        est = {n: Estimate(n, float(v), float(s), units[n])
+               for n, v, s in zip(names, value, std, strict=True)}
+        ppm = {}
+        if scale.nominal is not None:
+            ppm = {
+                n: Estimate(n, (est[n].value / scale.nominal - 1.0) * 1e6,
+                            est[n].std / abs(scale.nominal) * 1e6, triad.SCALE_DEVIATION_UNIT)
+                for n in triad.SCALE_NAMES
+            }
+        return cls(
+            sensor=sensor,
+            scale={n: est[n] for n in triad.SCALE_NAMES},
+            misalignment={n: est[n] for n in triad.MISALIGNMENT_NAMES},
+            bias={n: est[n] for n in triad.BIAS_NAMES},
+            scale_ppm=ppm,
+            g_sensitivity={n: est[n] for n in triad.G_SENSITIVITY_NAMES if n in est},
+            covariance=cov,
+        )
+
+    def all_estimates(self) -> dict[str, Estimate]:
+        """Every estimate by name (scale, misalignment, bias, g-sensitivity)."""
+        return {**self.scale, **self.misalignment, **self.bias, **self.g_sensitivity}
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON of the estimates with their units and covariance.
+
+        Keys: ``scale_factor`` (+ ``scale_factor_ppm``), ``misalignment`` [urad], ``bias``,
+        [``g_sensitivity``], ``covariance`` (names, matrix, same units).
+        """
+        def block(d: dict[str, Estimate]) -> dict[str, object]:
+            return {k: e.to_dict() for k, e in d.items()}
+
+        out: dict[str, object] = {
+            "scale_factor": block(self.scale),
+            "misalignment": block(self.misalignment),
+            "bias": block(self.bias),
+        }
+        if self.scale_ppm:
+            out["scale_factor_ppm"] = block(self.scale_ppm)
+        if self.g_sensitivity:
+            out["g_sensitivity"] = block(self.g_sensitivity)
+        if self.covariance.size:
+            out["covariance"] = {"names": list(self.all_estimates()),
+                                 "matrix": self.covariance.tolist()}
+        return out
+
+
+def triad_identification(
+    p: ArrayLike,
+    covariance: ArrayLike,
+    *,
+    sensor: str,
+    scale: triad.ScaleUnit,
+    noise_sigma: float,
+    noise_unit: str,
+    sigma_from_residuals: bool,
+    dof: int,
+    rank: int,
+    residuals: ArrayLike,
+) -> tuple[TriadEstimates, Identification]:
+    """The engineering estimates and an :class:`Identification` (``K``, ``M``, ``B`` names).
+
+    Use only when every parameter is identifiable (triad procedures raise
+    :class:`~inertest.errors.IdentifiabilityError` before, naming what is missing).
+    """
+    est = TriadEstimates.from_parameters(p, covariance, sensor=sensor, scale=scale)
+    coefficients = est.all_estimates()
+    ident = Identification(
+        coefficients=coefficients,
+        combinations=(),
+        not_separable=(),
+        covariance=est.covariance,
+        names=tuple(coefficients),
+        noise_sigma=noise_sigma,
+        noise_unit=noise_unit,
+        sigma_from_residuals=sigma_from_residuals,
+        dof=dof,
+        rank=rank,
+        residuals=np.asarray(residuals, dtype=float),
+    )
+    return est, ident
+
+
+@dataclass(frozen=True, kw_only=True)
+class TriadResult(LinearTestResult):
+    """Result of a triad procedure (keyword-only fields, so procedures can subclass freely).
+
+    Attributes
+    ----------
+    procedure : str
+    site_latitude_deg, site_gravity_m_s2 : float
+    identification : Identification
+        ``K_i``, ``M_ij``, ``B_i`` (and ``G_ij``) with covariance in engineering units.
+    calibration : ImuCalibration
+        The correction to apply to recordings (JSON ``"calibration"`` block).
+    triads : tuple of TriadEstimates
+        Per-triad engineering estimates (accelerometer and/or gyroscope).
+    residual_output : ndarray
+        Residuals [output_unit].
+    output_unit : str
+    messages : tuple of str
+    """
+
+    procedure: str
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    identification: Identification
+    calibration: ImuCalibration
+    triads: tuple[TriadEstimates, ...]
+    residual_output: NDArray[np.float64] = field(repr=False)
+    output_unit: str
+    messages: tuple[str, ...] = ()
+    instrument: Instrument | None = None
+
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
+        d["calibration"] = self.calibration.to_dict()
+        d["triads"] = {t.sensor: t.to_dict() for t in self.triads}
+        return d
+
+
 @dataclass(frozen=True, kw_only=True)
 class TriadMultipositionResult(TriadResult):
     """Outcome of :func:`fit`.
@@ -136,9 +297,9 @@ class TriadMultipositionResult(TriadResult):
     noise_per_axis: dict[str, float]
     six_position: dict[str, list[float]]
 
-    def to_dict(self) -> dict[str, object]:
-        """Triad layout plus noise per axis and the closed-form six-position values."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d = super().details()
         d["noise_per_axis"] = {k: {"value": v, "unit": self.output_unit}
                                for k, v in self.noise_per_axis.items()}
         if self.six_position:
@@ -151,14 +312,11 @@ def _scale(plan: Plan) -> ScaleUnit:
     if inst.kind not in ("accelerometer-triad", "imu"):
         raise PlanError(f'{KIND} calibrates an accelerometer triad: set [instrument] kind = '
                         f'"accelerometer-triad" (or "imu"), not "{inst.kind}"')
-    su = scale_unit(inst.output_unit, "accelerometer")
+    su = triad.scale_unit(inst.output_unit, "accelerometer")
     if su.unit != "1" and inst.output_unit != "count":
         raise PlanError(f'output_unit "{inst.output_unit}" is not a specific-force unit; use '
                         'count, m/s^2, g, mg or ug')
-    nominal = plan.procedure.nominal_scale_factor
-    if nominal is not None and su.nominal is None:
-        su = ScaleUnit(su.unit, su.si_per_unit, su.raw_si_per_raw, nominal)
-    return su
+    return su.with_nominal(plan.procedure.nominal_scale_factor)
 
 
 def check_identifiable(f: NDArray[np.float64], labels: NDArray) -> None:
@@ -336,7 +494,7 @@ def fit(
 
 
 def _messages(misalignment: Mapping[str, object]) -> list[str]:
-    big = [k for k, e in misalignment.items() if abs(e.value) > 0.05 / URAD_TO_RAD]  # type: ignore[attr-defined]
+    big = [k for k, e in misalignment.items() if abs(e.value) > 0.05 / MICRORAD_TO_RAD]  # type: ignore[attr-defined]
     if big:
         return [f"misalignment {', '.join(big)} exceed 50 mrad: the small-angle model K (I + M) "
                 "is only approximate; check the mounting and the position labels"]
@@ -348,26 +506,16 @@ def truth_model(truth: Mapping[str, float], su: ScaleUnit
     """``S`` [raw SI per m/s^2] and ``b`` [raw SI] from truth names in engineering units.
 
     ``K_x..K_z`` [scale unit; default 1 for physical outputs], ``M_ij`` [urad], ``B_x..B_z``
-    [mg, input-referred, so ``b = S B``].
+    [mg, input-referred, so ``b = S B``]
+    (:func:`inertest.models.triad.parameters_from_engineering`).
     """
     names = (*SCALE_NAMES, *MISALIGNMENT_NAMES, *BIAS_NAMES)
     unknown = sorted(set(truth) - set(names))
     if unknown:
         raise PlanError(f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
                         f"{', '.join(names)}")
-    missing = [k for k in SCALE_NAMES if k not in truth]
-    if missing and su.nominal is None:
-        raise PlanError(f"truth needs the scale factors {', '.join(missing)} in {su.unit}")
-    K = np.array([float(truth.get(k, su.nominal or 1.0)) for k in SCALE_NAMES]) * su.si_per_unit
-    M = np.zeros((3, 3))
-    for i, a in enumerate(AXES):
-        for j, c in enumerate(AXES):
-            if i != j:
-                M[i, j] = float(truth.get(f"M_{a}{c}", 0.0)) * URAD_TO_RAD
-    S = np.diag(K) @ (np.eye(3) + M)
-    _, b_si = bias_unit("accelerometer")
-    B = np.array([float(truth.get(k, 0.0)) for k in BIAS_NAMES]) * b_si
-    return S, S @ B
+    p = triad.parameters_from_engineering(truth, "accelerometer", su)
+    return p[:9].reshape(3, 3), p[9:12]
 
 
 def simulate(

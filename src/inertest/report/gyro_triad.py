@@ -129,8 +129,8 @@ def convergence_figure(result: NavigationCalibrationResult):
     for j, a in enumerate(AXES):
         a2.semilogy(it, [max(abs(h.scale_correction_ppm[j]), 1e-12) for h in result.history],
                     "o-", label=f"|δK_{a}| [ppm]")
-    a2.semilogy(it, [max(np.max(np.abs(h.misalignment_correction_arcsec)), 1e-12)
-                     for h in result.history], "k^--", label="max |δM| [arcsec]")
+    a2.semilogy(it, [max(np.max(np.abs(h.misalignment_correction_urad)), 1e-12)
+                     for h in result.history], "k^--", label="max |δM| [µrad]")
     a2.set_xlabel("iteration")
     a2.set_ylabel("correction")
     a2.grid(alpha=0.3, which="both")
@@ -157,11 +157,11 @@ def navigation_sections(
     hist = [[h.iteration, f"{h.attitude_error_rms_arcsec:.4g}",
              f"{h.attitude_error_max_arcsec:.4g}",
              ", ".join(f"{v:+.4g}" for v in h.scale_correction_ppm),
-             f"{np.max(np.abs(h.misalignment_correction_arcsec)):.4g}",
+             f"{np.max(np.abs(h.misalignment_correction_urad)):.4g}",
              ", ".join(f"{v:+.3g}" for v in h.bias_correction_deg_h)] for h in result.history]
     sec.parts.append(table_html(
         ["iteration", "rms error [arcsec]", "max error [arcsec]", "δK x, y, z [ppm]",
-         "max |δM| [arcsec]", "δB x, y, z [deg/h]"], hist))
+         "max |δM| [urad]", "δB x, y, z [deg/h]"], hist))
     sec.parts.append(figure_html(convergence_figure(result),
                                  "Attitude error and corrections per iteration"))
     return [sec]

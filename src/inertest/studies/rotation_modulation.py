@@ -127,6 +127,7 @@ from inertest.ins.error_model import (
     input_matrix,
     system_matrix,
 )
+from inertest.models import triad
 
 __all__ = [
     "SCHEMES",
@@ -394,6 +395,10 @@ def make_scheme(
 class ImuErrors:
     """IMU errors fixed in the body frame, SI.
 
+    The gyro and accelerometer errors are those of the triad model
+    (:class:`inertest.models.triad.TriadErrors`: conventions, index order and units written
+    there); build them from the model with :meth:`from_triads`.
+
     Attributes
     ----------
     gyro_drift : (3,)
@@ -405,8 +410,8 @@ class ImuErrors:
     gyro_scale_factor : (3,)
         Gyro scale-factor errors dK [-] (ppm x 1e-6).
     gyro_misalignment : (3, 3)
-        Off-diagonal gyro misalignment (non-orthogonality) [rad]: entry (i, j) is the
-        sensitivity of gyro i to the rate about body axis j; the diagonal must be zero.
+        Off-diagonal gyro misalignment (non-orthogonality) [rad]: entry (i, j) is ``M_ij`` of
+        the triad model, the sensitivity of gyro i to the rate about body axis j; zero diagonal.
     accel_scale_factor : (3,)
         Accelerometer scale-factor errors [-].
     """
@@ -427,14 +432,39 @@ class ImuErrors:
                 raise InputError(f"IMU error {name} must be finite with shape {shape}, got "
                                  f"{np.shape(getattr(self, name))}")
             object.__setattr__(self, name, a.copy())
-        if np.any(np.diag(self.gyro_misalignment) != 0):
-            raise InputError("gyro_misalignment must have a zero diagonal: put scale-factor "
-                             "errors in gyro_scale_factor")
+        triad.check_misalignment(self.gyro_misalignment, "gyro_misalignment")
+
+    @classmethod
+    def from_triads(
+        cls,
+        gyro: triad.TriadErrors | None = None,
+        accel: triad.TriadErrors | None = None,
+        *,
+        gyro_drift_rate: ArrayLike = (0.0, 0.0, 0.0),
+    ) -> ImuErrors:
+        """From the triad model's errors: gyro (bias = drift), accelerometer, drift trend.
+
+        The accelerometer misalignment is not part of this analysis (only the horizontal bias
+        and scale factor enter); a non-zero one is refused rather than dropped.
+        """
+        g = gyro if gyro is not None else triad.TriadErrors()
+        a = accel if accel is not None else triad.TriadErrors()
+        if np.any(a.misalignment != 0):
+            raise InputError("rotation modulation does not model accelerometer misalignment; "
+                             "give the accelerometer triad's scale factors and bias only")
+        return cls(gyro_drift=g.bias, gyro_drift_rate=np.asarray(gyro_drift_rate, dtype=float),
+                   accel_bias=a.bias, gyro_scale_factor=g.scale_deviation,
+                   gyro_misalignment=g.misalignment, accel_scale_factor=a.scale_deviation)
+
+    @property
+    def gyro_triad(self) -> triad.TriadErrors:
+        """The gyro errors as the triad model's :class:`~inertest.models.triad.TriadErrors`."""
+        return triad.TriadErrors(self.gyro_scale_factor, self.gyro_misalignment, self.gyro_drift)
 
     @property
     def gyro_matrix(self) -> NDArray[np.float64]:
-        """``M_g = diag(dK) + misalignment`` [-]."""
-        return np.diag(self.gyro_scale_factor) + self.gyro_misalignment
+        """``M_g = diag(dK) + misalignment`` [-] (:func:`inertest.models.triad.error_matrix`)."""
+        return triad.error_matrix(self.gyro_scale_factor, self.gyro_misalignment)
 
 
 def _inputs(site: InsSite, imu: ImuErrors, c: NDArray, w_nb_b: NDArray,
