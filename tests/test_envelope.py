@@ -1,0 +1,125 @@
+"""One result contract: every command's --json is the envelope; every kind is stored, read back
+and rendered by the report (a generic section where a kind has no special one)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inertest.cli import main
+from inertest.procedures import REGISTRY
+from inertest.report.html import page
+from inertest.report.sections import envelope_sections
+from inertest.results import ENVELOPE_KEYS, SCHEMA_VERSION
+from inertest.store import HistoryStore, RunRecord
+
+#: Procedure kind -> (plan folder, truth file relative to it, noise) of the examples.
+EXAMPLES = {
+    "polar-tumble": ("polar_tumble", "truth.toml", 0.002),
+    "local-level-tumble": ("local_level_tumble", "../polar_tumble/truth.toml", 0.002),
+    "gyro-rate-table": ("gyro_rate_table", "truth.toml", 0.01),
+    "gyro-triad-rotation": ("gyro_triad_rotation", "truth.toml", 1.0),
+    "ferraris": ("ferraris", "truth.toml", 0.0),  # its truth file gives the noise
+    "triad-multiposition": ("triad_multiposition", "truth.toml", 1e-4),
+    "accelerometer-multipoint": ("accelerometer_multipoint", "truth.toml", 1e-6),
+    "centrifuge-nine-position": ("centrifuge", "truth.toml", 1e-9),
+}
+
+
+def check_envelope(doc: dict, kind: str) -> None:
+    """The layout every result shares (results.envelope), with units beside numbers."""
+    assert list(doc) == list(ENVELOPE_KEYS)
+    assert doc["kind"] == kind and doc["schema_version"] == SCHEMA_VERSION
+    assert isinstance(doc["result"], dict)
+    assert isinstance(doc["checks"], list) and all("name" in c and "verdict" in c
+                                                   for c in doc["checks"])
+    assert isinstance(doc["messages"], list) and all(isinstance(m, str) for m in doc["messages"])
+    ident = doc["identification"]
+    if ident is not None:
+        for name, e in ident.get("coefficients", {}).items():
+            assert set(e) >= {"value", "std", "unit"}, name
+            assert e["std"] is None or (math.isfinite(e["std"]) and e["std"] >= 0), name
+
+
+def _json(capsys) -> dict:
+    return json.loads(capsys.readouterr().out)
+
+
+def test_registry_names_every_example():
+    assert set(EXAMPLES) == set(REGISTRY)
+
+
+@pytest.mark.parametrize("kind", sorted(EXAMPLES))
+def test_fit_json_is_the_envelope(kind, examples_dir, tmp_path, capsys):
+    folder, truth, noise = EXAMPLES[kind]
+    plan = examples_dir / folder / "plan.toml"
+    data = tmp_path / "data.parquet"
+    assert main(["simulate", str(plan), "--truth", str(examples_dir / folder / truth),
+                 "-o", str(data), "--noise", str(noise), "--seed", "3"]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
+    doc = _json(capsys)
+    check_envelope(doc, kind)
+    assert doc["identification"]["coefficients"]
+    assert doc["instrument"]["serial"]  # the example plans name their instrument
+    # The same document is what the store keeps and gives back.
+    store = HistoryStore(str(tmp_path / "h.db"))
+    try:
+        rec = RunRecord.from_result(doc, serial="SN-1", instrument_kind="x", plan_text="",
+                                    data_sha256="0" * 64, software_version="t")
+        store.add(rec)
+        back = store.runs("SN-1")[0]
+    finally:
+        store.close()
+    assert back.procedure == kind and back.result == json.loads(json.dumps(doc))
+    assert {e.name for e in back.estimates} >= set(doc["identification"]["coefficients"])
+
+
+def _analysis_documents(tmp_path: Path, examples_dir: Path, capsys) -> dict[str, dict]:
+    """The --json of every analysis command on small inputs."""
+    docs: dict[str, dict] = {}
+    rng = np.random.default_rng(1)
+    np.save(tmp_path / "g.npy", rng.normal(0, 1e-4, 20000))
+    assert main(["allan", str(tmp_path / "g.npy"), "--rate", "50", "--json"]) == 0
+    docs["allan"] = _json(capsys)
+    assert main(["ins-errors", "--latitude", "39", "--hours", "2", "--step", "600",
+                 "--gyro-drift-deg-h", "0.01,0.01,0.01", "--json"]) == 0
+    docs["ins-errors"] = _json(capsys)
+    assert main(["modulation", "component", "--stator-hz", "1", "--sample-hz", "400",
+                 "--json"]) == 0
+    docs["modulation-component"] = _json(capsys)
+    assert main(["modulation", "system", "--scheme", "single-axis", "--hours", "1",
+                 "--json"]) == 0
+    docs["modulation-system"] = _json(capsys)
+    cycles = tmp_path / "cycles.parquet"
+    assert main(["thermal", "simulate", "-o", str(cycles), "--cycles", "3", "--seed", "1"]) == 0
+    capsys.readouterr()
+    assert main(["thermal", "fit", str(cycles), "--json", "--max-iter", "300"]) == 0
+    docs["thermal-compensation"] = _json(capsys)
+    assert main(["centrifuge-study", str(examples_dir / "centrifuge" / "study.toml"),
+                 "--json"]) == 0
+    docs["centrifuge-study"] = _json(capsys)
+    return docs
+
+
+@pytest.mark.slow
+def test_every_analysis_json_is_the_envelope_stored_and_reported(tmp_path, examples_dir,
+                                                                 capsys):
+    docs = _analysis_documents(tmp_path, examples_dir, capsys)
+    store = HistoryStore(str(tmp_path / "h.db"))
+    try:
+        for kind, doc in docs.items():
+            check_envelope(doc, kind)
+            store.add(RunRecord.from_result(doc, serial="LAB-1", instrument_kind="imu",
+                                            plan_text="", data_sha256=kind.ljust(64, "0"),
+                                            software_version="t"))
+            html = page(kind, envelope_sections(doc, title="Result"))
+            assert f"({kind})" in html and ("<table" in html or "<pre" in html)
+        back = {r.procedure: r.result for r in store.runs("LAB-1")}
+    finally:
+        store.close()
+    assert back == json.loads(json.dumps(docs))

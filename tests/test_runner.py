@@ -1,0 +1,151 @@
+"""The library runner: fit, report and store as one transaction; batches on any executor."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import pytest
+
+import inertest
+from inertest.errors import InertestError, OutputPathError
+from inertest.io.atomic import REPORT_MARKER
+from inertest.runner import DuplicateRunError, run_batch
+from inertest.store import HistoryStore
+
+
+@pytest.fixture
+def tumble(examples_dir, tmp_path) -> tuple[Path, Path]:
+    plan = tmp_path / "plan.toml"
+    shutil.copy(examples_dir / "polar_tumble" / "plan.toml", plan)
+    data = inertest.simulate(plan, examples_dir / "polar_tumble" / "truth.toml", noise=0.002,
+                             rng=1)
+    path = tmp_path / "data.csv"
+    from inertest.io.data_file import write_table
+
+    write_table(path, data)
+    return plan, path
+
+
+def _runs(db: Path) -> int:
+    if not db.exists():
+        return 0
+    store = HistoryStore(str(db))
+    try:
+        return sum(len(store.runs(s)) for s in store.serials())
+    finally:
+        store.close()
+
+
+def test_run_fits_reports_and_stores_once(tumble, tmp_path):
+    plan, data = tumble
+    db = tmp_path / "h.db"
+    out = inertest.run(plan, data, store=str(db), report_dir=tmp_path / "rep")
+    assert out.result.kind == "polar-tumble" and out.stored_run is not None
+    assert out.report == tmp_path / "rep" / "index.html" and out.report.is_file()
+    assert (tmp_path / "rep" / REPORT_MARKER).is_file()
+    assert _runs(db) == 1
+    # The same data file again is refused and changes nothing; allowed when asked.
+    with pytest.raises(DuplicateRunError, match="already filed"):
+        inertest.run(plan, data, store=str(db))
+    assert _runs(db) == 1
+    inertest.run(plan, data, store=str(db), allow_duplicate=True, report_dir=tmp_path / "rep")
+    assert _runs(db) == 2
+
+
+def test_report_never_replaces_a_folder_inertest_did_not_write(tumble, tmp_path):
+    plan, data = tumble
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "notes.txt").write_text("precious")
+    db = tmp_path / "h.db"
+    with pytest.raises(OutputPathError, match="did not write"):
+        inertest.run(plan, data, store=str(db), report_dir=lab)
+    assert (lab / "notes.txt").read_text() == "precious" and sorted(p.name for p in
+                                                                   lab.iterdir()) == ["notes.txt"]
+    assert _runs(db) == 0
+    # A folder holding an input is refused too, even through a symlink.
+    with pytest.raises(OutputPathError, match="would overwrite the input"):
+        inertest.run(plan, data, report_dir=data.parent)
+    link = tmp_path / "link"
+    link.symlink_to(data)
+    with pytest.raises(OutputPathError):
+        inertest.run(plan, data, report_dir=link)
+    for bad in (".", ""):
+        with pytest.raises(OutputPathError):
+            inertest.run(plan, data, report_dir=bad)
+
+
+def test_failed_store_leaves_no_report_and_failed_report_no_run(tumble, tmp_path, monkeypatch):
+    plan, data = tumble
+    db = tmp_path / "h.db"
+
+    def broken_add(self, record):
+        raise InertestError("disk full (simulated)")
+
+    monkeypatch.setattr(HistoryStore, "add", broken_add)
+    with pytest.raises(InertestError, match="disk full"):
+        inertest.run(plan, data, store=str(db), report_dir=tmp_path / "rep")
+    assert not (tmp_path / "rep").exists()
+    assert not any(p.name.startswith(".rep") for p in tmp_path.iterdir())
+    monkeypatch.undo()
+
+    import inertest.runner as runner
+
+    def broken_report(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(runner, "_report_html", broken_report)
+    with pytest.raises(OSError):
+        inertest.run(plan, data, store=str(db), report_dir=tmp_path / "rep")
+    assert _runs(db) == 0 and not (tmp_path / "rep").exists()
+
+
+def test_run_without_a_serial_stores_nothing(tumble, tmp_path):
+    plan, data = tumble
+    text = plan.read_text()
+    plan.write_text("\n".join(line for line in text.splitlines()
+                              if not line.strip().startswith("serial")))
+    with pytest.raises(InertestError, match="serial"):
+        inertest.run(plan, data, store=str(tmp_path / "h.db"), report_dir=tmp_path / "rep")
+    assert not (tmp_path / "rep").exists()
+
+
+@pytest.mark.slow
+def test_batch_on_processes_equals_serial(examples_dir, tmp_path):
+    pairs = []
+    for k in range(3):
+        plan = examples_dir / "polar_tumble" / "plan.toml"
+        data = tmp_path / f"d{k}.csv"
+        from inertest.io.data_file import write_table
+
+        write_table(data, inertest.simulate(plan, examples_dir / "polar_tumble" / "truth.toml",
+                                            noise=0.002, rng=k))
+        pairs.append((plan, data))
+    manifest = tmp_path / "batch.toml"
+    manifest.write_text("".join(f'[[run]]\nplan = "{p}"\ndata = "{d}"\n\n' for p, d in pairs)
+                        + '[[run]]\nplan = "missing.toml"\ndata = "d0.csv"\n')
+    serial = run_batch(manifest, store=str(tmp_path / "a.db"))
+    with ProcessPoolExecutor(max_workers=2) as pool:
+        parallel = run_batch(manifest, executor=pool, store=str(tmp_path / "b.db"))
+    assert [i.error is None for i in serial] == [True, True, True, False]
+    assert "missing.toml" in serial[3].error
+    for a, b in zip(serial[:3], parallel[:3], strict=True):
+        da, db_ = a.outcome.result.to_dict(), b.outcome.result.to_dict()
+        assert json.dumps(da["identification"]) == json.dumps(db_["identification"])
+    assert _runs(tmp_path / "a.db") == 3 and _runs(tmp_path / "b.db") == 3
+
+
+def test_import_inertest_loads_no_heavy_dependency():
+    """Start-up stays fast: plotting, databases, scikit-learn and numba load on demand."""
+    import subprocess
+    import sys
+
+    code = ("import sys, inertest, inertest.cli; import inertest.cli.procedure; "
+            "heavy = [m for m in ('matplotlib', 'sqlalchemy', 'sklearn', 'numba', 'pyarrow', "
+            "'h5py', 'sympy') if m in sys.modules]; print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == ""
