@@ -236,8 +236,9 @@ def test_swapped_faces_and_columns_and_turn_sign_are_caught():
     p = d["part"].copy()
     p[d["part"] == "z_p"], p[d["part"] == "z_a"] = "z_a", "z_p"
     swapped["part"] = p
-    with pytest.raises(DataError, match="z_p and z_a are swapped"):
-        ferraris.fit(plan, swapped)
+    r = ferraris.fit(plan, swapped)  # indistinguishable from a negated acc_z: K < 0, reported
+    assert r.coefficients["Ka_z"].value < 0
+    assert any("acc_z: negative scale factor" in m and "swapped" in m for m in r.messages)
     cols = dict(d, acc_y=d["acc_z"], acc_z=d["acc_y"])
     with pytest.raises(DataError, match="faces y_p/y_a change acc_z most"):
         ferraris.fit(plan, cols)
@@ -353,3 +354,34 @@ def test_convention_misalignment_scale_bias_by_hand():
     assert c["Ka_y"].value == pytest.approx(209.2, rel=1e-10) and c["Ka_y"].unit == "count/(m/s^2)"
     assert c["Ba_x"].value == pytest.approx(5.0, rel=1e-9) and c["Ba_x"].unit == "mg"
     assert c["Bg_x"].value == pytest.approx(100.0, rel=1e-9) and c["Bg_x"].unit == "deg/h"
+
+
+@needs_real
+@pytest.mark.parametrize("column", ["gyr_x", "acc_y"])
+def test_imucal_agrees_on_the_real_session_with_a_negated_channel(column):
+    """The real session with one channel negated (an axis mounted reversed): no refusal, a
+    negative scale factor named in a message, and the calibration equals imucal's (which
+    calibrates it with a negative scale factor) within the tolerances of the plain comparison."""
+    pd = pytest.importorskip("pandas")
+    imucal = pytest.importorskip("imucal")
+    plan = load_plan(EXAMPLES / "plan_imucal.toml")
+    plan = replace(plan, procedure=replace(plan.procedure, earth_rate=False))
+    data = dict(load_data(REAL))
+    data[column] = -np.asarray(data[column], dtype=float)
+    r = ferraris.fit(plan, data)
+    letter = "g" if column.startswith("gyr") else "a"
+    assert r.coefficients[f"K{letter}_{column[-1]}"].value < 0
+    assert any(f"{column}: negative scale factor" in m for m in r.messages)
+    df = pd.read_csv(REAL).set_index("part")
+    df[column] = -df[column]
+    info = imucal.FerrarisCalibration(grav=9.81, expected_angle=360.0).compute(
+        imucal.ferraris_regions_from_df(df), 204.8, "a.u.", "a.u.")
+    acc_m = np.linalg.inv(info.R_a) @ np.linalg.inv(info.K_a)
+    np.testing.assert_allclose(r.calibration.accelerometer.matrix, acc_m, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(r.calibration.accelerometer.offset, info.b_a, atol=1e-9)
+    gyr_m = np.radians(np.linalg.inv(info.R_g) @ np.linalg.inv(info.K_g))
+    db = np.abs(info.b_g - r.calibration.gyroscope.offset).max()
+    T = r.stats.n_turn.max() / 204.8
+    W = np.abs(np.diag(r.stats.turn_gyr_integral)).min()
+    ours = r.calibration.gyroscope.matrix
+    assert np.abs(ours - gyr_m).max() <= 2 * db * T / W * np.abs(np.diag(ours)).max()

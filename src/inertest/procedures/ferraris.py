@@ -371,11 +371,9 @@ def _check_labels(stats: FaceStats, spec: FerrarisSpec) -> None:
                 f"and acc_{a} only by {diff[j, j]:.6g}: the faces or the acc columns are "
                 f"mislabelled; {a}_p must be the face with +{a} up (acc_{a} reading +g)"
             )
-        if diff[j, j] < 0:
-            raise DataError(
-                f"acc_{a} reads less on {a}_p than on {a}_a ({diff[j, j]:.6g} {spec.acc_unit}): "
-                f"the faces {a}_p and {a}_a are swapped ({a}_p is the face where acc_{a} reads +g)"
-            )
+        # acc_j reading less on j_p than on j_a is a negative scale factor: a reversed axis or
+        # a negated channel (or swapped face labels, which the data cannot tell apart); it is
+        # calibrated as such and reported by fit() (triad model: K < 0 is legal).
     theta = spec.rotation_deg
     w = stats.turn_gyr_integral - stats.n_turn[:, None] / spec.sample_rate_hz * _face_gyro_bias(
         stats.gyr_mean)
@@ -386,12 +384,14 @@ def _check_labels(stats: FaceStats, spec: FerrarisSpec) -> None:
                 f"turn {a}_rot turned mostly gyr_{AXES[k]} ({w[j, k]:.6g} {spec.gyr_unit} s "
                 f"against {w[j, j]:.6g} on gyr_{a}): the turn or the gyro columns are mislabelled"
             )
-        if w[j, j] * theta < 0:
-            raise DataError(
-                f"turn {a}_rot integrates to the opposite sign of rotation_deg = {theta:g} on "
-                f"gyr_{a}: set rotation_deg = {-theta:g} if the turns were made the other way "
-                "(negative = clockwise about the +axis), or fix the labels"
-            )
+    # Every turn the other way: the turns were made opposite to rotation_deg. Some only: those
+    # gyro axes are reversed (negative scale factor), calibrated and reported by fit().
+    if np.all(np.diag(w) * theta < 0):
+        raise DataError(
+            f"turns x_rot, y_rot, z_rot all integrate to the opposite sign of rotation_deg = "
+            f"{theta:g}: set rotation_deg = {-theta:g} if the turns were made the other way "
+            "(negative = clockwise about the +axis), or fix the labels"
+        )
 
 
 def _face_gyro_bias(gyr_mean: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -575,6 +575,12 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
     W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T
     turn_angle = (W @ np.linalg.inv(A_g).T - E) / DEG_TO_RAD  # the turn without Earth rate
     messages = []
+    for m, sensor, col in ((p0[:n_a], "accelerometer", "acc_{}"),
+                           (p0[n_a:], "gyroscope", "gyr_{}")):
+        msg = triad.reversed_axes_message(m, sensor, col)
+        if msg is not None:
+            messages.append(msg + (" (for an accelerometer, swapped _p/_a face labels look the "
+                                   "same)" if sensor == "accelerometer" else ""))
     bad = np.flatnonzero(np.abs(face_err) > FACE_GRAVITY_TOLERANCE_M_S2)
     for f in bad:
         messages.append(

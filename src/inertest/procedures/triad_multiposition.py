@@ -365,7 +365,11 @@ def _axis_positions(j: int) -> str:
 
 
 def _check_labels(S: NDArray[np.float64]) -> None:
-    """Mislabelled axes: each output must respond mostly, and positively, to its own axis."""
+    """Mislabelled axes: each output must respond mostly to its own axis.
+
+    A negative response (reversed axis, negated output) is a legal negative scale factor of the
+    triad model; :func:`fit` reports it in a message.
+    """
     for i, a in enumerate(AXES):
         row = np.abs(S[i])
         j = int(np.argmax(row))
@@ -375,11 +379,6 @@ def _check_labels(S: NDArray[np.float64]) -> None:
                 f"= {row[j]:.4g} > |S_{a}{a}| = {row[i]:.4g}): the output columns or the position "
                 f"labels are mislabelled; swap output_{a} and output_{AXES[j]} or fix the "
                 "mounting")
-        if S[i, i] < 0:
-            raise DataError(
-                f"output_{a} has a negative scale factor (S_{a}{a} = {S[i, i]:.4g}): the {a} "
-                f"sensor points opposite to the reference {a} axis; negate output_{a} or check "
-                "the sign of the mounting")
 
 
 def six_position_closed_form(
@@ -470,6 +469,9 @@ def fit(
         sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
         residuals=(resid / su.raw_si_per_raw).ravel())
     messages = _messages(est.misalignment)
+    reversed_msg = triad.reversed_axes_message(p, "accelerometer", "output_{}")
+    if reversed_msg is not None:
+        messages.append(reversed_msg)
     for m in messages:
         warnings.warn(m, InertestWarning, stacklevel=2)
     calib = calibration_from_parameters(p, sensor="accelerometer", scale=su,
