@@ -7,7 +7,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from inertest.noise.confidence import ONE_SIGMA, chi2_interval, edf_difference, lag1_alpha
+from inertest.noise.confidence import (
+    ONE_SIGMA,
+    chi2_interval,
+    edf_difference,
+    edf_greenhall,
+    lag1_alpha,
+)
 from inertest.noise.deviations import deviations
 
 N_PHASE = 1001
@@ -74,3 +80,67 @@ def test_totdev_edf_matches_allantools(alpha, m):
 
     ref = allantools.edf_totdev(N=1001, m=m, alpha=alpha)  # SP 1065 Table 11 (Howe)
     assert edf_totdev(alpha, m, 1000) == pytest.approx(ref, rel=0.01)
+
+
+def _white_pm_edf_closed_form(d, m, terms, overlapping):
+    """Exact EDF of an unmodified d-th difference variance of white phase noise.
+
+    Only lags that are whole multiples of tau correlate; their correlation is the
+    autocorrelation of the binomial difference filter (computed here by convolution).
+    """
+    c = np.array([1.0])
+    for _ in range(d):
+        c = np.convolve(c, [1.0, -1.0])
+    acf = np.correlate(c, c, mode="full")[c.size - 1:]
+    rho = acf / acf[0]
+    step = m if overlapping else 1  # lag between neighbouring terms, in terms
+    s = sum((1.0 - k * step / terms) * rho[k] ** 2 for k in range(1, d + 1) if k * step < terms)
+    return terms / (1.0 + 2.0 * s)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("m", [1, 7, 100, 1000, 30_000, 300_000])
+@pytest.mark.parametrize("overlapping", [True, False])
+def test_white_pm_edf_closed_form_every_m(d, m, overlapping):
+    """White PM: the long-m EDF was up to 2x off when a coarse lag grid missed the spikes."""
+    n_phase = 1_000_001
+    terms = n_phase - d * m if overlapping else (n_phase - 1) // m - d + 1
+    ours = edf_greenhall(2, d, m, terms, modified=False, overlapping=overlapping)
+    assert ours == pytest.approx(_white_pm_edf_closed_form(d, m, terms, overlapping), rel=1e-12)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("stat", "d"), [("oadev", 2), ("ohdev", 3)])
+def test_white_pm_edf_monte_carlo_large_m(stat, d):
+    """Scatter of the variance over records: edf = 2 mean^2 / var (chi-squared law)."""
+    g = np.random.default_rng(31)
+    m, n = 400, 12_000
+    est = []
+    for _ in range(400):
+        x = g.standard_normal(n + 1)  # white phase
+        est.append(deviations(x, 1.0, [stat], [m], "angle")[stat].var[0])
+    est = np.asarray(est)
+    edf_mc = 2.0 * est.mean() ** 2 / est.var(ddof=1)
+    edf = edf_greenhall(2, d, m, n + 1 - d * m, modified=False, overlapping=True)
+    # 400 replicates know the edf to about +-7 % (1 sigma)
+    assert edf_mc == pytest.approx(edf, rel=0.25)
+
+
+def test_few_averages_type_is_identified_not_carried():
+    """White PM at short tau, random-walk FM at long tau (crossover ~12000 s).
+
+    An earlier version carried the type of the last tau with 30 or more averages (here a
+    phase-noise guess) to every longer tau and reported EDFs of 1e2 .. 6e4 where a few are
+    right; for frequency noise the EDF of a variance of k averages is at most ~1.5 k.
+    """
+    g = np.random.default_rng(3)
+    n = 1 << 17
+    k = np.sqrt(9.0 / 12000.0**3)  # RWFM with AVAR = 3/tau^2 (white PM, sigma_x = 1) at 12000
+    y = np.diff(g.standard_normal(n + 1)) + np.cumsum(k * g.standard_normal(n))
+    r = deviations(y, 1.0, ["oadev"])["oadev"]
+    averages = n // r.taus.astype(int)
+    few = averages < 30
+    assert few.sum() >= 4
+    assert np.all(r.alpha[few] <= 0), r.alpha
+    assert np.all(r.edf[few] <= 1.5 * averages[few] + 1.0), (r.edf[few], averages[few])
+    assert r.alpha[0] == 2  # white PM where it dominates, from the whole record

@@ -28,13 +28,15 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import DataError, InputError
-from inertest.noise import kernels
 from inertest.noise.confidence import (
+    MIN_ACF_AVERAGES,
     ONE_SIGMA,
+    Lag1,
+    alpha_from_lag1,
+    b1_alpha,
     chi2_interval,
-    edf_difference,
+    edf_greenhall,
     edf_totdev,
-    lag1_alpha,
 )
 
 #: Statistics known, in the order reports list them.
@@ -55,8 +57,6 @@ TAU_GRIDS = ("octave", "decade", "all")
 STREAM_THRESHOLD = 1 << 25
 #: Samples per chunk when streaming.
 CHUNK = 1 << 20
-# Samples averaged for the lag-1 noise identification at one tau (enough for a 1 % r1).
-_ACF_POINTS = 1 << 14
 
 Progress = Callable[[int, int], None]
 
@@ -78,7 +78,8 @@ class DeviationResult:
     edf : ndarray
         Equivalent degrees of freedom of each variance.
     alpha : ndarray of int
-        Power-law noise type used for the EDF (``S_y ~ f**alpha``), lag-1 autocorrelation.
+        Power-law noise type used for the EDF (``S_y ~ f**alpha``), identified at each tau
+        on the whole record (lag-1 autocorrelation, or B1 and R(n) below 30 averages).
     dev_lo, dev_hi : ndarray
         Chi-squared confidence interval of ``dev`` at level ``confidence``.
     confidence : float
@@ -194,6 +195,7 @@ class _RatePhase(_Phase):
         ck = [0.0]
         c = 0.0
         buf = np.empty(CHUNK + 1)
+        from inertest.noise import kernels  # numba: loaded on first use
         for i in range(0, self.n, CHUNK):
             blk = np.ascontiguousarray(y[i : i + CHUNK], dtype=np.float64)  # type: ignore[index]
             c = kernels.integrate(blk, mean, c, tau0, buf[: blk.size + 1])
@@ -209,6 +211,8 @@ class _RatePhase(_Phase):
         base = k * CHUNK
         blk = np.ascontiguousarray(self.y[base : stop - 1], dtype=np.float64)  # type: ignore[index]
         out = np.empty(blk.size + 1)
+        from inertest.noise import kernels
+
         kernels.integrate(blk, self.mean, float(self.checkpoints[k]), self.tau0, out)
         return out[start - base : stop - base]
 
@@ -277,6 +281,8 @@ def phase_source(
         stream = isinstance(data, np.memmap) or not isinstance(data, np.ndarray) or (
             n > STREAM_THRESHOLD)
     if data_type == "rate":
+        from inertest.noise import kernels  # numba: loaded on first use
+
         mean = _block_mean(data)
         if stream:
             return _RatePhase(data, tau0, mean)
@@ -364,6 +370,8 @@ def _terms(statistic: str, m: int, nx: int) -> int:
 
 def _sum_squares(src: _Phase, statistic: str, m: int, n: int, tick: Callable[[int], None]) -> float:
     """Sum of the squared differences of one statistic at one tau, chunk by chunk."""
+    from inertest.noise import kernels  # numba: loaded on first use
+
     c = src.chunk if isinstance(src, _MemoryPhase) else CHUNK
     total = 0.0
     if statistic in ("oadev", "ohdev"):
@@ -420,31 +428,86 @@ def _variance(statistic: str, ssq: float, m: int, n: int, tau0: float) -> float:
     return ssq / (6.0 * n * tau * tau)
 
 
-def _alpha_at(src: _Phase, m: int) -> int | None:
-    """Noise type at tau = m tau0 from averaged rates (first values of the record)."""
-    count = min((src.size - 1) // m, _ACF_POINTS)
-    if count < 30:
-        return None
+def _decimated(src: _Phase, m: int, count: int):  # noqa: ANN202 - generator of blocks
+    """Blocks of the decimated phase ``x[0], x[m], ..., x[count m]`` (bounded memory)."""
+    npts = count + 1
     if isinstance(src, _MemoryPhase):
-        xs = src.x[: count * m + 1 : m]
-    else:  # every m-th phase point, read chunk by chunk so memory stays bounded
-        parts = []
-        for a in range(0, count * m + 1, max(m, (CHUNK // m) * m)):
-            b = min(count * m + 1, a + max(m, (CHUNK // m) * m))
-            if m >= CHUNK:
-                parts.append(src.read(a, a + 1))
-            else:
-                parts.append(src.read(a, b)[::m].copy())  # do not keep the chunk alive
-        xs = np.concatenate(parts)
-    return lag1_alpha(np.diff(xs))
+        for a in range(0, npts, CHUNK):
+            b = min(npts, a + CHUNK)
+            yield src.x[a * m : (b - 1) * m + 1 : m]
+        return
+    per = max(1, CHUNK // m)  # decimated points per read
+    for a in range(0, npts, per):
+        b = min(npts, a + per)
+        yield src.read(a * m, (b - 1) * m + 1)[::m].copy()  # do not keep the chunk alive
+
+
+def _family(statistic: str) -> str:
+    return "hadamard" if statistic in ("hdev", "ohdev") else "allan"
+
+
+def _noise_type(src: _Phase, m: int, family: str) -> int | None:
+    """Noise type alpha at tau = m tau0 from the whole record (SP 1065 5.6).
+
+    At least :data:`MIN_ACF_AVERAGES` averages: lag-1 autocorrelation of the decimated phase
+    and its differences (Riley & Greenhall 2004; dmax 2 for the Allan family, 3 for Hadamard).
+    Fewer: B1 ratio of the frequency averages, with R(n) = MVAR/AVAR between white and flicker
+    phase noise (Stable32's method for short series). None when fewer than 3 averages.
+    """
+    count = (src.size - 1) // m
+    dmax, alpha_min = (3, -4) if family == "hadamard" else (2, -2)
+    if count >= MIN_ACF_AVERAGES:
+        accs = [Lag1() for _ in range(dmax + 1)]
+        carry: list[float | None] = [None] * dmax
+        for blk in _decimated(src, m, count):
+            z = np.asarray(blk, dtype=np.float64)
+            for k in range(dmax + 1):
+                accs[k].add(z)
+                if k == dmax or z.size == 0:
+                    break
+                prev = carry[k]
+                carry[k] = float(z[-1])
+                z = np.diff(z) if prev is None else np.diff(np.concatenate(([prev], z)))
+        return alpha_from_lag1([a.r1() for a in accs], phase=True, alpha_min=alpha_min)
+    xs = np.concatenate(list(_decimated(src, m, count)))
+    ybar = np.diff(xs)
+    alpha = b1_alpha(ybar, alpha_min=alpha_min)
+    if alpha == 1:  # phase noise: R(n) tells white from flicker
+        mm = min(m, src.size // 3)
+        tick = _no_tick
+        n_mod, n_oa = _terms("mdev", mm, src.size), _terms("oadev", mm, src.size)
+        mvar = _variance("mdev", _sum_squares(src, "mdev", mm, n_mod, tick), mm, n_mod, 1.0)
+        avar = _variance("oadev", _sum_squares(src, "oadev", mm, n_oa, tick), mm, n_oa, 1.0)
+        if avar > 0:
+            alpha = b1_alpha(ybar, alpha_min=alpha_min, rn=mvar / avar, m=mm)
+    return alpha
+
+
+def _no_tick(k: int) -> None:
+    return None
 
 
 def _edf(statistic: str, alpha: int, m: int, n: int, nx: int) -> float:
     if statistic == "totdev":
-        return edf_totdev(alpha, m, nx - 1)
+        return edf_totdev(alpha, m, nx)
     d = 3 if statistic in ("hdev", "ohdev") else 2
-    return edf_difference(alpha, d, m, n, modified=statistic in ("mdev", "tdev"),
-                          overlapping=statistic not in ("adev", "hdev"))
+    return edf_greenhall(alpha, d, m, n, modified=statistic in ("mdev", "tdev"),
+                         overlapping=statistic not in ("adev", "hdev"))
+
+
+def _alpha_and_edf(statistic: str, alpha: int | None, m: int, n: int,
+                   nx: int) -> tuple[int, float]:
+    """Noise type and EDF at one tau.
+
+    When the type cannot be identified (fewer than 3 averages) the type of smallest EDF is
+    used, so the interval is the widest any noise type would give.
+    """
+    if alpha is not None:
+        return alpha, _edf(statistic, alpha, m, n, nx)
+    lo = -4 if _family(statistic) == "hadamard" else -2
+    cands = [(_edf(statistic, a, m, n, nx), a) for a in range(lo, 3)]
+    e, a = min(cands)
+    return a, e
 
 
 def deviations(
@@ -500,7 +563,7 @@ def deviations(
         if progress is not None:
             progress(min(done[0], work), work)
 
-    alpha_cache: dict[int, int] = {}
+    alpha_cache: dict[tuple[int, str], int | None] = {}
     out: dict[str, DeviationResult] = {}
     for s in stats:
         ms = grids[s]
@@ -508,17 +571,14 @@ def deviations(
         ns = np.empty(ms.size, dtype=np.int64)
         edf = np.empty(ms.size)
         alph = np.empty(ms.size, dtype=np.int64)
-        last_alpha = 0
         for i, m in enumerate(int(v) for v in ms):
             n = _terms(s, m, nx)
             var[i] = _variance(s, _sum_squares(src, s, m, n, tick), m, n, src.tau0)
             ns[i] = n
-            if m not in alpha_cache:
-                a = _alpha_at(src, m)
-                alpha_cache[m] = last_alpha if a is None else a
-            last_alpha = alpha_cache[m]
-            alph[i] = last_alpha
-            edf[i] = _edf(s, last_alpha, m, n, nx)
+            key = (m, _family(s))
+            if key not in alpha_cache:
+                alpha_cache[key] = _noise_type(src, m, key[1])
+            alph[i], edf[i] = _alpha_and_edf(s, alpha_cache[key], m, n, nx)
         lo, hi = chi2_interval(var, edf, confidence)
         t = ms * src.tau0
         dev, dlo, dhi = np.sqrt(var), np.sqrt(lo), np.sqrt(hi)
