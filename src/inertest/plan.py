@@ -17,8 +17,9 @@ Plan files are TOML (read by :mod:`inertest.io.plan_file`)::
 
 from __future__ import annotations
 
+import difflib
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -140,14 +141,141 @@ def toml_table(
     return t
 
 
+def did_you_mean(name: str, known: Iterable[str]) -> str:
+    """`` (did you mean "x"?)`` for the closest known name, or an empty string."""
+    close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.6)
+    return f' (did you mean "{close[0]}"?)' if close else ""
+
+
 def check_known_keys(
     t: Mapping[str, Any], known: set[str], where: str, *, error: type[InertestError] = PlanError
 ) -> None:
     """Reject keys not in ``known``: a misspelt key would otherwise be a silent default."""
     unknown = sorted(set(t) - known)
     if unknown:
-        raise error(f"{where}: unknown key(s) {', '.join(unknown)}; known: "
+        hints = "".join(did_you_mean(k, known) for k in unknown[:1])
+        raise error(f"{where}: unknown key(s) {', '.join(unknown)}{hints}; known: "
                     f"{', '.join(sorted(known))}")
+
+
+_REQUIRED: Any = object()
+
+
+@dataclass(frozen=True)
+class Field:
+    """One parameter of a plan table, read by :func:`read_fields`.
+
+    Attributes
+    ----------
+    name : str
+        Key in the table (units in the name's suffix, e.g. ``radius_m``).
+    kind : str
+        ``"number"`` (finite float; a boolean or text is refused), ``"integer"``, ``"bool"``,
+        ``"text"``, ``"numbers"`` (non-empty list of finite floats), ``"texts"`` (non-empty list
+        of text).
+    default : object
+        Value when absent; required when not given.
+    unit : str
+        Unit, for messages.
+    minimum, maximum : float, optional
+        Inclusive bounds of a number or integer (of every element of a list).
+    positive : bool
+        Strictly greater than zero.
+    choices : tuple, optional
+        Allowed values of a text (of every element of a list of texts).
+    doc : str
+        What the parameter is, for messages.
+    """
+
+    name: str
+    kind: str = "number"
+    default: Any = _REQUIRED
+    unit: str = ""
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
+    choices: tuple[str, ...] | None = None
+    doc: str = ""
+
+
+def read_fields(
+    table: Mapping[str, Any],
+    fields: Sequence[Field],
+    where: str,
+    *,
+    ignore: Iterable[str] = (),
+    error: type[InertestError] = PlanError,
+) -> dict[str, Any]:
+    """Read a plan table by its declared fields: unknown keys, wrong types and bounds are errors.
+
+    One reader for every table of every plan, so that a misspelt key, ``latitude_deg = true``
+    or a count of ``2.5`` never becomes a silent default or a silently converted value.
+
+    Parameters
+    ----------
+    table : mapping
+        The parsed TOML table.
+    fields : sequence of Field
+        What the table may hold.
+    where : str
+        Where the table is, for messages (``"plan p.toml: [site]"``).
+    ignore : iterable of str
+        Keys read elsewhere (e.g. ``kind``).
+
+    Returns
+    -------
+    dict
+        ``{name: value}`` for every field, defaults filled in.
+    """
+    known = {f.name for f in fields} | set(ignore)
+    check_known_keys(table, known, where, error=error)
+    out: dict[str, Any] = {}
+    for f in fields:
+        if f.name not in table:
+            if f.default is _REQUIRED:
+                what = f" ({f.doc})" if f.doc else ""
+                raise error(f"{where} needs {f.name}{what}")
+            out[f.name] = f.default
+            continue
+        out[f.name] = _read_field(table[f.name], f, where, error)
+    return out
+
+
+def _read_field(v: Any, f: Field, where: str, error: type[InertestError]) -> Any:
+    unit = f" [{f.unit}]" if f.unit else ""
+    if f.kind in ("numbers", "texts"):
+        if not isinstance(v, list) or not v:
+            raise error(f"{where}: {f.name} must be a non-empty list{unit}, got {v!r}")
+        one = Field(f.name, f.kind[:-1] if f.kind == "texts" else "number", unit=f.unit,
+                    minimum=f.minimum, maximum=f.maximum, positive=f.positive,
+                    choices=f.choices)
+        return tuple(_read_field(x, one, where, error) for x in v)
+    if f.kind == "bool":
+        if not isinstance(v, bool):
+            raise error(f"{where}: {f.name} must be true or false, got {v!r}")
+        return v
+    if f.kind == "text":
+        if not isinstance(v, str):
+            raise error(f"{where}: {f.name} must be text, got {v!r}")
+        if f.choices is not None and v not in f.choices:
+            raise error(f'{where}: {f.name} = "{v}" is not one of {", ".join(f.choices)}'
+                        f"{did_you_mean(v, f.choices)}")
+        return v
+    if f.kind == "integer":
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise error(f"{where}: {f.name} must be a whole number{unit}, got {v!r}")
+        x: float = v
+    else:
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise error(f"{where}: {f.name} must be a number{unit}, got {v!r}")
+        x = float(v)
+        if not math.isfinite(x):
+            raise error(f"{where}: {f.name} must be finite{unit}, got {v!r}")
+    if f.positive and x <= 0:
+        raise error(f"{where}: {f.name} must be positive{unit}, got {v!r}")
+    if f.minimum is not None and x < f.minimum or f.maximum is not None and x > f.maximum:
+        raise error(f"{where}: {f.name} must lie in [{f.minimum}, {f.maximum}]{unit}, got {v!r}")
+    return v if f.kind == "integer" else x
 
 
 def finite_number(

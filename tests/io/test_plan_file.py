@@ -45,7 +45,7 @@ def test_plan_defaults_and_truth(tmp_path):
         (('"mA"', '"furlong"'), 'unknown output_unit "furlong"'),
         (("scale_factor = 10.0", ""), "needs \\[instrument\\] scale_factor"),
         (("latitude_deg = 45.0", "latitude_deg = 95.0"), "latitude"),
-        (("[site]", "[sight]"), "no \\[site\\] table"),
+        (("[site]", "[sight]"), "sight.*did you mean \"site\""),
         (("positions = 8", "positions = 0"), "positive integer"),
         (("positions = 8", "mountings = ['O-Up']"), 'mounting "O-Up"'),
         (("kind = ", "kind == "), "not valid TOML"),

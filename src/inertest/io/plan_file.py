@@ -10,7 +10,15 @@ from typing import Any
 
 from inertest.earth import Site
 from inertest.errors import PlanError
-from inertest.plan import Instrument, Plan
+from inertest.plan import (
+    INSTRUMENT_KINDS,
+    Field,
+    Instrument,
+    Plan,
+    check_known_keys,
+    read_fields,
+    toml_table,
+)
 from inertest.procedures import procedure_module
 
 
@@ -22,43 +30,51 @@ def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
             return tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise PlanError(f"{what} file {p} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise PlanError(f"{what} file {p} is not UTF-8 text; save it as UTF-8") from None
+    except IsADirectoryError:
+        raise PlanError(f"{what} file {p} is a folder; give the TOML file") from None
+
+
+#: Top-level tables of a plan file.
+PLAN_TABLES = ("site", "instrument", "procedure")
+SITE_FIELDS = (
+    Field("latitude_deg", unit="deg", minimum=-90.0, maximum=90.0,
+          doc="geodetic latitude in degrees"),
+    Field("gravity", default=None, unit="m/s^2", positive=True),
+    Field("name", "text", default=""),
+)
+INSTRUMENT_FIELDS = (
+    Field("kind", "text", default="sdf-gyro", choices=INSTRUMENT_KINDS),
+    Field("serial", "text", default=""),
+    Field("output_unit", "text", default="deg/h"),
+    Field("scale_factor", default=None, unit="deg/h per output unit"),
+)
 
 
 def plan_from_mapping(doc: Mapping[str, Any], *, source: str = "plan") -> Plan:
-    """Build a :class:`Plan` from parsed ``[site]``, ``[instrument]``, ``[procedure]`` tables."""
+    """Build a :class:`Plan` from parsed ``[site]``, ``[instrument]``, ``[procedure]`` tables.
+
+    Every table is read by declared fields (:func:`inertest.plan.read_fields`): a misspelt
+    table or key, a boolean where a number belongs or a value out of range is an error naming
+    the fix, never a silent default.
+    """
+    check_known_keys(doc, set(PLAN_TABLES), source)
     for table in ("site", "procedure"):
         if not isinstance(doc.get(table), Mapping):
             raise PlanError(f"{source} has no [{table}] table; see README.md for the plan layout")
     site_t, proc_t = doc["site"], doc["procedure"]
-    inst_t = doc.get("instrument", {})
-    if "latitude_deg" not in site_t:
-        raise PlanError(f"{source}: [site] needs latitude_deg (geodetic latitude in degrees)")
-    unknown_site = sorted(set(site_t) - {"latitude_deg", "gravity", "name"})
-    if unknown_site:
-        raise PlanError(
-            f"{source}: [site] has unknown key(s) {', '.join(unknown_site)}; "
-            "known: latitude_deg, gravity (m/s^2), name"
-        )
-    try:
-        site = Site.at(float(site_t["latitude_deg"]), _opt_float(site_t.get("gravity")))
-    except (TypeError, ValueError) as exc:
-        raise PlanError(f"{source}: [site] {exc}") from None
-    unknown_inst = sorted(set(inst_t) - {"kind", "serial", "output_unit", "scale_factor"})
-    if unknown_inst:
-        raise PlanError(
-            f"{source}: [instrument] has unknown key(s) {', '.join(unknown_inst)}; "
-            "known: kind, serial, output_unit, scale_factor"
-        )
-    instrument = Instrument(
-        kind=str(inst_t.get("kind", "sdf-gyro")),
-        serial=str(inst_t.get("serial", "")),
-        output_unit=str(inst_t.get("output_unit", "deg/h")),
-        scale_factor=_opt_float(inst_t.get("scale_factor")),
-    )
+    inst_t = toml_table(doc, "instrument", source)
+    site_v = read_fields(site_t, SITE_FIELDS, f"{source}: [site]")
+    site = Site.at(site_v["latitude_deg"], site_v["gravity"])
+    inst_v = read_fields(inst_t, INSTRUMENT_FIELDS, f"{source}: [instrument]")
+    instrument = Instrument(**inst_v)
     kind = proc_t.get("kind")
     if kind is None:
         raise PlanError(f"{source}: [procedure] needs kind (e.g. \"polar-tumble\")")
-    spec = procedure_module(str(kind)).SPEC.from_mapping(proc_t)
+    if not isinstance(kind, str):
+        raise PlanError(f"{source}: [procedure] kind must be text, got {kind!r}")
+    spec = procedure_module(kind).SPEC.from_mapping(proc_t)
     return Plan(site=site, instrument=instrument, procedure=spec)
 
 
@@ -83,12 +99,3 @@ def load_truth(path: str | os.PathLike[str]) -> dict[str, float]:
             raise PlanError(f"truth file {path}: {k} must be a number, got {v!r}")
         out[str(k)] = float(v)
     return out
-
-
-def _opt_float(v: object) -> float | None:
-    if v is None:
-        return None
-    try:
-        return float(v)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise PlanError(f"expected a number, got {v!r}") from None
