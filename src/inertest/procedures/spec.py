@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.errors import DataError, PlanError
+from inertest.plan import did_you_mean
 
 
 def require_columns(
@@ -57,8 +58,8 @@ def check_no_unknown_keys(params: Mapping[str, object], known: Sequence[str], ki
     unknown = sorted(set(params) - set(known) - {"kind"})
     if unknown:
         raise PlanError(
-            f"[procedure] of kind {kind} has unknown parameter(s) {', '.join(unknown)}; "
-            f"known: {', '.join(known)}"
+            f"[procedure] of kind {kind} has unknown parameter(s) {', '.join(unknown)}"
+            f"{did_you_mean(unknown[0], known)}; known: {', '.join(known)}"
         )
 
 
