@@ -164,3 +164,21 @@ def test_bad_inputs_name_the_problem_and_the_fix():
         cf.instrument_inputs([0.0, float("nan")], 4.43, 1, **KW)
     with pytest.raises(InputError, match="radius must be positive"):
         cf.instrument_inputs([0.0], 4.43, 1, **dict(KW, radius_m=-1.0))
+
+
+def test_wobble_with_y_phase_plus_90_deg_is_a_static_parallelism_about_x():
+    # Tilts (a cos beta, -a sin beta) in the azimuth frame turned by beta are (a, 0) seen from
+    # the arm: a constant tilt about x, to second order in a (a^2 ~ 2.5e-11 rad)
+    t = np.linspace(0.0, 4.0, 801)
+    a = 5e-6
+    wobble = cf.CentrifugeErrors(wobble_x_rad=a, wobble_y_rad=a, wobble_y_phase_rad=np.pi / 2)
+    tilt = cf.CentrifugeErrors(parallelism_x_rad=a)
+    turning = cf.CentrifugeErrors(wobble_x_rad=a, wobble_y_rad=a, wobble_y_phase_rad=-np.pi / 2)
+    for pos in (1, 2, 8):
+        f1, w1, _ = cf.instrument_inputs(t, 8.85, pos, errors=wobble, **KW)
+        f2, w2, _ = cf.instrument_inputs(t, 8.85, pos, errors=tilt, **KW)
+        np.testing.assert_allclose(f1, f2, rtol=0, atol=10 * a**2 * R * 8.85**2)
+        np.testing.assert_allclose(w1, w2, rtol=0, atol=10 * a**2 * 8.85)
+        # with -90 deg the tilt turns at 2 beta: rate error 2 w a about a horizontal axis
+        _, w3, _ = cf.instrument_inputs(t, 8.85, pos, errors=turning, **KW)
+        assert np.abs(w3 - w2).max() == pytest.approx(2 * 8.85 * a, rel=1e-3)

@@ -103,3 +103,40 @@ def test_monte_carlo_scatter_confirms_the_analytic_uncertainty():
     res = cs.run_study(plan, fit_inputs, monte_carlo_runs=300)
     ratio = res.monte_carlo_std / res.std
     assert np.all(np.abs(ratio - 1) < 0.2), ratio
+
+
+def test_seed004_parallelism_example_compared_at_position_2_and_4_42_rad_s():
+    # The paper's 7.11e-6 rad/s is for its second attitude (position 2) at 4.42 rad/s. There the
+    # tilted azimuth axis leaves the relative rate w (z - z'), horizontal, of size w dth, turning
+    # with the arm; I of position 2 is 45 deg from the vertical: amplitude w dth cos 45.
+    dth = 5e-6
+    case = cs.ErrorCase("par", "par", cf.CentrifugeErrors(parallelism_y_rad=dth))
+    res = cs.run_study(_plan([case], revolutions=4), fit_inputs, monte_carlo_runs=0).cases[0]
+    assert res.example_first_harmonic_rad_s == pytest.approx(4.42 * dth * math.sqrt(0.5),
+                                                             rel=1e-4)
+    # With the fit's weights the first harmonic averages out; what is left is the second-order
+    # vertical rate w (1 - cos dth) ~ w dth^2 / 2 (largest at 8.85 rad/s, I vertical)
+    assert res.max_run_rate_error_rad_s == pytest.approx(8.85 * dth**2 / 2, rel=1e-3)
+    notes = cs.run_study(_plan([case], revolutions=4), fit_inputs, monte_carlo_runs=0).notes
+    note = next(n for n in notes if "7.11e-6" in n)
+    assert "position 2) at 4.42 rad/s" in note and "1.563e-05 rad/s" in note
+
+
+def test_report_cites_the_paper_not_the_seed_file():
+    from inertest.report.centrifuge_study import study_page
+
+    plan = cs.plan_from_mapping(read_toml(EXAMPLE, "plan"), source="study.toml")
+    small = cs.StudyPlan(revolutions=2, cases=plan.cases[:1], name=plan.name)
+    html = study_page(cs.run_study(small, fit_inputs, monte_carlo_runs=0))
+    assert "seed 004" not in html.lower() and "Ref. [centrifuge paper]" in html
+    assert "Sun Yingbo, Ren Shunqing, Wang Changhong" in html
+    assert "Coriolis part (Ak)" in html and "simplification" in html
+
+
+def test_example_wobble_case_is_not_a_static_parallelism():
+    plan = cs.plan_from_mapping(read_toml(EXAMPLE, "plan"), source="study.toml")
+    e = next(c for c in plan.cases if c.key == "wobble").errors
+    assert e.wobble_x_rad == e.wobble_y_rad
+    # phase difference +90 deg would be a static tilt (tests/equipment); the example uses -90
+    assert math.remainder(e.wobble_y_phase_rad - e.wobble_x_phase_rad + math.pi / 2,
+                          2 * math.pi) == pytest.approx(0.0)

@@ -1,4 +1,4 @@
-"""``inertest centrifuge-study``: what each dual-axis centrifuge error costs (issue 5, seed 004)."""
+"""``inertest centrifuge-study``: what each dual-axis centrifuge error costs (issue 5)."""
 
 from __future__ import annotations
 

@@ -269,7 +269,11 @@ class CentrifugeErrors:
         First-harmonic wobble amplitudes of the azimuth axis about its x and y axes [rad]:
         ``tilt_x = wobble_x cos(beta + wobble_x_phase)``, same for y.
     wobble_x_phase_rad, wobble_y_phase_rad : float
-        Wobble phases [rad].
+        Wobble phases [rad]. The tilts act in the turning azimuth frame, so seen from the arm
+        the tilt vector is ``Rz(beta) (tilt_x, tilt_y)``: with equal amplitudes ``a`` and
+        ``wobble_y_phase = wobble_x_phase + pi/2`` it is the constant ``a (cos p, -sin p)``,
+        a static parallelism error (``p = 0``: ``parallelism_x_rad = a``, tested); with
+        ``- pi/2`` it turns at ``2 beta`` relative to the arm and has no static part.
     eccentricity_x_m, eccentricity_y_m : float
         Fixture eccentricity ``lx``, ``ly`` of the instrument's point in the azimuth frame [m].
     """

@@ -1,4 +1,4 @@
-"""Report section of the nine-position centrifuge test (seed 004): coefficients, runs, residuals."""
+"""Report section of the nine-position centrifuge test: coefficients, runs, residuals."""
 
 from __future__ import annotations
 
@@ -54,9 +54,12 @@ def nine_position_sections(
     sec.parts.append(paragraph(
         f"Dual-axis centrifuge, arm radius {result.radius_m:g} m, platform heading "
         f"{result.platform_heading_deg:g} deg. Each run (one position at one main-axis rate) is "
-        "reduced to its mean over whole revolutions; the ten regressors are averaged over the "
+        "reduced to its mean over whole revolutions; the ten regressors, built from the exact "
+        "inputs of the error-free machine with the Earth's rotation, are averaged over the "
         "same samples with the same weights, and the mean Earth rate on I is subtracted "
-        "(seed 004, eqs. 18-22). One observation per run."))
+        "(Ref. [centrifuge paper], eqs. 18-22: Sun Yingbo, Ren Shunqing, Wang Changhong, Harbin "
+        "Institute of Technology). One observation per run; omega is the signed arm rate "
+        "(negative = clockwise seen from above)."))
     rows = [
         [str(int(p)), f"{w:g}", str(int(r)), str(int(n)), f"{d:.6g}", f"{f:.6g}", f"{e:.6g}",
          f"{res:.3g}"]

@@ -1,4 +1,4 @@
-"""HTML report of the centrifuge error study (issue 5, seed 004): tables and figures."""
+"""HTML report of the centrifuge error study (issue 5, Ref. [centrifuge paper]): tables, figures."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
-from inertest.studies.centrifuge_study import StudyResult
+from inertest.studies.centrifuge_study import REFERENCE, StudyResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 _K = DEG_PER_H_TO_RAD_PER_S
@@ -91,8 +91,10 @@ def study_sections(result: StudyResult) -> list[Section]:
             table_html(error_header(result), error_rows(result)),
             paragraph("Gyro output simulated noise-free on the exact erroneous machine, fitted "
                       "with the regressors of the error-free machine (exact kinematics, Earth "
-                      "rate included). The second row is the cost of the source's closed form "
-                      "(no Earth-rate Coriolis term) on an error-free machine."),
+                      "rate included). The second row is the cost of this project's closed form "
+                      "without the Earth-rate terms (2 W x v, W x (W x p)) on an error-free "
+                      "machine; Ref. [centrifuge paper] lists a Coriolis part (Ak) in its "
+                      "eq. (9)."),
         ]),
         Section("Compensation with the error model and the measured dgamma(t)", [
             table_html(error_header(result), error_rows(result, compensated=True)),
@@ -101,8 +103,9 @@ def study_sections(result: StudyResult) -> list[Section]:
                       "(spline-interpolated), so a dgamma that varies within a sample interval "
                       "leaves a small residual."),
         ]),
-        Section("Exact kinematics versus the source's first-order conclusions",
+        Section("Exact kinematics versus the first-order results of Ref. [centrifuge paper]",
                 [paragraph(n, note=True) for n in result.notes]),
+        Section("Reference", [paragraph(REFERENCE + ".")]),
     ]
 
 

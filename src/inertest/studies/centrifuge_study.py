@@ -1,7 +1,10 @@
 """What each error of a dual-axis centrifuge costs the nine-position identification (issue 5).
 
-Seed ``004_f16e7c07e7c35fdc.txt`` (Sun, Ren & Wang), sec. 4-5, redone with the exact kinematics of
-:mod:`inertest.equipment.centrifuge` instead of the source's first-order expansions:
+Ref. [centrifuge paper] (seed ``004_f16e7c07e7c35fdc.txt``; authors as given in its header:
+孫英博 Sun Yingbo, 任順清 Ren Shunqing, 王常虹 Wang Changhong, Space Control and Inertial
+Technology Research Center, Harbin Institute of Technology), sec. 4-5, redone with the exact
+kinematics of :mod:`inertest.equipment.centrifuge` instead of the source's first-order
+expansions:
 
 1. **Uncertainty.** Standard uncertainty of the ten static drift coefficients of an SDF gyro
    (model in :mod:`inertest.models.sdf_gyro`) from the analytic least-squares covariance of the
@@ -37,7 +40,7 @@ from numpy.typing import NDArray
 from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as cf
 from inertest.errors import InputError, PlanError
-from inertest.estimation.reduction import group_rows, whole_cycle_mask
+from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, coefficients_from_deg_h, drift
 from inertest.plan import check_known_keys, finite_number, toml_table
 from inertest.units import ARCMIN_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, G0
@@ -50,6 +53,16 @@ _number = partial(finite_number, error=PlanError)
 #: Signature of the nine-position fit: per-sample position, omega [rad/s], t [s], output
 #: [rad/s], f_ios [m/s^2], omega_ios [rad/s]; keyword ``sigma_rad_s``. Returns (LinearFit, ...).
 FitFunction = Callable[..., tuple[Any, Any]]
+
+#: How reports cite the source paper (its header gives the authors, not the title).
+REFERENCE = ("Ref. [centrifuge paper]: Sun Yingbo, Ren Shunqing, Wang Changhong (Space Control "
+             "and Inertial Technology Research Center, Harbin Institute of Technology), "
+             "calibration of a floated gyro on a dual-axis precision centrifuge with a "
+             "counter-rotating platform")
+
+#: Position and main-axis rate [rad/s] of the paper's parallelism example (its second attitude,
+#: eq. 22, at 4.42 rad/s: first-harmonic output error 7.11e-6 rad/s for dth_y1 = 5e-6 rad).
+PARALLELISM_EXAMPLE = (2, 4.42)
 
 #: Representative true coefficients of a floated SDF gyro [deg/h per g^k] (our choice; the
 #: source does not list its simulation truth in machine-readable form).
@@ -150,6 +163,7 @@ class CaseResult:
     max_run_output_error_rad_s: float
     max_run_rate_error_rad_s: float
     max_sample_rate_error_rad_s: float
+    example_first_harmonic_rad_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -203,6 +217,7 @@ class StudyResult:
                     "max_run_output_error_rad_s": c.max_run_output_error_rad_s,
                     "max_run_rate_error_rad_s": c.max_run_rate_error_rad_s,
                     "max_sample_rate_error_rad_s": c.max_sample_rate_error_rad_s,
+                    "example_first_harmonic_rad_s": c.example_first_harmonic_rad_s,
                     "unit": "deg/h per g^k (see coefficients)",
                 }
                 for c in self.cases
@@ -275,14 +290,39 @@ def _fit(fit: FitFunction, runs: Runs, output: NDArray[np.float64], which: str,
 
 
 def _run_means(runs: Runs, values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Mean of ``values`` per (position, rate) run over its whole revolutions."""
+    """Mean of ``values`` per (position, rate) run over its whole revolutions.
+
+    Weighted with :func:`~inertest.estimation.reduction.whole_cycle_weights`, exactly as the fit
+    averages the output, so a pure first or second harmonic of the arm averages to zero.
+    """
     out = []
     for w in np.unique(runs.omega):
         for pos in cf.POSITIONS:
             sel = (runs.omega == w) & (runs.position == pos)
             whole, _ = whole_cycle_mask(runs.t[sel], w)
-            out.append(values[sel][whole].mean())
+            out.append(whole_cycle_weights(runs.t[sel][whole], w) @ values[sel][whole])
     return np.asarray(out)
+
+
+def example_first_harmonic(plan: StudyPlan, case: ErrorCase) -> float:
+    """First-harmonic amplitude [rad/s] of the output error at the paper's parallelism example.
+
+    The noise-free output error (real minus error-free machine, rate on I plus drift) at
+    position 2 and 4.42 rad/s (:data:`PARALLELISM_EXAMPLE`) over 10 whole revolutions, fitted
+    with a constant and the arm's first harmonic; the amplitude is ``sqrt(a^2 + b^2)``.
+    """
+    pos, w = PARALLELISM_EXAMPLE
+    t = cf.run_times(w, plan.sample_rate_hz, 10)
+    kw = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
+          "latitude_rad": plan.latitude_rad, "platform_heading_rad": plan.platform_heading_rad}
+    f0, w0, _ = cf.instrument_inputs(t, w, pos, **kw)
+    f1, w1, _ = cf.instrument_inputs(t, w, pos, errors=case.errors, dgamma=case.dgamma, **kw)
+    err = (w1[:, 0] + drift(f1 / G0, plan.truth)) - (w0[:, 0] + drift(f0 / G0, plan.truth))
+    whole, _ = whole_cycle_mask(t, w)
+    a = w * t[whole]
+    basis = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a)])
+    c, *_ = np.linalg.lstsq(basis, err[whole], rcond=None)
+    return float(np.hypot(c[1], c[2]))
 
 
 def closed_form_inputs(plan: StudyPlan, runs: Runs) -> tuple[NDArray[np.float64], ...]:
@@ -350,6 +390,9 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
                 _run_means(runs, runs.omega_true[:, 0] - runs.omega_ideal[:, 0])).max()),
             max_sample_rate_error_rad_s=float(np.abs(
                 runs.omega_true[:, 0] - runs.omega_ideal[:, 0]).max()),
+            example_first_harmonic_rad_s=(
+                example_first_harmonic(plan, case)
+                if case.errors.parallelism_x_rad or case.errors.parallelism_y_rad else None),
         ))
     names = tuple(COEFFICIENTS)
     return StudyResult(
@@ -361,7 +404,7 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
 
 def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
            results: list[CaseResult], closed_form_error: NDArray[np.float64]) -> tuple[str, ...]:
-    """Where the exact kinematics disagree with the source's first-order conclusions."""
+    """Where the exact kinematics disagree with Ref. [centrifuge paper]'s first-order results."""
     k = DEG_PER_H_TO_RAD_PER_S
     coriolis = 2 * OMEGA_IE * max(plan.omegas_rad_s) * plan.radius_m
     cf_ratio = np.abs(closed_form_error) / std
@@ -369,11 +412,13 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
     notes = [
         "Error-free machine, noise-free: largest |estimate - truth| = "
         f"{np.abs(x0 - plan.truth).max() / k:.2e} deg/h per g^k (whole-revolution fit exact).",
-        "The source's specific force (eq. 9) has no Earth-rate Coriolis term; on this machine "
-        f"2 W w R reaches {coriolis:.2e} m/s^2 ({coriolis / G0:.2e} g). Fitting the error-free "
-        f"machine with that closed form costs up to {cf_ratio[i_cf]:.2g} sigma "
-        f"({COEFFICIENTS[i_cf]}: {closed_form_error[i_cf] / k:.2e} "
-        f"{ENGINEERING_UNIT[COEFFICIENTS[i_cf]]}).",
+        "Ref. [centrifuge paper] lists a Coriolis part (Ak) in its specific force (eq. 9); "
+        "the closed form without the Earth-rate terms 2 W x v and W x (W x p) is this "
+        f"project's simplification. On this machine 2 W w R reaches {coriolis:.2e} m/s^2 "
+        f"({coriolis / G0:.2e} g); fitting the error-free machine with that closed form costs "
+        f"up to {cf_ratio[i_cf]:.2g} sigma ({COEFFICIENTS[i_cf]}: "
+        f"{closed_form_error[i_cf] / k:.2e} {ENGINEERING_UNIT[COEFFICIENTS[i_cf]]}), which is "
+        "why the nine-position fit uses the exact inputs.",
     ]
     by_key = {r.case.key: r for r in results}
     for r in results:
@@ -393,9 +438,9 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 f"{r.case.label}: the servo's residual rate d(dgamma)/dt = "
                 f"{r.case.dgamma.rate_rad_s:.3e} rad/s acts on the gyro directly wherever I has "
                 "a component along the azimuth axis (largest run mean "
-                f"{r.max_run_rate_error_rad_s:.3e} rad/s); the source keeps only the angle "
-                "dgamma to first order and misses this term, which dominates its rate-tracking "
-                "result."
+                f"{r.max_run_rate_error_rad_s:.3e} rad/s); Ref. [centrifuge paper] keeps only "
+                "the angle dgamma to first order and misses this term, which dominates the "
+                "rate-tracking result."
             )
         elif isinstance(r.case.dgamma, cf.RateTracking):
             arcmin = r.case.dgamma.offset_rad / ARCMIN_TO_RAD
@@ -406,7 +451,8 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 "horizontal Earth rate on I changes by up to 2 W cos(L) sin(dgamma / 2) = "
                 f"{earth:.3e} rad/s (exact run-mean output error "
                 f"{r.max_run_output_error_rad_s:.3e} rad/s). "
-                "The source quotes 1.823e-7 rad/s for 1000' and 'of order 1e-8' for 200' and finds "
+                "Ref. [centrifuge paper] quotes 1.823e-7 rad/s for 1000' and 'of order 1e-8' for "
+                "200' and finds "
                 "mainly DSS, DOO, DIO, DSI affected; exactly, the specific-force regressors are "
                 "unchanged over whole revolutions (a turn about the vertical only shifts the phase "
                 "of the rotating centripetal force) and the error enters through the Earth rate, "
@@ -421,19 +467,29 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 f"2 pi f A = {2 * math.pi * d.frequency_hz * d.amplitude_rad:.3e} rad/s on the "
                 "azimuth axis, which whole-revolution averaging cancels only when f is a multiple "
                 "of the revolution frequency; its largest run-mean rate error here is "
-                f"{r.max_run_rate_error_rad_s:.3e} rad/s. The source's conclusion holds: "
+                f"{r.max_run_rate_error_rad_s:.3e} rad/s. Ref. [centrifuge paper]'s conclusion "
+                "holds: "
                 "phase tracking costs far less than rate tracking (compare the tables), but not "
                 "nothing."
             )
         elif r.case.errors.parallelism_y_rad or r.case.errors.parallelism_x_rad:
+            pos, w = PARALLELISM_EXAMPLE
+            w_max = max(abs(x) for x in plan.omegas_rad_s)
+            second = w_max * (r.case.errors.parallelism_x_rad ** 2
+                              + r.case.errors.parallelism_y_rad ** 2) / 2
+            example = ("" if r.example_first_harmonic_rad_s is None else
+                       f"; exactly, at that position and rate the first-harmonic amplitude of "
+                       f"the output error is {r.example_first_harmonic_rad_s:.3e} rad/s")
             notes.append(
-                f"{r.case.label}: the source quotes a first-harmonic output error of 7.11e-6 "
-                "rad/s (mounting 2, 4.42 rad/s); exactly, the largest rate error on I is "
+                f"{r.case.label}: Ref. [centrifuge paper] quotes a first-harmonic output error of "
+                f"7.11e-6 rad/s for its second attitude (position {pos}) at {w:g} rad/s"
+                f"{example}. Over all runs the largest rate error on I is "
                 f"{r.max_sample_rate_error_rad_s:.3e} rad/s per sample, and over the whole "
-                f"revolutions of each run it averages to at most {r.max_run_rate_error_rad_s:.3e} "
-                "rad/s (the leftover of sampling a revolution that is not a whole number of "
-                "samples), so after whole-cycle integration parallelism costs at most "
-                f"{(np.abs(r.error) / std).max():.2g} sigma here."
+                "revolutions of each run, with the fit's weights, it averages to at most "
+                f"{r.max_run_rate_error_rad_s:.3e} rad/s: the first harmonic cancels and what is "
+                "left is the second-order vertical part w dth^2 / 2 of the relative rotation "
+                f"({second:.3e} rad/s at {w_max:g} rad/s), so after whole-cycle integration "
+                f"parallelism costs at most {(np.abs(r.error) / std).max():.2g} sigma here."
             )
         elif r.case.errors.eccentricity_x_m or r.case.errors.eccentricity_y_m:
             notes.append(
