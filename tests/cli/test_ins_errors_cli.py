@@ -12,19 +12,21 @@ STATES = ["dVE", "dVN", "dL", "dlambda", "phiE", "phiN", "phiU"]
 
 
 def test_json_contract_and_closed_form_value(capsys):
-    """0.1 deg/h north drift alone, 48 h: the longitude error grows at -eN cos L (the drift
-    component along the polar axis), apart from Schuler and Earth-rate oscillations."""
+    """0.1 deg/h north drift alone, 48 h: the longitude error grows at +eN cos L (the drift
+    component along the polar axis looks like a faster Earth, so the computed position runs
+    east), apart from Schuler and Earth-rate oscillations."""
     assert main(["ins-errors", "--latitude", "39", "--hours", "48", "--step", "60",
                  "--gyro-drift-deg-h", "0,0.1,0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert set(out) == {"t", *STATES, "periods", "units"}
+    assert set(out) == {"t", *STATES, "periods", "units", "sign_convention"}
+    assert "output errors" in out["sign_convention"]
     t = np.array(out["t"])
     assert t[0] == 0 and t[-1] == 48 * 3600 and np.all(np.diff(t) == 60)
     assert out["units"]["dVE"] == "m/s" and out["units"]["dL"] == "rad"
     assert out["periods"]["foucault"] == pytest.approx(2 * math.pi / (7.2921151467e-5 *
                                                                       math.sin(math.radians(39))))
     lon = np.array(out["dlambda"])
-    rate = -0.1 * math.pi / 180 / 3600 * math.cos(math.radians(39))
+    rate = 0.1 * math.pi / 180 / 3600 * math.cos(math.radians(39))
     # the oscillating part is bounded: the secular growth dominates over 48 h
     assert abs(lon[-1] / (rate * t[-1]) - 1) < 0.1
 
@@ -36,7 +38,8 @@ def test_table_output_with_example_plot_and_report(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "84.400 min" in out  # the source chose R for an 84.4 min Schuler period
     assert "Foucault" not in out  # simplified model, as in the source
-    assert "-eN*cos(L)" in out and "bE/g" in out
+    assert "eN*cos(L)" in out and "-eN*cos(L)" not in out and "bE/g" in out
+    assert "sign convention: errors = computed - true" in out
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert "<img src=\"data:image/png;base64," in html.read_text()
 

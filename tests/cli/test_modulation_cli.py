@@ -35,9 +35,11 @@ def test_system_json_single_scheme(capsys):
     for s in ("dVE", "dVN", "dL", "dlambda", "phiE", "phiN", "phiU"):
         assert len(out[s]) == 13
     assert out["units"]["phiU"] == "rad" and out["units"]["dVE"] == "m/s"
-    # vertical drift is untouched by vertical rotation: phiU' ~ eU at first (0.01 deg/h)
-    assert abs(out["phiU"][1] - 0.01 * 3.141592653589793 / 180 / 3600 * 600) < 1e-3 * abs(
+    # vertical drift is untouched by vertical rotation: phiU' ~ -eU at first (0.01 deg/h of
+    # gyro output error turns the computed frame the other way)
+    assert abs(out["phiU"][1] + 0.01 * 3.141592653589793 / 180 / 3600 * 600) < 1e-3 * abs(
         out["phiU"][1])
+    assert "output errors" in out["sign_convention"]
     assert out["imu"]["gyro_drift"]["unit"] == "rad/s"
 
 

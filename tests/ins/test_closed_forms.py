@@ -81,24 +81,32 @@ def test_closed_forms_equal_literal_final_value_limits(coriolis, source):
 
 def test_textbook_steady_states():
     """Classical results of the static-base analysis (Britting, *Inertial Navigation Systems
-    Analysis*, 1971, ch. 10; Titterton & Weston 2004, sec. 12.3): level errors cancel the
-    accelerometer biases, the azimuth error settles where the east gyro drift balances the
-    Earth-rate coupling (gyrocompassing), and the drift along the polar axis makes the
-    longitude error grow at that rate."""
+    Analysis*, 1971, ch. 10; Titterton & Weston 2004, sec. 12.3), in the convention of
+    Titterton & Weston (gyro error = output error, entering the attitude error equation as
+    ``- C_b^n dw_ib^b``; errors computed - true): level errors cancel the accelerometer
+    biases, the azimuth error settles where the east gyro drift balances the Earth-rate
+    coupling (gyrocompassing, ``phiU = -eE / (W cos L)``), and the drift along the polar axis
+    looks like a faster Earth, so the longitude error grows at ``+(eN cos L + eU sin L)``."""
     cf = closed_forms(coriolis=True)
     c = cf.constant
     s = cf.secular
     bE, bN, eE, eN, eU = sp.symbols("bE bN eE eN eU", real=True)
     assert sp.simplify(c[("bE", "phiN")] - bE / g) == 0
     assert sp.simplify(c[("bN", "phiE")] + bN / g) == 0
-    assert sp.simplify(c[("eE", "phiU")] - eE / (W * sp.cos(L))) == 0
-    assert sp.simplify(s[("eN", "dlambda")] + eN * sp.cos(L)) == 0
-    assert sp.simplify(s[("eU", "dlambda")] + eU * sp.sin(L)) == 0
+    assert sp.simplify(c[("eE", "phiU")] + eE / (W * sp.cos(L))) == 0
+    assert sp.simplify(s[("eN", "dlambda")] - eN * sp.cos(L)) == 0
+    assert sp.simplify(s[("eU", "dlambda")] - eU * sp.sin(L)) == 0
     # no other source makes any state grow without bound
     grow = {k for k, v in s.items() if v != 0}
     assert grow == {("eN", "dlambda"), ("eU", "dlambda")}
     # biases leave no velocity error
     assert c[("bE", "dVE")] == 0 and c[("bN", "dVN")] == 0
+    # without the Coriolis terms: the north and up drifts shift the latitude by
+    # (eU cos L - eN sin L) / W and the east drift the longitude by -eE tan L / W
+    c0 = closed_forms(coriolis=False).constant
+    assert sp.simplify(c0[("eN", "dL")] + eN * sp.sin(L) / W) == 0
+    assert sp.simplify(c0[("eU", "dL")] - eU * sp.cos(L) / W) == 0
+    assert sp.simplify(c0[("eE", "dlambda")] + eE * sp.tan(L) / W) == 0
 
 
 def test_rows_print_only_non_zero_parts():

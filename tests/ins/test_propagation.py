@@ -93,8 +93,8 @@ def test_superposition_of_sources():
 def test_schuler_loop_closed_forms_without_earth_rate():
     """With W = 0 the channels are textbook Schuler oscillators (Titterton & Weston 2004,
     sec. 12.3.2): bE -> dVE = bE sin(ws t)/ws, phiN = bE (1 - cos ws t)/g,
-    dlambda = bE (1 - cos ws t)/(g cos L); eE -> phiE = eE sin(ws t)/ws,
-    dVN = R eE (1 - cos ws t), dL = eE (t - sin(ws t)/ws)."""
+    dlambda = bE (1 - cos ws t)/(g cos L); an east gyro output error eE (entering phi' as
+    -eE) -> phiE = -eE sin(ws t)/ws, dVN = -R eE (1 - cos ws t), dL = -eE (t - sin(ws t)/ws)."""
     site = InsSite(LAT, earth_rate_rad_s=0.0)
     g, r = site.gravity_m_s2, site.radius_m
     ws = math.sqrt(g / r)
@@ -106,9 +106,11 @@ def test_schuler_loop_closed_forms_without_earth_rate():
     np.testing.assert_allclose(x[:, 3], be * (1 - np.cos(ws * t)) / (g * math.cos(LAT)),
                                rtol=0, atol=1e-11 * be / g)
     x = propagate(site, t, u=[0, 0, ee, 0, 0])
-    np.testing.assert_allclose(x[:, 4], ee * np.sin(ws * t) / ws, rtol=0, atol=1e-12 * ee / ws)
-    np.testing.assert_allclose(x[:, 1], r * ee * (1 - np.cos(ws * t)), rtol=0, atol=1e-11 * r * ee)
-    np.testing.assert_allclose(x[:, 2], ee * (t - np.sin(ws * t) / ws), rtol=0,
+    np.testing.assert_allclose(x[:, 4], -ee * np.sin(ws * t) / ws, rtol=0,
+                               atol=1e-12 * ee / ws)
+    np.testing.assert_allclose(x[:, 1], -r * ee * (1 - np.cos(ws * t)), rtol=0,
+                               atol=1e-11 * r * ee)
+    np.testing.assert_allclose(x[:, 2], -ee * (t - np.sin(ws * t) / ws), rtol=0,
                                atol=1e-10 * ee * t[-1])
 
 

@@ -25,10 +25,11 @@ def test_example_file_is_the_seed_scenario(examples_dir):
 
 def test_seed_values_in_si():
     """Values from the source's script: Dx = 0.0001 g, Ex = 0.1 deg/h, L0 = 0.0005 deg,
-    Qx0 = 20 arcsec, Qz0 = 5 arcmin, g = 9.8."""
+    Qx0 = 20 arcsec, Qz0 = 5 arcmin, g = 9.8. The source's Ex is a platform drift (+ in its
+    phi'), i.e. a gyro output error of -0.1 deg/h in inertest's convention."""
     sc = seed_scenario()
     assert sc.u[0] == pytest.approx(9.8e-4)
-    assert sc.u[2] == pytest.approx(0.1 * math.pi / 180 / 3600)
+    assert sc.u[2] == pytest.approx(-0.1 * math.pi / 180 / 3600)
     assert sc.x0[2] == pytest.approx(0.0005 * math.pi / 180)
     assert sc.x0[4] == pytest.approx(20 / 3600 * math.pi / 180)
     assert sc.x0[6] == pytest.approx(5 / 60 * math.pi / 180)

@@ -154,8 +154,9 @@ def test_mean_attitude_matches_quadrature_of_the_attitude():
 
 
 def test_ramp_drift_leaves_the_first_order_residual():
-    # decoupled site (negligible g, 1/R, Earth rate): phi = integral of u exactly.
-    # int_0^{kT} R(W s) s ds eps1_h = k T J eps1_h / W;  phiU = eps1_z (kT)^2 / 2
+    # decoupled site (negligible g, 1/R, Earth rate): phi = -integral of u exactly (the gyro
+    # output error turns the computed frame backwards: phi' = -C_b^n dw^b).
+    # int_0^{kT} R(W s) s ds eps1_h = k T J eps1_h / W;  phiU = -eps1_z (kT)^2 / 2
     site = InsSite(0.3, radius_m=1e15, gravity_m_s2=1e-12, earth_rate_rad_s=0.0)
     om = math.radians(6)
     eps1 = np.array([3e-10, -2e-10, 1e-10])
@@ -163,13 +164,14 @@ def test_ramp_drift_leaves_the_first_order_residual():
     t = np.arange(0, 601, 60.0)  # whole periods (T = 60 s)
     x = rm.propagate_rotating(site, s, rm.ImuErrors(gyro_drift_rate=eps1), t)
     expected_h = np.outer(t, ramp_residual(eps1[:2], om))
-    np.testing.assert_allclose(x[:, 4:6], expected_h, rtol=1e-9, atol=1e-15)
-    np.testing.assert_allclose(x[:, 6], eps1[2] * t**2 / 2, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(x[:, 4:6], -expected_h, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(x[:, 6], -eps1[2] * t**2 / 2, rtol=1e-9, atol=1e-15)
     # magnitude |eps1_h| / W of the equivalent drift, vs eps1 t^2 / 2 without rotation
     assert np.linalg.norm(x[-1, 4:6]) / t[-1] == pytest.approx(np.linalg.norm(eps1[:2]) / om)
     x0 = rm.propagate_rotating(site, rm.make_scheme("none", 600.0), rm.ImuErrors(
         gyro_drift_rate=eps1), t)
-    np.testing.assert_allclose(x0[:, 4:6], np.outer(t**2 / 2, eps1[:2]), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(x0[:, 4:6], -np.outer(t**2 / 2, eps1[:2]), rtol=1e-9,
+                               atol=1e-15)
 
 
 # ----------------------------------------------------------------------------- vs solve_ivp

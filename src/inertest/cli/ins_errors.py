@@ -11,7 +11,7 @@ import numpy as np
 
 from inertest.cli._common import echo_json, parse_float_list, print_table
 from inertest.ins.covariance import RandomSources, propagate_covariance
-from inertest.ins.error_model import STATE_UNITS, STATES
+from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
 from inertest.ins.propagation import (
     SourceResponses,
     characteristic_periods,
@@ -53,11 +53,15 @@ _LIST_OPTIONS = {
 @click.option("--latitude", type=float, help="Latitude L [deg], strictly between -90 and 90.")
 @click.option("--hours", type=float, help="Duration [h] (default 24).")
 @click.option("--step", type=float, help="Output step [s] (default 60); the solution is exact.")
-@click.option("--accel-bias-ug", help="Accelerometer biases E,N [ug] (g = 9.80665 m/s^2).")
-@click.option("--gyro-drift-deg-h", help="Gyro drifts E,N,U [deg/h].")
-@click.option("--initial-velocity-m-s", help="Initial velocity errors E,N [m/s].")
-@click.option("--initial-position-arcsec", help="Initial latitude, longitude errors [arcsec].")
-@click.option("--initial-attitude-arcsec", help="Initial misalignments E,N,U [arcsec].")
+@click.option("--accel-bias-ug", help="Accelerometer biases E,N [ug] (g = 9.80665 m/s^2), "
+              "output errors: f_out = f_true + bias.")
+@click.option("--gyro-drift-deg-h", help="Gyro drifts E,N,U [deg/h], output errors: "
+              "w_out = w_true + drift (a platform drift is minus this).")
+@click.option("--initial-velocity-m-s", help="Initial velocity errors E,N [m/s], computed - true.")
+@click.option("--initial-position-arcsec", help="Initial latitude, longitude errors [arcsec], "
+              "computed - true.")
+@click.option("--initial-attitude-arcsec", help="Initial attitude errors phi E,N,U [arcsec]: the "
+              "computed frame is the true ENU frame turned by phi.")
 @click.option("--radius", type=float, help="Earth radius R [m] (default 6378137).")
 @click.option("--gravity", type=float, help="Gravity g [m/s^2] (default: normal gravity at L).")
 @click.option("--coriolis/--no-coriolis", default=None,
@@ -88,7 +92,10 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
 
     Exact solution of the linear error equations for constant accelerometer biases, gyro
     drifts and initial errors, each source separately and combined; Schuler, Foucault and
-    Earth periods; constant and secular parts by the final value theorem.
+    Earth periods; constant and secular parts by the final value theorem. Signs: errors are
+    computed - true; drift and bias are sensor output errors (output = true + error) in ENU;
+    phi turns the true ENU frame into the computed one (a drift enters phi' with a minus
+    sign).
     """
     doc = _base_document(scenario_file, example)
     lists = {"accel_bias_ug": accel_bias_ug, "gyro_drift_deg_h": gyro_drift_deg_h,
@@ -149,10 +156,12 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         out["periods"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
                           for k, v in periods.as_dict().items()}
         out["units"] = {"t": "s", **STATE_UNITS, "periods": "s"}
+        out["sign_convention"] = SIGN_CONVENTION
         if sigma is not None:
             out["sigma"] = {st: sigma[:, i].tolist() for i, st in enumerate(STATES)}
         echo_json(out)
         return
+    click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table("characteristic periods (eigenvalues of A)", ["period", "value", "closed form"],
                 periods_rows(periods))
     print_table(f"errors at t = {resp.t[-1] / 3600:g} h",

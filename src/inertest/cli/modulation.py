@@ -8,7 +8,7 @@ import click
 import numpy as np
 
 from inertest.cli._common import echo_json, parse_float_list, print_table
-from inertest.ins.error_model import InsSite
+from inertest.ins.error_model import SIGN_CONVENTION, InsSite
 from inertest.io.atomic import target_file, write_text
 from inertest.models import triad
 from inertest.report.html import page
@@ -135,7 +135,8 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
 @click.option("--heading-deg", type=float, default=0.0, show_default=True,
               help="Static IMU (scheme none): azimuth of body x from east, CCW [deg].")
 @click.option("--gyro-drift-deg-h", default="0.01,0.01,0.01", show_default=True,
-              help="Constant gyro drift on body X,Y,Z [deg/h].")
+              help="Constant gyro drift on body X,Y,Z [deg/h] (output error: w_out = w_true "
+                   "+ drift).")
 @click.option("--gyro-drift-trend-deg-h-per-h", default="0,0,0", show_default=True,
               help="Linear drift trend on body X,Y,Z [deg/h per h].")
 @click.option("--accel-bias-ug", default="50,50,50", show_default=True,
@@ -196,6 +197,7 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         echo_json({**common, "runs": [r.to_dict() for r in runs]} if compare
                   else {**common, **runs[0].to_dict()})
         return
+    click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table(f"INS errors over {hours:g} h at latitude {latitude_deg:g} deg (max |error|; "
                 "vertical channel not modelled)", SYSTEM_SUMMARY_HEADER,
                 system_summary_rows(runs))

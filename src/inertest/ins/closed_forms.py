@@ -12,6 +12,11 @@ the one at ``s = 0``. The non-oscillating part is the residue at ``s = 0``:
 * ``c0 = lim_{s->0} d/ds [s^2 X(s)]``, which equals the final-value limit ``lim s X(s)`` of the
   source whenever the pole at 0 is simple (all states but longitude).
 
+Signs follow :mod:`inertest.ins.error_model` (errors = computed - true; drift and bias are
+sensor output errors; ``C_b^n(computed) = (I - [phi x]) C_b^n(true)``). So, for example, the
+east gyro drift settles the azimuth error at ``phiU = -eE / (W cos L)`` and the drift along
+the polar axis makes the longitude error grow at ``+(eN cos L + eU sin L)``.
+
 The oscillations at the Earth rate are *not* part of ``c0``: "constant" means "not oscillating
 at any of the three natural periods", as in the source's decomposition. The seven-state matrix
 is singular (longitude feeds nothing back), but the six other states form a non-singular
@@ -122,7 +127,8 @@ def symbolic_system(*, coriolis: bool = True) -> tuple[sp.Matrix, sp.Matrix]:
     A[5, 0], A[5, 2], A[5, 4] = 1 / R, -W * s, -W * s
     A[6, 0], A[6, 2], A[6, 4] = t / R, W * c, W * c
     B = sp.zeros(7, 5)
-    B[0, 0] = B[1, 1] = B[4, 2] = B[5, 3] = B[6, 4] = 1
+    B[0, 0] = B[1, 1] = 1  # accelerometer output errors enter dV' with +
+    B[4, 2] = B[5, 3] = B[6, 4] = -1  # gyro output errors enter phi' with -
     return A, B
 
 

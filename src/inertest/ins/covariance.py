@@ -4,7 +4,9 @@ Random sources, continuous white noises with two-sided power spectral density ``
 (IEEE Std 952-1997 annex C and IEEE Std 1293-1998 terminology):
 
 * gyro angle random walk ``N_g`` [rad/sqrt(s)]: white noise added to the drift rates ``eE, eN,
-  eU``;
+  eU`` (gyro output errors, entering ``phi'`` with a minus sign as in
+  :mod:`inertest.ins.error_model`; the sign does not change a covariance that starts
+  uncorrelated);
 * accelerometer velocity random walk ``N_a`` [m/s/sqrt(s)]: white noise added to ``bE, bN``;
 * gyro rate random walk ``K_g`` [rad/s/sqrt(s)]: the drift itself is a random walk,
   ``d' = w``, ``E[w w'] = K_g^2 delta``; three extra states ``dE, dN, dU`` feed ``phiE, phiN,
@@ -94,7 +96,7 @@ def noise_model(site: InsSite) -> tuple[NDArray[np.float64], NDArray[np.float64]
     """``F`` (10x10) and ``G`` (10x8) of the augmented system driven by unit white noises."""
     f = np.zeros((_NZ, _NZ))
     f[:_NX, :_NX] = system_matrix(site)
-    f[4:7, 7:10] = np.eye(3)  # random-walk drift enters phi like a constant drift
+    f[4:7, 7:10] = -np.eye(3)  # random-walk drift enters phi like a constant drift (sign -)
     g = np.zeros((_NZ, 8))
     g[:_NX, :5] = input_matrix()  # white noise on bE, bN, eE, eN, eU
     g[7:10, 5:8] = np.eye(3)  # drives the drift random walk

@@ -1,6 +1,7 @@
 """Static-base error equations of a north-pointing local-level INS: the linear system.
 
-Seed ``002_1196b4fb2ac75bfc.txt`` (INS error propagation report). States, in SI::
+Seed ``002_1196b4fb2ac75bfc.txt`` (INS error propagation report), with the sign conventions
+below (the seed's own gyro term differs; see the last paragraph). States, in SI::
 
     x = [dVE, dVN, dL, dlambda, phiE, phiN, phiU]      (m/s, m/s, rad, rad, rad, rad, rad)
 
@@ -8,19 +9,51 @@ Inputs (constant or time-varying sources), in SI::
 
     u = [bE, bN, eE, eN, eU]                            (m/s^2, m/s^2, rad/s, rad/s, rad/s)
 
-Equations (phi: misalignment of the platform / computed frame; drift and bias enter with +, as
-in the source)::
+Sign conventions (the one statement of them; ``ins-errors``, ``modulation system`` and the
+closed forms follow it)
+--------------------------------------------------------------------------------------------
+* **Errors are computed minus true**: ``dVE = VE_computed - VE_true``, likewise ``dVN``,
+  ``dL`` (latitude) and ``dlambda`` (longitude), all in the ENU frame (x east, y north, z up).
+* **Gyro drift is an output error of the gyro** (the package convention,
+  :mod:`inertest`: ``w_out = w_true + drift``). ``eE, eN, eU`` are the gyro output errors
+  resolved in ENU, ``e^n = C_b^n dw_ib^b`` (drift, and for a moving IMU scale factor and
+  misalignment times the true rate). A positive drift makes the computed frame turn
+  *negatively*: it enters ``phi'`` with a minus sign.
+* **Accelerometer bias is an output error of the accelerometer** (``f_out = f_true + bias``);
+  ``bE, bN`` are resolved in ENU, ``b^n = C_b^n df^b``. It enters ``dV'`` with a plus sign.
+* **phi** is the attitude error of the computed (platform) frame p relative to the *true*
+  ENU frame n: ``C_b^n(computed) = (I - [phi x]) C_b^n(true)``, i.e. the computed frame is
+  the true one turned by the small right-handed rotation vector ``phi`` (``C_n^p = I -
+  [phi x]``). phiE, phiN are the tilts about east and north, phiU the azimuth error (positive
+  about up, counter-clockwise seen from above).
+* **psi** (not a state here) is the same attitude error relative to the *computed* ENU frame
+  c at the computed position: ``phi = psi + dtheta`` with the position-error angle
+  ``dtheta = (-dL, dlambda cos L, dlambda sin L)`` (the rotation from n to c, same sign rule);
+  the psi form of the equations (D. O. Benson, "A comparison of two approaches to
+  pure-inertial and Doppler-inertial error analysis", IEEE Trans. Aerosp. Electron. Syst.
+  11(4), 1975, doi:10.1109/TAES.1975.308101) is equivalent.
+
+Equations: the attitude and velocity error equations of a strapdown system (Titterton &
+Weston, *Strapdown Inertial Navigation Technology*, 2nd ed. 2004, ch. 12; Britting,
+*Inertial Navigation Systems Analysis*, 1971), ``phi' = -w_in^n x phi + dw_in^n - C_b^n
+dw_ib^b`` and ``dV' = f^n x phi + C_b^n df^b - (2 w_ie^n + w_en^n) x dV - ...``, on a static
+base (``V = 0``, ``f^n = (0, 0, g)``, vertical channel left out)::
 
     dVE'     = -g phiN + 2 W sinL dVN + bE
     dVN'     =  g phiE - 2 W sinL dVE + bN
     dL'      =  dVN / R
     dlambda' =  dVE / (R cosL)
-    phiE'    = -dVN / R + W sinL phiN - W cosL phiU + eE
-    phiN'    =  dVE / R - W sinL dL - W sinL phiE + eN
-    phiU'    =  dVE tanL / R + W cosL dL + W cosL phiE + eU
+    phiE'    = -dVN / R + W sinL phiN - W cosL phiU - eE
+    phiN'    =  dVE / R - W sinL dL - W sinL phiE - eN
+    phiU'    =  dVE tanL / R + W cosL dL + W cosL phiE - eU
 
 ``coriolis=False`` drops the two ``2 W sinL`` terms: the source's simplified model, which has
 no Foucault modulation of the Schuler oscillation.
+
+The seed writes ``+eps`` in ``phi'`` because its ``eps`` is the *platform* drift rate caused
+by the gyro torques (a gimballed platform that turns at ``eps``); the computed frame of a
+strapdown system turns at minus the gyro output error, so ``eps_seed = -e`` (checked against
+an independent nonlinear strapdown simulation in ``tests/ins/test_strapdown_reference.py``).
 
 This module holds only the matrices ``x' = A x + B u``; solutions live in
 :mod:`inertest.ins.propagation` and the rotation-modulation study in
@@ -52,6 +85,13 @@ STATE_UNITS: dict[str, str] = {
 }
 #: Input (error source) names, in order.
 INPUTS: tuple[str, ...] = ("bE", "bN", "eE", "eN", "eU")
+#: One-line statement of the sign conventions, for command outputs and reports.
+SIGN_CONVENTION = (
+    "errors = computed - true (ENU); gyro drift and accelerometer bias are sensor output "
+    "errors (output = true + error) resolved in ENU; phi turns the true ENU frame into the "
+    "computed one, C_b^n(computed) = (I - [phi x]) C_b^n(true), so phi' = ... - drift and "
+    "dV' = ... + bias"
+)
 #: SI unit of each input.
 INPUT_UNITS: dict[str, str] = {
     "bE": "m/s^2",
@@ -137,8 +177,11 @@ def system_matrix(site: InsSite) -> NDArray[np.float64]:
 
 
 def input_matrix() -> NDArray[np.float64]:
-    """The 7x5 input matrix ``B``: biases drive dVE, dVN; drifts drive phiE, phiN, phiU."""
+    """The 7x5 input matrix ``B``: biases drive dVE, dVN (+1), gyro drifts phiE, phiN, phiU (-1).
+
+    Both are sensor output errors resolved in ENU (module docstring, sign conventions).
+    """
     b = np.zeros((7, 5))
     b[0, 0] = b[1, 1] = 1.0
-    b[4, 2] = b[5, 3] = b[6, 4] = 1.0
+    b[4, 2] = b[5, 3] = b[6, 4] = -1.0
     return b

@@ -3,7 +3,9 @@
 Seed ``002_1196b4fb2ac75bfc.txt`` (INS error propagation report): the error equations
 ``x' = A x + B u`` of :mod:`inertest.ins.error_model`, states
 ``x = [dVE, dVN, dL, dlambda, phiE, phiN, phiU]`` (m/s, m/s, rad, rad, rad, rad, rad) and
-constant sources ``u = [bE, bN, eE, eN, eU]`` (m/s^2, m/s^2, rad/s, rad/s, rad/s).
+constant sources ``u = [bE, bN, eE, eN, eU]`` (m/s^2, m/s^2, rad/s, rad/s, rad/s): sensor
+output errors resolved in ENU, errors computed minus true, signs as stated once in
+:mod:`inertest.ins.error_model` (a gyro drift enters ``phi'`` with a minus sign).
 
 For constant inputs the solution is exact::
 

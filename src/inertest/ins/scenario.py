@@ -17,6 +17,9 @@ Engineering keys (each quantity accepts one of the listed unit suffixes)::
 
 ``ug`` is micro-g with g = g0 = 9.80665 m/s^2 (house convention); ``local_g`` is a multiple of
 the scenario's own gravity (the source writes biases as ``1e-4 g`` with its ``g = 9.8``).
+``accel_bias`` and ``gyro_drift`` are sensor output errors (output = true + error) resolved in
+ENU; initial errors are computed minus true, ``initial_attitude`` is ``phi`` (the sign
+conventions of :mod:`inertest.ins.error_model`).
 """
 
 from __future__ import annotations
@@ -193,6 +196,11 @@ def seed_scenario() -> InsScenario:
     day), biases ``1e-4 g``, drifts 0.1 deg/h on E, N, U, initial velocity errors 0.1 m/s,
     position errors 0.0005 deg, attitude errors 20", 20", 5', and the simplified error model
     without the Coriolis terms. Its output grid is ``t = 0:10:ts``.
+
+    The source's drift is the *platform* drift rate (it enters ``phi'`` with ``+``); in this
+    package's convention (gyro output error, entering with ``-``;
+    :mod:`inertest.ins.error_model`) the same platform drift is a gyro drift of
+    **-0.1 deg/h**, which is what this scenario holds, so that its curves are the source's.
     """
     g = 9.8
     ws = 2 * math.pi / (84.4 * 60)
@@ -203,7 +211,7 @@ def seed_scenario() -> InsScenario:
         earth_rate_rad_s=2 * math.pi / (24 * HOUR_TO_S),
         coriolis=False,
     )
-    drift = 0.1 * DEG_PER_H_TO_RAD_PER_S
+    drift = -0.1 * DEG_PER_H_TO_RAD_PER_S  # the source's +0.1 deg/h platform drift
     x0 = np.array([0.1, 0.1, 0.0005 * DEG_TO_RAD, 0.0005 * DEG_TO_RAD,
                    20 * ARCSEC_TO_RAD, 20 * ARCSEC_TO_RAD, 5 * ARCMIN_TO_RAD])
     u = np.array([1e-4 * g, 1e-4 * g, drift, drift, drift])

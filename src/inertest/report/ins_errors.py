@@ -11,7 +11,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from inertest.ins.error_model import STATES
+from inertest.ins.error_model import SIGN_CONVENTION, STATES
 from inertest.ins.propagation import SOURCES, CharacteristicPeriods, SourceResponses
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.units import ARCMIN_TO_RAD, ARCSEC_TO_RAD, HOUR_TO_S
@@ -34,9 +34,9 @@ _TITLES = {
     "dVN": "north velocity error dVN",
     "dL": "latitude error dL",
     "dlambda": "longitude error dlambda",
-    "phiE": "east misalignment phiE",
-    "phiN": "north misalignment phiN",
-    "phiU": "azimuth misalignment phiU",
+    "phiE": "east attitude error phiE",
+    "phiN": "north attitude error phiN",
+    "phiU": "azimuth error phiU",
 }
 
 
@@ -164,7 +164,8 @@ def ins_error_sections(
     units = ", ".join(f"{st} [{DISPLAY_UNITS[st][0]}]" for st in STATES)
     sections = [
         Section(title, [figure_html(fig, "Error response per source and combined"),
-                        paragraph(f"Exact solution of the linear error equations; {units}.")]),
+                        paragraph(f"Exact solution of the linear error equations; {units}."),
+                        paragraph(f"Sign convention: {SIGN_CONVENTION}.", note=True)]),
         Section("Characteristic periods",
                 [table_html(["period", "value", "closed form"], periods_rows(periods))]),
         Section("Errors at the end of the run",

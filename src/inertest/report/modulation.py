@@ -10,6 +10,7 @@ from collections.abc import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
+from inertest.ins.error_model import SIGN_CONVENTION
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.studies.rotation_modulation import SystemRun
 from inertest.studies.stator_modulation import ModulationRun, drift_gain
@@ -144,11 +145,14 @@ def system_sections(runs: Sequence[SystemRun]) -> list[Section]:
             table_html(SYSTEM_SUMMARY_HEADER, system_summary_rows(runs)),
             paragraph("Static-base INS error equations (seed 002); the vertical channel is not "
                       "modelled, so the vertical accelerometer error does not enter.", note=True),
+            paragraph(f"Sign convention: {SIGN_CONVENTION}.", note=True),
         ]),
         Section("What each scheme leaves", [
             table_html(SYSTEM_RESIDUAL_HEADER, system_residual_rows(runs)),
             paragraph("Mean navigation-frame error over one whole cycle: the equivalent constant "
-                      "bias and drift the INS integrates as if the IMU were static. Rotation "
+                      "bias and drift the INS integrates as if the IMU were static (sensor "
+                      "output errors in ENU: bE, bN enter dV' with +, eE, eN, eU enter phi' "
+                      "with -). Rotation "
                       "cannot cancel errors along a single rotation axis, scale factor x "
                       "rotation rate unless the direction alternates, nor the trace of the gyro "
                       "scale-factor errors on the Earth rate."),

@@ -19,6 +19,14 @@ computation integrates the gyro outputs, mount rotation included. Only the horiz
 accelerometer errors enter: the vertical channel (height, vertical velocity) is not modelled by
 the error equations (it is unstable and, in practice, damped by an external height reference).
 
+Signs: ``dw^b`` and ``df^b`` are sensor *output* errors (output = true + error), as everywhere
+in inertest, and they enter through ``B`` of :mod:`inertest.ins.error_model`: the
+accelerometer error with ``+`` in ``dV'``, the gyro error (drift, scale factor, misalignment)
+with ``-`` in ``phi'``, because the computed attitude ``C_b^n = (I - [phi x]) C_b^n(true)``
+integrates the gyro output: ``phi' = -w_in^n x phi + dw_in^n - C_b^n dw^b``. Errors are
+computed minus true. Checked against an independent nonlinear strapdown simulation
+(``tests/ins/test_strapdown_reference.py``: 24 h static, 3 h at 6 deg/s).
+
 Rotation schemes (all start from body = nav, x east, y north, z up, at ``t = 0``)
 --------------------------------------------------------------------------------
 ``none``
@@ -121,6 +129,7 @@ from inertest.errors import InputError
 from inertest.ins.error_model import (
     INPUT_UNITS,
     INPUTS,
+    SIGN_CONVENTION,
     STATE_UNITS,
     STATES,
     InsSite,
@@ -697,7 +706,8 @@ def cycle_mean_inputs(site: InsSite, scheme: RotationScheme,
     """Mean navigation-frame inputs over the first whole cycle, ``[bE, bN, eE, eN, eU]`` (5,).
 
     What the scheme leaves of the IMU's constant errors: an equivalent constant bias [m/s^2]
-    and drift [rad/s] that the INS integrates as if the IMU were static. Exact (integrals of
+    and drift [rad/s] that the INS integrates as if the IMU were static (sensor output errors
+    resolved in ENU; the drift enters ``phi'`` with a minus sign). Exact (integrals of
     the harmonic fit of each segment). The drift trend ``gyro_drift_rate`` is left out (it is
     not constant; see the module notes for its first-order residual). For ``none`` this is
     the static input itself. Entries below 1e-12 of the IMU's error scale are rounding of a
@@ -794,6 +804,7 @@ class SystemRun:
             d[s] = self.x[:, i].tolist()
         d["summary"] = self.summary()
         d["cycle_mean_inputs"] = dict(zip(INPUTS, self.cycle_mean_inputs.tolist(), strict=True))
+        d["sign_convention"] = SIGN_CONVENTION
         d["units"] = {"t": "s", **STATE_UNITS, "cycle_s": "s",
                       "max_horizontal_position_m": "m", "max_north_position_m": "m",
                       "max_east_position_m": "m", "max_dVE_m_s": "m/s", "max_dVN_m_s": "m/s",
