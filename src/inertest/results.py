@@ -313,7 +313,7 @@ class LinearTestResult:
             instrument=instrument_block(self.instrument),
             identification=ident,
             result=self.details(),
-            checks=checks if isinstance(checks, list) else [checks],
+            checks=checks if isinstance(checks, list) else [checks],  # type: ignore[list-item]
             messages=self.messages,
         )
 

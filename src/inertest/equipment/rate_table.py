@@ -169,14 +169,14 @@ class RotationProfile:
 
     def angle(self, t: ArrayLike) -> NDArray[np.float64]:
         """Rotation angle at time ``t`` after the start [rad] (0 before, ``angle_rad`` after)."""
-        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration_s)
+        tt: NDArray[np.float64] = np.clip(np.asarray(t, dtype=float), 0.0, self.duration_s)
         ta, tc, w = self._phases
         if ta == 0.0:
-            return w * t
+            return w * tt
         a = w / ta
-        up = 0.5 * a * np.minimum(t, ta) ** 2
-        flat = w * np.clip(t - ta, 0.0, tc)
-        td = np.clip(t - ta - tc, 0.0, ta)
+        up = 0.5 * a * np.minimum(tt, ta) ** 2
+        flat = w * np.clip(tt - ta, 0.0, tc)
+        td = np.clip(tt - ta - tc, 0.0, ta)
         down = w * td - 0.5 * a * td**2
         return up + flat + down
 

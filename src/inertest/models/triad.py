@@ -406,7 +406,7 @@ class TriadErrors:
             if unknown:
                 raise InputError(f"unknown misalignment name(s) {', '.join(unknown)}; use "
                                  f"{', '.join(MISALIGNMENT_NAMES)}")
-            mis = [float(misalignment_urad.get(k, 0.0)) for k in MISALIGNMENT_NAMES]
+            mis = np.array([float(misalignment_urad.get(k, 0.0)) for k in MISALIGNMENT_NAMES])
         else:
             mis = np.asarray(misalignment_urad, dtype=float)
         return cls(scale_deviation=np.asarray(scale_ppm, dtype=float) * PPM_TO_RATIO,
@@ -501,7 +501,7 @@ class TriadCalibration:
     @property
     def forward(self) -> NDArray[np.float64]:
         """``K (I + M)`` [raw unit per SI unit], the inverse of :attr:`matrix`."""
-        return np.linalg.inv(self.matrix)
+        return np.asarray(np.linalg.inv(self.matrix), dtype=float)
 
     def apply(
         self, raw: ArrayLike, acc_calibrated: ArrayLike | None = None
