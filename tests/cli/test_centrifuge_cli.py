@@ -34,10 +34,11 @@ def test_json_report_and_table(small_plan, tmp_path, capsys):
                  "--report", str(html)]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["kind"] == "centrifuge-study"
-    assert set(out["coefficients"]) == {"DF", "DI", "DO", "DS", "DIO", "DOS", "DSI", "DII",
-                                        "DOO", "DSS"}
-    assert out["coefficients"]["DII"]["unit"] == "deg/h/g^2"
-    dg = next(c for c in out["cases"] if c["key"] == "dgamma_200")
+    assert out["identification"] is None  # a study predicts; it identifies nothing from data
+    assert set(out["result"]["coefficients"]) == {"DF", "DI", "DO", "DS", "DIO", "DOS", "DSI",
+                                                  "DII", "DOO", "DSS"}
+    assert out["result"]["coefficients"]["DII"]["unit"] == "deg/h/g^2"
+    dg = next(c for c in out["result"]["cases"] if c["key"] == "dgamma_200")
     # the turned Earth rate, closed form, for I = west (positions 4-6)
     expected = OMEGA_IE * math.cos(math.radians(45)) * math.sin(200 * ARCMIN_TO_RAD)
     assert dg["max_run_rate_error_rad_s"] == pytest.approx(expected, rel=1e-9)

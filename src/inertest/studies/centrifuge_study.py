@@ -43,6 +43,7 @@ from inertest.errors import InputError, PlanError
 from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, coefficients_from_deg_h, drift
 from inertest.plan import check_known_keys, finite_number, toml_table
+from inertest.results import envelope
 from inertest.units import ARCMIN_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, G0
 
 # TOML validation with this module's error class (PlanError).
@@ -180,10 +181,13 @@ class StudyResult:
     closed_form_error: NDArray[np.float64]
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary in deg/h per g^k (keys carry units)."""
+        """The result envelope: settings, predicted uncertainty and the cost of each case.
+
+        Nothing is identified from data here, so ``identification`` is null; the study's own
+        block (``result``) holds, per coefficient, the predicted std, in deg/h per g^k.
+        """
         k = DEG_PER_H_TO_RAD_PER_S
         out: dict[str, Any] = {
-            "kind": "centrifuge-study",
             "settings": {
                 "radius_m": self.plan.radius_m,
                 "latitude_deg": self.plan.latitude_rad / DEG_TO_RAD,
@@ -222,9 +226,10 @@ class StudyResult:
                 }
                 for c in self.cases
             ],
-            "notes": list(self.notes),
         }
-        return out
+        site = {"latitude_deg": self.plan.latitude_rad / DEG_TO_RAD,
+                "gravity_m_s2": self.plan.gravity_m_s2}
+        return envelope("centrifuge-study", site=site, result=out, messages=self.notes)
 
 
 def _measured(dgamma: cf.NonSynchronisation | None,
