@@ -71,14 +71,19 @@ def test_units_and_angle_input(tmp_path, capsys, gyro):
     np.save(tmp_path / "r.npy", deg_s)
     assert main(["allan", str(tmp_path / "r.npy"), "--rate", "50", "--unit", "deg/s",
                  "--taus", "0.02,2", "--json", "--no-noise-id"]) == 0
-    a = _json(capsys)["oadev"]
+    out_a = _json(capsys)
+    a = out_a["oadev"]
+    assert out_a["unit"] == "deg/s"
     angle = np.concatenate(([0.0], np.cumsum(gyro) / 50.0))  # rad
     np.save(tmp_path / "a.npy", angle)
     assert main(["allan", str(tmp_path / "a.npy"), "--rate", "50", "--input", "angle",
                  "--taus", "0.02,2", "--json", "--no-noise-id"]) == 0
-    b = _json(capsys)["oadev"]
-    np.testing.assert_allclose(a, b, rtol=1e-9)
-    assert a[0] == pytest.approx(1e-4 * math.sqrt(50.0), rel=0.05)
+    out_b = _json(capsys)
+    b = out_b["oadev"]
+    assert out_b["unit"] == "rad/s"
+    # deviations in the unit the user gave (deg/s), the same record in rad/s
+    np.testing.assert_allclose(np.radians(a), b, rtol=1e-9)
+    assert a[0] == pytest.approx(np.degrees(1e-4 * math.sqrt(50.0)), rel=0.05)
 
 
 @pytest.mark.parametrize("fmt", ["png", "svg", "pdf"])
@@ -139,3 +144,21 @@ def test_bad_data_files(tmp_path, capsys):
     pacsv.write_csv(pa.table({"a": [1.0, 2.0], "b": [3.0, 4.0]}), tmp_path / "t.csv")
     assert main(["allan", str(tmp_path / "t.csv"), "--rate", "1", "--column", "c"]) != 0
     assert "no column 'c'" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_psins_lasergyro_deg_per_h_checks_and_units(tmp_path, capsys, realdata_dir):
+    """Real RLG record in deg/h: deviations in deg/h, a failed fit reported under checks."""
+    x = np.loadtxt(realdata_dir / "psins" / "lasergyro.imu", comments="%")[3:]
+    np.save(tmp_path / "gz.npy", x[:, 2] * 10.0)  # 0.1 arcsec per 10 ms = 10 deg/h per count
+    assert main(["allan", str(tmp_path / "gz.npy"), "--rate", "100", "--unit", "deg/h",
+                 "--stats", "oadev,tdev", "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["unit"] == "deg/h" and out["units"] == {"oadev": "deg/h", "tdev": "arcsec"}
+    ref = deviations(x[:, 2] * 10.0, 100.0, ["oadev"])["oadev"]  # deg/h in, deg/h out
+    np.testing.assert_allclose(out["oadev"], ref.dev, rtol=1e-9)
+    assert out["checks"] and "does not fit" in out["checks"][0]
+    assert "warning:" in captured.err
+    assert not any(t["resolved"] for t in out["noise_terms"]["terms"].values())
+    assert out["noise_terms"]["fits"] is False

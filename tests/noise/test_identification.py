@@ -109,4 +109,43 @@ def test_long_record_bootstrap_decimates_and_dense_grid_is_thinned(monkeypatch):
     assert np.all(model.taus[1:] / model.taus[:-1] >= 1.9)
     n = model.terms["N"]
     assert n.resolved and abs(n.value - 1e-3) < 3 * n.std
-    assert n.unit == "u*sqrt(s)"
+    assert n.unit == "sqrt(s)"  # dimensionless input: no "u" placeholder
+
+
+def _lasergyro_z(realdata_dir):
+    """PSINS laser-gyro record, z gyro: increments of 0.1 arcsec per 10 ms -> rad/s."""
+    x = np.loadtxt(realdata_dir / "psins" / "lasergyro.imu", comments="%")[3:]
+    arcsec = math.pi / 180.0 / 3600.0
+    return x[:, 2] * 0.1 * arcsec / 0.01
+
+
+@pytest.mark.slow
+def test_psins_lasergyro_model_that_does_not_fit_resolves_nothing(realdata_dir):
+    """Dithered ring-laser gyro on a vehicle: a dither hump near 0.1 s and a tau^-1 tail.
+
+    The five-term model cannot follow it; the fit must say so instead of reporting terms.
+    """
+    res = oadev(_lasergyro_z(realdata_dir), 100.0)
+    with pytest.warns(UserWarning, match="does not fit"):
+        model = identify_noise(res, instrument="gyro", n_boot=0)
+    assert not model.fits and model.chi2_per_dof > 100
+    assert model.max_misfit > 2.0
+    assert not any(t.resolved for t in model.terms.values())
+    assert model.checks and "does not fit" in model.checks[0]
+    # B is bounded by the flat floor: 0.664 B never above a measured deviation's upper limit
+    b_floor = np.min(res.dev_hi) / math.sqrt(2 * math.log(2) / math.pi)
+    assert model.terms["B"].upper_bound <= b_floor * (1 + 1e-9)
+    assert math.sqrt(model.coefficients_sq[2]) <= b_floor * (1 + 1e-9)
+    assert model.to_dict()["fits"] is False
+
+
+def test_bias_instability_never_above_the_floor():
+    """Flicker floor plus white noise: fitted B within the bound 0.664 B <= min dev_hi."""
+    y = simulate_noise(200_000, 10.0, n_rw=1e-4, b=2e-4, rng=4)
+    res = oadev(y, 10.0)
+    model = identify_noise(res, instrument=None, n_boot=0)
+    assert model.fits, model.verdict
+    floor = np.min(res.dev_hi) / math.sqrt(2 * math.log(2) / math.pi)
+    assert math.sqrt(model.coefficients_sq[2]) <= floor * (1 + 1e-9)
+    assert model.terms["B"].resolved
+    assert model.terms["B"].value == pytest.approx(2e-4, rel=0.15)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from pathlib import Path
 
 import click
@@ -41,11 +42,19 @@ def _scaled(r: DeviationResult, f: float) -> DeviationResult:
     return dataclasses.replace(r, dev=r.dev * f, dev_lo=r.dev_lo * f, dev_hi=r.dev_hi * f)
 
 
+def _dev_unit(unit: str, data_type: str) -> str:
+    """Unit the deviations are shown in: the user's rate unit (angle input: angle unit / s)."""
+    if data_type == "rate" or unit == "1":
+        return unit
+    return "m/s^2" if unit == "m/s" else f"{unit}/s"
+
+
 def _stat_unit(stat: str, rate_unit: str) -> str:
     """Unit of a statistic: the rate unit, except TDEV (rate unit x s: an angle, a velocity)."""
     if stat != "tdev":
         return rate_unit
-    return {"rad/s": "rad", "m/s^2": "m/s", "1": "s"}.get(rate_unit, f"{rate_unit}*s")
+    return {"rad/s": "rad", "deg/s": "deg", "deg/h": "arcsec", "arcsec/s": "arcsec",
+            "m/s^2": "m/s", "1": "s"}.get(rate_unit, f"{rate_unit}*s")
 
 
 def _tau_option(text: str) -> str | list[float]:
@@ -112,28 +121,37 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
         task = bar.add_task("allan", total=None)
         res = deviations(samples, rate_hz, want, _tau_option(taus), data_type,
                          progress=lambda d, t: bar.update(task, completed=d, total=t))
-    res = {k: _scaled(v, factor) for k, v in res.items()}
+    res = {k: _scaled(v, factor) for k, v in res.items()}  # SI for the noise fit
     model = None
+    checks: list[str] = []
     if not no_noise_id:
-        model = identify_noise(res["oadev"], instrument=instrument)
-    shown = {k: res[k] for k in names}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model = identify_noise(res["oadev"], instrument=instrument)
+        checks = list(model.checks)
+        checks += [str(w.message) for w in caught if str(w.message) not in checks]
+        for text in checks:
+            click.echo(f"warning: {text}", err=True)
+    dev_unit = _dev_unit(unit, data_type)
+    shown = {k: _scaled(res[k], 1.0 / factor) for k in names}  # in the user's unit
     if plot is not None:
-        fig = allan_figure(shown, model, unit=si_unit, title=f"{data.name}")
+        fig = allan_figure(shown, model, unit=dev_unit, title=f"{data.name}",
+                           scale=1.0 / factor)
         with target_file(plot) as tmp:
             fig.savefig(tmp, format=_FORMATS[plot.suffix.lower()], dpi=110, bbox_inches="tight")
     if report is not None:
         settings = [["data", data.name], ["column", column or "(the only one)"],
                     ["samples", str(len(samples))], ["sample rate", f"{rate_hz:g} Hz"],
                     ["input", data_type], ["unit of the column", unit],
-                    ["deviations in", si_unit]]
+                    ["deviations in", dev_unit]]
         write_text(report, page(
             f"Noise analysis of {data.name}",
             [Section("Record", [table_html(["setting", "value"], settings)]),
-             *allan_sections(shown, model, unit=si_unit)],
+             *allan_sections(shown, model, unit=dev_unit, scale=1.0 / factor)],
             subtitle="Allan-family deviations (NIST SP 1065) and IEEE Std 952-1997 noise terms"))
     if as_json:
         grid = sorted({float(t) for r in shown.values() for t in r.taus})
-        out: dict[str, object] = {"tau": grid, "unit": si_unit, "rate_hz": rate_hz,
+        out: dict[str, object] = {"tau": grid, "unit": dev_unit, "rate_hz": rate_hz,
                                   "input": data_type, "samples": int(len(samples))}
         for k, r in shown.items():
             pos = {float(t): i for i, t in enumerate(r.taus)}
@@ -146,18 +164,21 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
             out[f"{k}_hi"] = col(r.dev_hi)
             out[f"{k}_n"] = col(r.n)
             out[f"{k}_edf"] = col(r.edf)
-        out["units"] = {k: _stat_unit(k, si_unit) for k in shown}
+        out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
         out["confidence"] = next(iter(shown.values())).confidence
         out["noise_terms"] = model.to_dict() if model is not None else None
+        out["checks"] = checks
         echo_json(out)
         return
     header, rows = deviation_rows(shown)
-    print_table(f"{data.name}: deviations [{si_unit}] ({math.floor(len(samples)):d} samples "
-                f"at {rate_hz:g} Hz)", header, rows)
+    units = {k: _stat_unit(k, dev_unit) for k in shown}
+    print_table(f"{data.name}: deviations [{', '.join(f'{k} {u}' for k, u in units.items())}] "
+                f"({math.floor(len(samples)):d} samples at {rate_hz:g} Hz)", header, rows)
     if model is not None:
         header, rows = noise_rows(model)
         print_table("noise terms (IEEE Std 952-1997, fitted to the overlapping Allan variance)",
                     header, rows)
+        click.echo(f"fit: {model.verdict}")
     if plot is not None:
         click.echo(f"figure: {plot}")
     if report is not None:

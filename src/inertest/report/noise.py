@@ -17,9 +17,13 @@ _TERM_STYLE = {"Q": "C4", "N": "C1", "B": "C2", "K": "C3", "R": "C5"}
 
 def allan_figure(
     results: Mapping[str, DeviationResult], model: NoiseModel | None = None, *,
-    unit: str = "rad/s", title: str = "",
+    unit: str = "rad/s", title: str = "", scale: float = 1.0,
 ) -> Figure:
-    """Log-log deviations with confidence bars, the fitted model and each term's asymptote."""
+    """Log-log deviations with confidence bars, the fitted model and each term's asymptote.
+
+    ``results`` are in ``unit``; the model is in SI and multiplied by ``scale`` (SI to
+    ``unit``) before it is drawn.
+    """
     fig, ax = plt.subplots(figsize=(8, 5.6))
     for i, (name, r) in enumerate(results.items()):
         err = np.vstack([r.dev - r.dev_lo, r.dev_hi - r.dev])
@@ -27,13 +31,14 @@ def allan_figure(
                     color=f"C{i if i < 1 else i + 5}", label=f"{name} ({r.confidence:.1%} CI)")
     if model is not None:
         t = np.geomspace(model.taus[0], model.taus[-1], 200)
-        ax.plot(t, model.model_dev(t), "k-", lw=1.4, label="fitted IEEE 952 model")
+        label = "fitted IEEE 952 model" + ("" if model.fits else " (does not fit)")
+        ax.plot(t, scale * model.model_dev(t), "k-", lw=1.4, label=label)
         for term in TERMS:
             nt = model.terms[term]
             if not nt.resolved:
                 continue
             label = f"{term}: {nt.value_eng:.3g} ± {nt.std_eng:.2g} {nt.unit}"
-            ax.plot(t, model.model_dev(t, term), "--", lw=1.0, color=_TERM_STYLE[term],
+            ax.plot(t, scale * model.model_dev(t, term), "--", lw=1.0, color=_TERM_STYLE[term],
                     label=label)
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -83,9 +88,10 @@ def noise_rows(model: NoiseModel) -> tuple[list[str], list[list[str]]]:
 
 def allan_sections(
     results: Mapping[str, DeviationResult], model: NoiseModel | None, *, unit: str = "rad/s",
+    scale: float = 1.0,
 ) -> list[Section]:
-    """Report sections: figure, noise terms, deviation table."""
-    fig = allan_figure(results, model, unit=unit)
+    """Report sections: figure, noise terms (with the fit verdict), deviation table."""
+    fig = allan_figure(results, model, unit=unit, scale=scale)
     out = [Section("Allan-family deviations", [figure_html(fig, "deviations with confidence "
                                                                  "intervals; fitted model")])]
     plt.close(fig)
@@ -93,6 +99,7 @@ def allan_sections(
         h, r = noise_rows(model)
         out.append(Section("Noise terms (IEEE Std 952-1997 Annex C)", [
             table_html(h, r),
+            paragraph(f"Fit: {model.verdict}.", note=not model.fits),
             paragraph("A term is reported only when it is significant and the largest term "
                       "somewhere on the tau range; otherwise only its upper bound is known.",
                       note=True),
