@@ -36,7 +36,12 @@ def test_fit_stores_and_history_summarises(campaign, capsys):
                                                           "2026-03-15"]
     q = {h["name"]: h for h in out["result"]["quantities"]}
     assert q["DI"]["values"] == di
-    assert q["DI"]["repeatability"] == pytest.approx(np.std(di, ddof=1))
+    # repeatability weighted by the run stds (reliability weights 1/s^2)
+    w = 1 / np.array(q["DI"]["stds"]) ** 2
+    m = np.average(di, weights=w)
+    assert q["DI"]["repeatability"] == pytest.approx(
+        np.sqrt(np.sum(w * (np.array(di) - m) ** 2) / (w.sum() - (w**2).sum() / w.sum())))
+    assert q["DI"]["scatter_test"]["dof"] == 2
     assert q["DI"]["unit"] == "deg/h/g" and q["DI"]["trend_per_day"] is not None
     assert (tmp / "h.png").read_bytes()[:4] == b"\x89PNG"
     assert main(["history", "FG-0417", "--db", str(db)]) == 0

@@ -5,16 +5,20 @@ from __future__ import annotations
 from collections.abc import Sequence
 from datetime import datetime
 
-from inertest.estimation.trend import QuantityHistory, summarize
+from inertest.estimation.trend import DEFAULT_ALPHA, QuantityHistory, summarize
 from inertest.store.history import RunRecord, StoreError
 
 
 def summarize_runs(
-    runs: Sequence[RunRecord], *, names: Sequence[str] | None = None, k: float = 3.0
+    runs: Sequence[RunRecord], *, names: Sequence[str] | None = None, k: float = 3.0,
+    alpha: float = DEFAULT_ALPHA,
 ) -> list[tuple[QuantityHistory, list[datetime]]]:
     """Summaries of every quantity (or of ``names``) over ``runs``, with the run times.
 
-    A quantity's unit must be the same in every run; runs without the quantity are skipped.
+    Each run's stored std weights it (:func:`inertest.estimation.trend.summarize`: GLS mean,
+    repeatability and trend, chi-square scatter tests at level ``alpha``, Birge-ratio
+    inflation). A quantity's unit must be the same in every run; runs without the quantity are
+    skipped.
     """
     if not runs:
         return []
@@ -42,6 +46,6 @@ def summarize_runs(
         times = [t for t, *_ in rows]
         t_days = [(t - t0).total_seconds() / 86400.0 for t in times]
         h = summarize(name, units.pop(), t_days, [v for _, v, _, _ in rows],
-                      [s for _, _, s, _ in rows], k=k)
+                      [s for _, _, s, _ in rows], k=k, alpha=alpha)
         out.append((h, times))
     return out
