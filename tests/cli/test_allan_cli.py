@@ -22,7 +22,7 @@ def gyro():
 
 
 def _json(capsys):
-    return json.loads(capsys.readouterr().out)
+    return json.loads(capsys.readouterr().out)["result"]
 
 
 def test_csv_json_layout_and_values(tmp_path, capsys, gyro):
@@ -154,11 +154,13 @@ def test_psins_lasergyro_deg_per_h_checks_and_units(tmp_path, capsys, realdata_d
     assert main(["allan", str(tmp_path / "gz.npy"), "--rate", "100", "--unit", "deg/h",
                  "--stats", "oadev,tdev", "--json"]) == 0
     captured = capsys.readouterr()
-    out = json.loads(captured.out)
+    doc = json.loads(captured.out)
+    assert doc["kind"] == "allan" and doc["checks"][0]["verdict"] == "warning"
+    out = doc["result"]
     assert out["unit"] == "deg/h" and out["units"] == {"oadev": "deg/h", "tdev": "arcsec"}
     ref = deviations(x[:, 2] * 10.0, 100.0, ["oadev"])["oadev"]  # deg/h in, deg/h out
     np.testing.assert_allclose(out["oadev"], ref.dev, rtol=1e-9)
-    assert out["checks"] and "does not fit" in out["checks"][0]
+    assert doc["messages"] and "does not fit" in doc["messages"][0]
     assert "warning:" in captured.err
     assert not any(t["resolved"] for t in out["noise_terms"]["terms"].values())
     assert out["noise_terms"]["fits"] is False

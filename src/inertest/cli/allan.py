@@ -20,6 +20,7 @@ from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
 from inertest.noise.identification import identify_noise
 from inertest.report.html import Section, page, table_html
 from inertest.report.noise import allan_figure, allan_sections, deviation_rows, noise_rows
+from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
 
 # Column unit -> (factor to SI, SI rate unit of the deviation, instrument kind).
@@ -167,8 +168,11 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
         out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
         out["confidence"] = next(iter(shown.values())).confidence
         out["noise_terms"] = model.to_dict() if model is not None else None
-        out["checks"] = checks
-        echo_json(out)
+        verdict = "ok" if model is None or not checks else "warning"
+        echo_json(envelope(
+            "allan", result=out, messages=checks,
+            checks=[] if model is None else [{"name": "five-term noise model", "verdict": verdict,
+                                              "findings": checks}]))
         return
     header, rows = deviation_rows(shown)
     units = {k: _stat_unit(k, dev_unit) for k in shown}
