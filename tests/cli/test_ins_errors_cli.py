@@ -17,7 +17,7 @@ def test_json_contract_and_closed_form_value(capsys):
     east), apart from Schuler and Earth-rate oscillations."""
     assert main(["ins-errors", "--latitude", "39", "--hours", "48", "--step", "60",
                  "--gyro-drift-deg-h", "0,0.1,0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert set(out) == {"t", *STATES, "periods", "units", "sign_convention"}
     assert "output errors" in out["sign_convention"]
     t = np.array(out["t"])
@@ -48,20 +48,20 @@ def test_scenario_file_with_overrides(examples_dir, capsys):
     path = examples_dir / "ins_errors" / "source_scenario.toml"
     assert main(["ins-errors", "--scenario", str(path), "--hours", "2", "--step", "600",
                  "--coriolis", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert out["t"][-1] == 7200
     assert out["periods"]["foucault"] is not None  # --coriolis overrode the file
     # attitude override replaces the file's value; initial phiE shows at t = 0
     assert main(["ins-errors", "--scenario", str(path), "--hours", "1", "--step", "600",
                  "--initial-attitude-arcsec", "10,0,0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert out["phiE"][0] == pytest.approx(10 / 3600 * math.pi / 180, rel=1e-12)
 
 
 def test_random_sources_add_sigma(capsys):
     assert main(["ins-errors", "--latitude", "30", "--hours", "1", "--step", "60",
                  "--gyro-arw-deg-sqrt-h", "0.01", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert out["sigma"]["phiE"][0] == 0 and out["sigma"]["phiE"][1] > 0
     assert all(v == 0 for v in out["dVE"])  # no deterministic source given
 

@@ -8,7 +8,7 @@ def test_component_json_and_plot(tmp_path, capsys):
     assert main(["modulation", "component", "--stator-hz", "1,4", "--sample-hz", "400",
                  "--duration-s", "20", "--drift-deg-h", "5,-3", "--json",
                  "--plot", str(png)]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     r1, r4 = out["runs"]
     # rms over both axes of the constant drift (5, -3) deg/h = sqrt(17)
     assert abs(r1["rms_residual_fixed_deg_h"] - 17.0**0.5) < 1e-9
@@ -28,7 +28,7 @@ def test_system_json_single_scheme(capsys):
     assert main(["modulation", "system", "--latitude", "30", "--hours", "2", "--step", "600",
                  "--scheme", "single-axis", "--rate-deg-s", "6", "--gyro-drift-deg-h", "0,0,0.01",
                  "--accel-bias-ug", "0,0,0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     assert out["scheme"] == "single-axis"
     assert out["t"] == [0.0, 600.0, 1200.0, 1800.0, 2400.0, 3000.0, 3600.0, 4200.0, 4800.0,
                         5400.0, 6000.0, 6600.0, 7200.0]
@@ -61,7 +61,7 @@ def test_system_compare_json(capsys):
     assert main(["modulation", "system", "--hours", "3", "--step", "300", "--compare",
                  "--rate-deg-s", "10", "--dwell-s", "30", "--gyro-drift-deg-h", "0.01,0.01,0",
                  "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     runs = {r["label"]: r["summary"] for r in out["runs"]}
     assert len(runs) == 5
     static = runs["none"]["max_phiE_rad"]
@@ -94,7 +94,7 @@ def test_system_gyro_misalignment_in_urad_by_triad_convention(capsys):
     matrix is M_xy (gyro x, rate about y), in rad in the JSON."""
     assert main(["modulation", "system", "--hours", "1", "--step", "600", "--scheme", "none",
                  "--gyro-misalignment-urad", "5,0,0,0,0,0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    out = json.loads(capsys.readouterr().out)["result"]
     m = out["imu"]["gyro_misalignment"]
     assert m["unit"] == "rad" and abs(m["value"][0][1] - 5e-6) < 1e-20
     assert m["value"][1][0] == 0.0

@@ -29,6 +29,7 @@ from inertest.report.ins_errors import (
     periods_rows,
     responses_figure,
 )
+from inertest.results import envelope
 from inertest.units import (
     DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S,
     DEG_PER_SQRT_H_TO_RAD_PER_SQRT_S,
@@ -159,7 +160,7 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         out["sign_convention"] = SIGN_CONVENTION
         if sigma is not None:
             out["sigma"] = {st: sigma[:, i].tolist() for i, st in enumerate(STATES)}
-        echo_json(out)
+        echo_json(envelope("ins-errors", result=out))
         return
     click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table("characteristic periods (eigenvalues of A)", ["period", "value", "closed form"],

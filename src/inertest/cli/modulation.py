@@ -21,6 +21,7 @@ from inertest.report.modulation import (
     system_sections,
     system_summary_rows,
 )
+from inertest.results import envelope
 from inertest.studies import rotation_modulation as rm
 from inertest.studies import stator_modulation as sm
 from inertest.units import (
@@ -105,7 +106,8 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
              "bandwidth_hz": r.cost.bandwidth_hz, "window_s": r.cost.window_s}
             for f, r in zip(rates_hz, runs, strict=True)]
     if as_json:
-        echo_json({"runs": rows, "units": {"rms": "deg/h", "delay": "s", "bandwidth": "Hz"}})
+        echo_json(envelope("modulation-component", result={
+            "runs": rows, "units": {"rms": "deg/h", "delay": "s", "bandwidth": "Hz"}}))
         return
     print_table("stator rotation modulation: residual drift after whole-period integration",
                 ["stator [Hz]", "RMS residual [deg/h]", "no modulation [deg/h]", "delay [s]",
@@ -194,8 +196,9 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
     if as_json:
         common = {"latitude_deg": latitude_deg, "imu": _imu_json(imu),
                   "vertical_channel": "not modelled"}
-        echo_json({**common, "runs": [r.to_dict() for r in runs]} if compare
-                  else {**common, **runs[0].to_dict()})
+        echo_json(envelope("modulation-system", site={"latitude_deg": latitude_deg},
+                           result={**common, "runs": [r.to_dict() for r in runs]} if compare
+                           else {**common, **runs[0].to_dict()}))
         return
     click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table(f"INS errors over {hours:g} h at latitude {latitude_deg:g} deg (max |error|; "
