@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.special import j1
 
 from inertest.api import load_data, load_plan
 from inertest.earth import Site
@@ -385,3 +386,32 @@ def test_imucal_agrees_on_the_real_session_with_a_negated_channel(column):
     W = np.abs(np.diag(r.stats.turn_gyr_integral)).min()
     ours = r.calibration.gyroscope.matrix
     assert np.abs(ours - gyr_m).max() <= 2 * db * T / W * np.abs(np.diag(ours)).max()
+
+
+@pytest.mark.parametrize(("turn_s", "rest_s", "rotation_deg"), [(4.0, 1.0, 360.0),
+                                                                (10.0, 0.5, -360.0)])
+def test_earth_rate_during_turns_leaves_the_stated_misalignment(turn_s, rest_s, rotation_deg):
+    """A perfect IMU (K = 1, M = 0, b = 0), no noise, Earth rate on, at the example plan's site.
+    The horizontal Earth rate W cos L (north; faces at heading 0) turns in the body by the turned
+    angle phi(t); over the turn part it leaves the angle W cos L |int exp(-i phi) dt| across the
+    turn axis. For a raised-cosine rate over T with rests t_r either side, by hand:
+    int_0^T exp(-i phi) dt = T J_1(1) (Bessel, phi = 2 pi (s - sin(2 pi s)/(2 pi)), s = t/T),
+    plus 2 t_r at phi = 0 mod 2 pi, so M = W cos L (2 t_r + J_1(1) T) / theta, in the element
+    (north axis at the start, turn axis): z for the x turn, x for y, y for z."""
+    plan = load_plan(EXAMPLES / "plan.toml")
+    plan = replace(plan, procedure=replace(plan.procedure, turn_duration_s=turn_s,
+                                           rest_s=rest_s, rotation_deg=rotation_deg))
+    perfect = {f"K{s}_{a}": 1.0 for s in "ag" for a in "xyz"}
+    c = ferraris.fit(plan, ferraris.simulate(plan, perfect)).coefficients
+    w_ie = 7.2921151467e-5  # rad/s (WGS 84)
+    t_eff = 2 * rest_s + j1(1.0) * turn_s
+    expected_urad = w_ie * np.cos(np.radians(49.6)) * t_eff / np.radians(rotation_deg) * 1e6
+    spurious = {n: c[n].value for n in ("Mg_zx", "Mg_xy", "Mg_yz")}
+    for name, value in spurious.items():
+        assert value == pytest.approx(expected_urad, rel=0.01), name
+    others = [abs(c[n].value) for n in ("Mg_yx", "Mg_zy", "Mg_xz")]
+    assert max(others) < 1e-3 * abs(expected_urad)
+    largest = max(abs(c[n].value) for n in c if n.startswith("Mg_"))
+    assert largest == pytest.approx(abs(expected_urad), rel=0.01)
+    for a in "xyz":  # scale factors: unaffected to first order
+        assert abs(c[f"Kg_{a}"].value - 1.0) < 1e-9

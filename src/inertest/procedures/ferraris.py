@@ -54,10 +54,24 @@ part raises :class:`~inertest.errors.IdentifiabilityError` naming the coefficien
 determine; faces or turns that change the wrong axis, or a turn of the wrong sign, raise
 :class:`~inertest.errors.DataError` naming the likely mislabelling.
 
-Not modelled: the horizontal Earth rate (the heading is unknown): during a turn it rotates with
-the body and averages out except over the rests at either end (``W_ie cos L`` x rest: 15 ppm of
-360 deg for 2 s at 50 deg latitude); in ``G`` it is up to ``W_ie cos L`` per g (9.7 deg/h/g at
-50 deg: below the noise of a MEMS session, not of a FOG triad). Nor the wobble of a hand turn.
+Not modelled: the horizontal Earth rate (the heading of the faces is unknown, so it cannot be
+removed). During turn j it rotates in the body by the turned angle ``phi(t)`` and cancels only
+where the turn runs at a uniform rate; over the whole part (rests included) it leaves an angle
+perpendicular to the turn axis, along the horizontal Earth rate's direction at the start, of
+``W_ie cos L T_eff`` with ``T_eff = |integral of exp(-i phi(t)) dt|`` over the part (at most the
+part's length). Divided by ``theta`` it is a spurious gyro misalignment in column j::
+
+    |M_.j| = W_ie cos L T_eff / |theta|     (column j's off-axis part, pointing north at the start)
+
+For the simulated turn (a raised-cosine rate over ``T = turn_duration_s`` with ``t_r = rest_s``
+at rest on either side, :func:`~inertest.equipment.ferraris_session.turn_rate_profile`)
+``T_eff = 2 t_r + J_1(1) T`` (``J_1(1) = 0.4401``, Bessel): the example plan (T = 4 s,
+t_r = 1 s, 49.6 deg latitude) gives ``T_eff = 3.76 s`` and 28 urad (in ``Mg_zx``, ``Mg_xy``,
+``Mg_yz`` for the simulation's faces at heading 0); any hand profile of a 6 s part gives at
+most 45 urad (``W_ie cos L x 6 s / 2 pi``). Keep the rests short to keep it small; the scale
+factors are unaffected to first order.
+In ``G`` the horizontal Earth rate is up to ``W_ie cos L`` per g (9.7 deg/h/g at 50 deg: below
+the noise of a MEMS session, not of a FOG triad). Nor is the wobble of a hand turn modelled.
 
 Results (units and conventions of :mod:`inertest.models.triad`): ``Ka_*`` [count/(m/s^2)],
 ``Kg_*`` [count/(deg/s): a count column is a rate reading per sample] (``1`` with a ppm
@@ -412,8 +426,9 @@ def _solve(
 
     ``E`` row j: vertical Earth-rate angle over turn j on the body axes [rad],
     ``omega_up T_j u_j`` with ``u_j`` the mean calibrated specific-force direction (up).
-    The horizontal Earth rate turns with the body during a turn and mostly cancels; it is not
-    modelled (the heading is unknown).
+    The horizontal Earth rate turns with the body during a turn and only partly cancels; it is
+    not modelled (the heading is unknown) and leaves a spurious gyro misalignment
+    ``W_ie cos L T_eff / theta`` (module docstring: 28 urad for the example plan).
     """
     A_a = (acc_mean[0::2] - acc_mean[1::2]).T / (2.0 * gravity)
     b_a = np.array([(acc_mean[2 * i, i] + acc_mean[2 * i + 1, i]) / 2 for i in range(3)])
