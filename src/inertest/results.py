@@ -90,7 +90,7 @@ class Outlier:
 
 @dataclass(frozen=True)
 class ModelChecks:
-    """Does the fitted model, with its noise model, describe the data?
+    """Goodness of fit of the model, with its noise model, to the data.
 
     Residuals are reduced to the natural unit of independence (a position or run: the mean of
     its readings) and whitened by the covariance of the noise model, so that under the model

@@ -8,17 +8,25 @@ coefficients, a basis of identifiable combinations of the rest, and the null spa
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.linalg
+import scipy.optimize
+import scipy.signal
+import scipy.stats
 from numpy.typing import ArrayLike, NDArray
 
+from inertest.errors import IdentifiabilityError, InertestWarning, InputError, PlanError
 from inertest.estimation.least_squares import (
+    DEFAULT_RCOND,
     LinearFit,
     identifiable_combinations,
     weighted_least_squares,
 )
-from inertest.results import Combination, Estimate, Identification
+from inertest.results import Combination, Estimate, Identification, ModelChecks, Outlier
 
 #: Explains the null space of a fit in words: (fit, design) -> statements.
 Explainer = Callable[[LinearFit, NDArray[np.float64]], Sequence[str]]
@@ -37,13 +45,15 @@ def identify(
     pivot_order: Sequence[str] = (),
     normalize_to: str | None = None,
     explain: Explainer | None = None,
+    groups: ArrayLike | None = None,
+    noise_model: str = "white",
 ) -> tuple[LinearFit, Identification]:
     """Solve ``y = A x`` and report what the data determine, in engineering units.
 
     Parameters
     ----------
     A : array_like, shape (n, p)
-        Design in SI (columns in the order of ``names``).
+        Design in SI (columns in the order of ``names``), rows in time order.
     y : array_like, shape (n,)
         Observations in SI.
     names : sequence of str
@@ -62,21 +72,50 @@ def identify(
         Scale each combination containing this coefficient so that its weight is 1.
     explain : callable, optional
         Statements about the null space; default: a generic one naming the coefficients involved.
+    groups : array_like of str, optional
+        Position/run of each row (the unit of independence), see :func:`solve`.
+    noise_model : str
+        Noise model (:data:`NOISE_MODELS`, see :func:`solve`); default ``white``, the classical
+        least squares.
 
     Returns
     -------
     fit : LinearFit
         SI solution.
     result : Identification
-        Engineering-unit summary.
+        Engineering-unit summary with the noise model and its checks.
 
     Notes
     -----
     Combination weights are converted so that ``value = sum(w_k * coef_k)`` holds in engineering
     units, with the unit of the leading (weight-1) term.
     """
+    fit, _, result = identify_with_noise(
+        A, y, names=names, units=units, si_per_unit=si_per_unit, noise_unit=noise_unit,
+        si_per_noise_unit=si_per_noise_unit, sigma_si=sigma_si, pivot_order=pivot_order,
+        normalize_to=normalize_to, explain=explain, groups=groups, noise_model=noise_model)
+    return fit, result
+
+
+def identify_with_noise(
+    A: ArrayLike,
+    y: ArrayLike,
+    *,
+    names: Sequence[str],
+    units: Mapping[str, str],
+    si_per_unit: Mapping[str, float],
+    noise_unit: str,
+    si_per_noise_unit: float,
+    sigma_si: float | ArrayLike | None = None,
+    pivot_order: Sequence[str] = (),
+    normalize_to: str | None = None,
+    explain: Explainer | None = None,
+    groups: ArrayLike | None = None,
+    noise_model: str = "white",
+) -> tuple[LinearFit, NoiseFit, Identification]:
+    """:func:`identify`, also returning the :class:`NoiseFit` (unit covariance, labels)."""
     names = tuple(names)
-    fit = weighted_least_squares(A, y, sigma=sigma_si)
+    fit, noise = solve(A, y, sigma_si=sigma_si, groups=groups, noise_model=noise_model)
     fac = np.array([si_per_unit[n] for n in names])
     ident = fit.identifiable
     coefficients = {
@@ -100,16 +139,17 @@ def identify(
         not_separable=tuple(statements),
         covariance=fit.covariance / np.outer(fac, fac),
         names=names,
-        noise_sigma=(
-            float(fit.sigma / si_per_noise_unit) if fit.sigma_from_residuals else float("nan")
-        ),
+        noise_sigma=float(noise.white_sigma / si_per_noise_unit),
         noise_unit=noise_unit,
-        sigma_from_residuals=fit.sigma_from_residuals,
+        sigma_from_residuals=not noise.sigma_given,
         dof=fit.dof,
         rank=fit.rank,
         residuals=fit.residuals / si_per_noise_unit,
+        noise_model=noise.model,
+        noise_components={k: v / si_per_noise_unit for k, v in noise.components.items()},
+        checks=noise.checks,
     )
-    return fit, result
+    return fit, noise, result
 
 
 def _combination(
@@ -170,3 +210,480 @@ def _generic_explanation(names: tuple[str, ...]) -> Explainer:
         return out
 
     return explain
+
+
+# --------------------------------------------------------------------------------------------
+# Noise models: reduce to the unit of independence, estimate the variance components, GLS.
+# --------------------------------------------------------------------------------------------
+
+#: Noise models :func:`solve` knows; ``auto`` picks one of the others by AIC.
+NOISE_MODELS = ("auto", "white", "position-offsets", "random-walk", "flicker")
+#: Significance level of the model checks (per test); low, so that good data rarely warn.
+CHECK_ALPHA = 1e-3
+#: Units needed beyond the rank before a variance component is estimated.
+_MIN_UNIT_DOF = 4
+#: Largest number of units for which a correlated noise model is fitted (dense G x G).
+_MAX_UNITS = 2000
+#: Ratio between the correlation times of the AR(1) processes that make up flicker noise.
+_FLICKER_STEP = 4.0
+
+
+def check_noise_model(value: object) -> str:
+    """Validate the ``noise_model`` of a plan's ``[procedure]`` table (or an API argument)."""
+    if not isinstance(value, str) or value not in NOISE_MODELS:
+        raise PlanError(
+            f"noise_model must be one of {', '.join(NOISE_MODELS)}, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class NoiseFit:
+    """How :func:`solve` modelled the noise (SI, the units of ``y``).
+
+    Attributes
+    ----------
+    model : str
+        Noise model used (never ``auto``).
+    white_sigma : float
+        White noise per reading (given or estimated).
+    sigma_given : bool
+        True when the white noise was given by the user.
+    components : dict
+        Standard deviation of each noise component: ``white`` (per reading), ``position
+        offset`` (per unit), ``random walk`` (step per reading), ``flicker`` (per reading).
+    unit_index : ndarray of int, shape (n,)
+        Unit (position/run) of each row; units are numbered in time order (first row).
+    unit_labels : tuple of str or None
+        Label of each unit (None when the units are the readings).
+    unit_covariance : ndarray, shape (G, G) or (G,)
+        Covariance of the unit means under the fitted noise model (its diagonal when the
+        model is white).
+    checks : ModelChecks
+        Goodness of fit.
+    """
+
+    model: str
+    white_sigma: float
+    sigma_given: bool
+    components: dict[str, float]
+    unit_index: NDArray[np.intp] = field(repr=False)
+    unit_labels: tuple[str, ...] | None = field(repr=False)
+    unit_covariance: NDArray[np.float64] = field(repr=False)
+    checks: ModelChecks = field(repr=False)
+
+    def unit_means(self, values: ArrayLike) -> NDArray[np.float64]:
+        """Mean of ``values`` (one per row) over each unit."""
+        v = np.asarray(values, dtype=float)
+        counts = np.bincount(self.unit_index)
+        return np.bincount(self.unit_index, v) / counts
+
+
+@dataclass(frozen=True)
+class _Units:
+    """Rows reduced to units (positions/runs): means, design, counts, time order."""
+
+    index: NDArray[np.intp]
+    labels: tuple[str, ...] | None  # None: the units are the readings
+    counts: NDArray[np.float64]
+    first: NDArray[np.intp]
+    last: NDArray[np.intp]
+    y: NDArray[np.float64]
+    A: NDArray[np.float64]
+    n_rows: int
+
+    @property
+    def size(self) -> int:
+        return int(self.counts.size)
+
+    def label(self, i: int) -> str:
+        return f"reading {i + 1}" if self.labels is None else self.labels[i]
+
+    @property
+    def contiguous(self) -> bool:
+        return bool(np.all(self.last - self.first + 1 == self.counts))
+
+
+def _units(A: NDArray[np.float64], y: NDArray[np.float64], groups: ArrayLike | None) -> _Units:
+    n = y.size
+    if groups is None:
+        idx = np.arange(n, dtype=np.intp)
+        return _Units(index=idx, labels=None, counts=np.ones(n), first=idx, last=idx, y=y, A=A,
+                      n_rows=n)
+    labels_row = np.asarray(groups).astype(str)
+    if labels_row.shape != (n,):
+        raise InputError(f"groups has shape {labels_row.shape}; give one label per row ({n})")
+    uniq, first, inv = np.unique(labels_row, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")  # units in time order
+    rank_of = np.empty_like(order)
+    rank_of[order] = np.arange(order.size)
+    index = rank_of[inv]
+    counts = np.bincount(index).astype(float)
+    last = np.zeros(order.size, dtype=np.intp)
+    np.maximum.at(last, index, np.arange(n))
+    ybar = np.bincount(index, y) / counts
+    Abar = np.stack([np.bincount(index, A[:, j], minlength=order.size) for j in
+                     range(A.shape[1])], axis=1) / counts[:, None]
+    scale = max(float(np.max(np.abs(A))), 1e-300)
+    if groups is not None and np.max(np.abs(A - Abar[index])) > 1e-9 * scale:
+        # The design varies inside a group: the labels are not positions; use the readings.
+        return _units(A, y, None)
+    return _Units(index=index, labels=tuple(uniq[order].tolist()), counts=counts,
+                  first=first[order].astype(np.intp), last=last, y=ybar, A=Abar, n_rows=n)
+
+
+def _geo(rho: float, m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``sum_{j<m} rho^j``."""
+    return m if rho == 0 else (1.0 - rho**m) / (1.0 - rho)
+
+
+def _ar1_unit_kernel(u: _Units, rho: float) -> NDArray[np.float64]:
+    """Covariance of unit means of a unit-variance AR(1) process over rows (lag-1 corr rho)."""
+    if u.contiguous:
+        m = u.counts
+        g = _geo(rho, m)
+        gap = u.first[None, :] - u.last[:, None]  # start of later unit - end of earlier unit
+        gap = np.where(gap > 0, gap, gap.T)
+        K = np.outer(g, g) * np.power(rho, np.maximum(gap, 1))
+        within = m * (1 + rho) / (1 - rho) - 2 * rho * (1 - rho**m) / (1 - rho) ** 2
+        np.fill_diagonal(K, within)
+        return K / np.outer(m, m)
+    return _generic_unit_kernel(u, lambda v: _ar1_apply(v, rho))
+
+
+def _rw_unit_kernel(u: _Units) -> NDArray[np.float64]:
+    """Covariance of unit means of a random walk with unit step variance per row.
+
+    The walk is ``W_t = sum_{k<=t} e_k`` over the row index t, ``Cov(W_i, W_k) = min(i, k) + 1``.
+    """
+    if u.contiguous:
+        m, a = u.counts, u.first.astype(float)
+        mean_t = a + 1 + (m - 1) / 2  # mean of (i + 1) over the unit's rows
+        earlier = u.first[:, None] < u.first[None, :]
+        K = np.where(earlier, mean_t[:, None], mean_t[None, :])
+        within = (a + 1) + (2 * m - 1) * (m - 1) / (6 * m)
+        np.fill_diagonal(K, within)
+        return K
+    return _generic_unit_kernel(
+        u, lambda v: np.cumsum(np.cumsum(v[::-1], axis=0)[::-1], axis=0))
+
+
+def _ar1_apply(v: NDArray[np.float64], rho: float) -> NDArray[np.float64]:
+    """``K v`` for the AR(1) correlation ``K[i, k] = rho^|i - k|`` (two first-order filters)."""
+    fwd = scipy.signal.lfilter([1.0], [1.0, -rho], v, axis=0)
+    bwd = scipy.signal.lfilter([1.0], [1.0, -rho], v[::-1], axis=0)[::-1]
+    return fwd + bwd - v
+
+
+def _generic_unit_kernel(
+    u: _Units, apply: Callable[[NDArray[np.float64]], NDArray[np.float64]]
+) -> NDArray[np.float64]:
+    """``M K M^T`` for a row kernel given as ``v -> K v`` (units not contiguous in time)."""
+    G, out = u.size, np.empty((u.size, u.size))
+    for start in range(0, G, 16):
+        cols = np.arange(start, min(G, start + 16))
+        Mt = (u.index[:, None] == cols[None, :]) / u.counts[cols]
+        KMt = apply(Mt)
+        out[:, cols] = np.stack([np.bincount(u.index, KMt[:, j], minlength=G)
+                                 for j in range(cols.size)], axis=1) / u.counts[:, None]
+    return 0.5 * (out + out.T)
+
+
+def _flicker_unit_kernel(u: _Units) -> NDArray[np.float64]:
+    """Covariance of unit means of flicker (1/f) noise of unit variance per row.
+
+    Flicker is represented over the span of the test by equal-variance AR(1) processes with
+    correlation times 1, 4, 16, ... rows up to the length of the record (a sum of relaxation
+    processes with log-spaced times has a 1/f spectrum between the extreme corner frequencies;
+    Keshner, Proc. IEEE 70(3), 1982, doi:10.1109/PROC.1982.12282). Slower wander than the
+    record is indistinguishable from the constant terms of the model and is not counted.
+    """
+    taus = [1.0]
+    while taus[-1] * _FLICKER_STEP <= u.n_rows:
+        taus.append(taus[-1] * _FLICKER_STEP)
+    K = np.zeros((u.size, u.size))
+    for t in taus:
+        K += _ar1_unit_kernel(u, float(np.exp(-1.0 / t)))
+    return K / len(taus)
+
+
+@dataclass(frozen=True)
+class _Reml:
+    """REML criterion on the unit means (Patterson & Thompson, Biometrika 58(3), 1971).
+
+    The covariance of the unit means is ``s2 * (W + theta K)`` with ``W`` diagonal (white
+    noise) and ``K`` a component; ``s2 = 1`` when the white level is known, else profiled out.
+    One eigendecomposition of ``W^-1/2 K W^-1/2`` makes every evaluation cheap.
+    """
+
+    u: _Units
+    basis: NDArray[np.float64]  # orthonormal basis of the column space of the unit design
+    white: NDArray[np.float64]  # diagonal of W
+    scale_known: bool
+
+    @property
+    def dof(self) -> int:
+        return self.u.size - self.basis.shape[1]
+
+    def criterion(
+        self, K: NDArray[np.float64] | None
+    ) -> Callable[[float], tuple[float, float]]:
+        """``theta -> (negative restricted log-likelihood, scale s2)`` for component ``K``."""
+        sw = np.sqrt(self.white)
+        if K is None:
+            lam, Xt, yt = np.zeros(self.u.size), self.basis / sw[:, None], self.u.y / sw
+        else:
+            lam, Qe = np.linalg.eigh(K / np.outer(sw, sw))
+            lam = np.clip(lam, 0.0, None)
+            Xt, yt = Qe.T @ (self.basis / sw[:, None]), Qe.T @ (self.u.y / sw)
+        logdet_w = float(np.sum(np.log(self.white)))
+        dof = self.dof
+
+        def nll(theta: float) -> tuple[float, float]:
+            d = 1.0 + theta * lam
+            sd = np.sqrt(d)
+            q, r = np.linalg.qr(Xt / sd[:, None])
+            yw = yt / sd
+            res = yw - q @ (q.T @ yw)
+            rss = float(res @ res)
+            logdet = logdet_w + float(np.sum(np.log(d))) + 2 * float(
+                np.sum(np.log(np.abs(np.diag(r)))))
+            if self.scale_known:
+                return 0.5 * (logdet + rss), 1.0
+            s2 = max(rss / dof, 1e-300)
+            return 0.5 * (logdet + dof * np.log(s2) + dof), s2
+
+        return nll
+
+    def fit(self, K: NDArray[np.float64], ref: float) -> tuple[float, float]:
+        """``theta >= 0`` minimising the criterion (grid, then Brent), and the minimum."""
+        nll = self.criterion(K)
+        grid = ref * np.logspace(-4, 3, 15)
+        vals = [nll(t)[0] for t in grid]
+        i = int(np.argmin(vals))
+        best_t, best = float(grid[i]), float(vals[i])
+        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
+        opt = scipy.optimize.minimize_scalar(
+            lambda lt: nll(float(np.exp(lt)))[0], bounds=(lo, hi), method="bounded",
+            options={"xatol": 1e-3})
+        if opt.fun < best:
+            best_t, best = float(np.exp(opt.x)), float(opt.fun)
+        zero = nll(0.0)[0]
+        return (0.0, zero) if zero <= best else (best_t, best)
+
+
+def solve(
+    A: ArrayLike,
+    y: ArrayLike,
+    *,
+    sigma_si: float | ArrayLike | None = None,
+    groups: ArrayLike | None = None,
+    noise_model: str = "auto",
+    alpha: float = CHECK_ALPHA,
+) -> tuple[LinearFit, NoiseFit]:
+    """Least squares under a noise model of the instrument, with model checks.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, p)
+        Design, one row per reading in time order.
+    y : array_like, shape (n,)
+        Readings.
+    sigma_si : float or array_like, optional
+        Known white noise per reading (units of ``y``); estimated when omitted.
+    groups : array_like of str, shape (n,), optional
+        Unit of independence of each row (the position or run it belongs to). Rows of a unit
+        share the design row. Without groups every reading is its own unit.
+    noise_model : str
+        One of :data:`NOISE_MODELS`:
+
+        ``white``
+            Independent readings: ordinary (weighted) least squares over the rows, the noise
+            from the residuals (the classical solution).
+        ``position-offsets``
+            White noise plus a random offset per unit (the table re-settles, the drift moves
+            between positions): one-way random effects. The white variance comes from the
+            scatter within units, the offset variance by REML from the unit means, and the
+            unit means are fitted by GLS with weights ``1/(sigma_b^2 + sigma_w^2/n_g)``.
+        ``random-walk``
+            White noise plus a random walk over the row index (a drift that wanders during the
+            test); its step variance by REML, GLS over the unit means.
+        ``flicker``
+            White noise plus flicker (1/f) noise over the row index (log-spaced AR(1) sum).
+        ``auto``
+            The model with the smallest AIC of the restricted likelihood of the unit means
+            (``white`` when the noise is given or too few units are left to tell).
+    alpha : float
+        Significance level of the model checks.
+
+    Returns
+    -------
+    fit : LinearFit
+        Estimate and covariance under the noise model; ``residuals`` per row, ``sigma`` the
+        white noise per reading, ``dof`` the residual degrees of freedom of the units.
+    noise : NoiseFit
+        The noise model used, its components and :class:`~inertest.results.ModelChecks`.
+
+    Notes
+    -----
+    The reported standard uncertainty is honest only when the noise model describes the data;
+    the checks test that: a variance test (chi-square against a given noise, or the lack-of-fit
+    F test of the unit means against the scatter within units), the Ljung-Box test of the
+    whitened unit residuals in time order, and studentised unit residuals above a
+    Bonferroni bound. Patterson & Thompson, Biometrika 58(3), 1971,
+    doi:10.1093/biomet/58.3.545 (REML); Searle, Casella & McCulloch, *Variance Components*,
+    Wiley 1992, ch. 3 (one-way random effects).
+    """
+    if noise_model not in NOISE_MODELS:
+        raise InputError(
+            f'unknown noise model "{noise_model}"; use one of {", ".join(NOISE_MODELS)}')
+    A = np.asarray(A, dtype=float)
+    y = np.asarray(y, dtype=float)
+    row_fit = weighted_least_squares(A, y, sigma=sigma_si)
+    u = _units(A, y, groups)
+    G, n = u.size, y.size
+    given = sigma_si is not None
+    if given:
+        s2_rows = np.broadcast_to(np.asarray(sigma_si, dtype=float) ** 2, (n,))
+        white_diag = np.bincount(u.index, s2_rows) / u.counts**2
+        sw2 = float(np.mean(s2_rows))
+    else:
+        dof_w = n - G
+        sw2 = float(np.sum((y - u.y[u.index]) ** 2) / dof_w) if dof_w > 0 else np.nan
+        white_diag = (sw2 if dof_w > 0 else 1.0) / u.counts
+    scale_known = given or n > G
+    r = row_fit.rank
+    can_estimate = (G <= _MAX_UNITS and G - r >= _MIN_UNIT_DOF
+                    and (scale_known or G - r > _MIN_UNIT_DOF))
+    if noise_model not in ("white", "auto") and not can_estimate:
+        raise IdentifiabilityError(
+            f"{G} positions/runs for {r} independent unknowns: too "
+            + ("many to model" if G > _MAX_UNITS else "few to estimate")
+            + f' the "{noise_model}" noise; '
+            + ("give the position of each reading (groups)" if G > _MAX_UNITS
+               else "add positions")
+            + ', or use noise_model = "white"')
+    kernels: dict[str, Callable[[], NDArray[np.float64]]] = {
+        "position-offsets": lambda: np.eye(G),
+        "random-walk": lambda: _rw_unit_kernel(u),
+        "flicker": lambda: _flicker_unit_kernel(u),
+    }
+    if n == G and not given:
+        kernels.pop("position-offsets")  # no repeated readings: offsets are white noise
+    consider = [m for m in kernels if noise_model in ("auto", m)]
+    if not can_estimate or (noise_model == "auto" and given):
+        consider = []
+    model, theta, K, c, s2 = "white", 0.0, None, 1.0, 1.0
+    if consider:
+        Xs = u.A / np.where(np.linalg.norm(u.A, axis=0) > 0, np.linalg.norm(u.A, axis=0), 1.0)
+        U, _, _ = np.linalg.svd(Xs, full_matrices=False)
+        reml = _Reml(u, U[:, :r], white_diag, scale_known)
+        ref = float(np.mean(white_diag)) if scale_known else 1.0
+        best_aic = 2 * reml.criterion(None)(0.0)[0] if noise_model == "auto" else np.inf
+        for name in consider:
+            Kc = kernels[name]()
+            cc = float(np.mean(np.diag(Kc)))
+            th, nll = reml.fit(Kc / cc, ref)
+            if 2 * nll + 2 < best_aic:
+                best_aic, model, theta, K, c = 2 * nll + 2, name, th, Kc / cc, cc
+        if K is not None:
+            s2 = reml.criterion(K)(theta)[1]
+    if K is None:
+        model = "white"
+        fit = row_fit
+        V: NDArray[np.float64] = white_diag if given else fit.sigma**2 / u.counts
+        components = {"white": float(np.sqrt(sw2 if given else fit.sigma**2))}
+    else:
+        V = s2 * (np.diag(white_diag) + theta * K)
+        L = np.linalg.cholesky(V)
+        Aw = scipy.linalg.solve_triangular(L, u.A, lower=True)
+        yw = scipy.linalg.solve_triangular(L, u.y, lower=True)
+        gls = weighted_least_squares(Aw, yw, sigma=1.0)
+        wsig2 = sw2 if scale_known else s2
+        fit = replace(gls, residuals=y - A @ gls.x, sigma=float(np.sqrt(wsig2)),
+                      sigma_from_residuals=not given, dof=G - gls.rank)
+        label = {"position-offsets": "position offset", "random-walk": "random walk",
+                 "flicker": "flicker"}[model]
+        # K was divided by c (mean diagonal 1): the component's size per reading.
+        components = {"white": float(np.sqrt(wsig2)), label: float(np.sqrt(s2 * theta / c))}
+    checks = _checks(u, fit.x, V, model, given, sw2 if n > G else np.nan, alpha)
+    noise = NoiseFit(model=model, white_sigma=components["white"], sigma_given=given,
+                     components=components, unit_index=u.index, unit_labels=u.labels,
+                     unit_covariance=V, checks=checks)
+    if not checks.fits:
+        warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=3)
+    return fit, noise
+
+
+def _checks(
+    u: _Units, x: NDArray[np.float64], V: NDArray[np.float64], model: str, given: bool,
+    sw2: float, alpha: float,
+) -> ModelChecks:
+    """Variance test, Ljung-Box test and outliers of the whitened unit residuals."""
+    G = u.size
+    resid = u.y - u.A @ x
+    if V.ndim == 1:
+        sd = np.sqrt(V)
+        Xw, e = u.A / sd[:, None], resid / sd
+    else:
+        L = np.linalg.cholesky(V)
+        Xw = scipy.linalg.solve_triangular(L, u.A, lower=True)
+        e = scipy.linalg.solve_triangular(L, resid, lower=True)
+    Us, sv, _ = np.linalg.svd(Xw, full_matrices=False)
+    r = int(np.sum(sv > DEFAULT_RCOND * sv[0])) if sv.size and sv[0] > 0 else 0
+    Q = Us[:, :r]
+    h = np.sum(Q**2, axis=1)
+    dof = G - r
+    chi2 = float(e @ e)
+    p: float | None = None
+    if given and model == "white":
+        statistic = "chi-square of the whitened unit residuals against the given noise"
+        p = float(scipy.stats.chi2.sf(chi2, dof)) if dof > 0 else None
+    elif model == "white" and np.isfinite(sw2) and dof > 0:
+        statistic = ("lack of fit: scatter of the unit means about the model against the "
+                     "scatter within units (dof * F)")
+        F = float(np.sum(u.counts * resid**2)) / dof / sw2
+        chi2 = dof * F
+        p = float(scipy.stats.f.sf(F, dof, u.n_rows - G))
+    else:
+        statistic = ("sum of squared whitened unit residuals (noise level fitted to these "
+                     "residuals: not a test)")
+    serial = serial_p = None
+    lags = min(10, G // 5)
+    if G >= 10 and dof > lags and chi2 > 0:
+        # Ljung-Box with each autocorrelation centred on its expectation under the model,
+        # E[e e^T] = I - Q Q^T, so that the fitted directions do not bias the test; normalised
+        # by the expected sum of squares when the residuals are smaller (rounding-level
+        # residuals of noise-free data carry no evidence).
+        q, c0 = 0.0, max(float(e @ e), float(dof))
+        for k in range(1, lags + 1):
+            rk = float(e[:-k] @ e[k:]) / c0
+            ek = -float(np.sum(Q[:-k] * Q[k:])) / dof
+            q += (rk - ek) ** 2 / (G - k)
+        serial = G * (G + 2) * q
+        serial_p = float(scipy.stats.chi2.sf(serial, lags))
+    z = e / np.sqrt(np.clip(1 - h, 1e-12, None))
+    thr = max(4.0, float(scipy.stats.norm.isf(alpha / (2 * G))))
+    outliers = tuple(Outlier(u.label(int(i)), float(z[i]))
+                     for i in np.flatnonzero(np.abs(z) > thr))
+    bad = (p is not None and p < alpha) or (serial_p is not None and serial_p < alpha)
+    return ModelChecks(
+        noise_model=model, unit="reading" if u.labels is None else "position",
+        n_units=G, statistic=statistic, chi_square=chi2, dof=dof, p_value=p,
+        serial_chi_square=serial, serial_dof=lags if serial is not None else 0,
+        serial_p_value=serial_p, outliers=outliers, outlier_threshold=thr, alpha=alpha,
+        verdict="model does not fit" if bad or outliers else "consistent")
+
+
+def _misfit_message(c: ModelChecks) -> str:
+    why = []
+    if c.p_value is not None and c.p_value < c.alpha:
+        why.append(f"residuals too large (chi-square {c.chi_square:.4g} for {c.dof} dof, "
+                   f"p = {c.p_value:.2g})")
+    if c.serial_p_value is not None and c.serial_p_value < c.alpha:
+        why.append(f"neighbouring residuals alike (Ljung-Box {c.serial_chi_square:.4g} for "
+                   f"{c.serial_dof} dof, p = {c.serial_p_value:.2g})")
+    if c.outliers:
+        why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers))
+    return (f'the model with "{c.noise_model}" noise does not fit the data: {"; ".join(why)}; '
+            "check the labels (mounting, angle, position), the settling of the table, and the "
+            "noise model; the uncertainties are not reliable")

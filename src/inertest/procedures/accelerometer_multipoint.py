@@ -43,10 +43,10 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import identify
+from inertest.estimation.identify import check_noise_model, identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models import pendulous_accelerometer as model
-from inertest.plan import Plan
+from inertest.plan import Instrument, Plan
 from inertest.procedures.spec import (
     check_no_unknown_keys,
     check_samples_per_position,
@@ -79,17 +79,23 @@ class AccelerometerMultipointSpec:
         the third harmonic does not alias).
     samples_per_position : int
         Readings per position (for simulation).
+    noise_model : str
+        Noise model behind the uncertainties: ``auto`` (default), ``white``,
+        ``position-offsets`` (the head re-settles between positions), ``random-walk`` or
+        ``flicker`` (:func:`inertest.estimation.identify.solve`).
     """
 
     kind: ClassVar[str] = KIND
     mountings: tuple[str, ...] = ("IA-PA", "IA-OA")
     positions: int = 24
     samples_per_position: int = 1
+    noise_model: str = "auto"
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> AccelerometerMultipointSpec:
         """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(params, ("mountings", "positions", "samples_per_position"), KIND)
+        check_no_unknown_keys(
+            params, ("mountings", "positions", "samples_per_position", "noise_model"), KIND)
         spp = check_samples_per_position(params.get("samples_per_position", 1))
         raw = params.get("mountings", ["IA-PA", "IA-OA"])
         if not isinstance(raw, list) or not raw:
@@ -103,7 +109,8 @@ class AccelerometerMultipointSpec:
             raise PlanError(
                 f"positions must be an integer >= {MIN_POSITIONS} (equally spaced over 360 deg, "
                 f"so the 3rd harmonic of K3 is not aliased), got {n!r}")
-        return cls(mountings=mountings, positions=n, samples_per_position=spp)
+        return cls(mountings=mountings, positions=n, samples_per_position=spp,
+                   noise_model=check_noise_model(params.get("noise_model", "auto")))
 
 
 SPEC = AccelerometerMultipointSpec
@@ -140,16 +147,18 @@ class AccelerometerMultipointResult(LinearTestResult):
     output_unit: str = "V"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """Common layout plus the per-mounting Fourier analysis."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
         d["fourier"] = self.fourier
         return d
 
 
 def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> AccelerometerMultipointResult:
     """Identify the pendulous-accelerometer model from dividing-head readings.
 
@@ -159,9 +168,12 @@ def fit(
         Site (local gravity), ``accelerometer`` instrument and an
         :class:`AccelerometerMultipointSpec`.
     data : mapping
-        Columns ``mounting``, ``angle_deg`` [deg], ``output`` [output unit].
+        Columns ``mounting``, ``angle_deg`` [deg], ``output`` [output unit], in time order;
+        rows with the same mounting and angle are one position (the unit of independence).
     sigma : float, optional
-        Known noise per reading [output unit]; from the residuals when omitted.
+        Known white noise per reading [output unit]; from the residuals when omitted.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model``.
 
     Raises
     ------
@@ -194,7 +206,12 @@ def fit(
         raise IdentifiabilityError(
             f"{len(y)} readings leave no degree of freedom for the noise: record more "
             "positions or readings, or give --sigma")
-    lsq, theta_ident = _identify(A, y, sigma, unit, _explainer(tuple(np.unique(mounting)), gamma))
+    spec: AccelerometerMultipointSpec = plan.procedure
+    noise = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
+    positions = np.char.add(np.char.add(mounting.astype(str), " "),
+                            np.char.mod("%.9g deg", np.mod(cols["angle_deg"], 360.0)))
+    lsq, theta_ident = _identify(A, y, sigma, unit, _explainer(tuple(np.unique(mounting)), gamma),
+                                 positions, noise)
     if not lsq.identifiable[NAMES.index("K1")]:
         raise IdentifiabilityError(_k1_message(mounting, cols["angle_deg"]))
     if lsq.x[NAMES.index("K1")] <= 0:
@@ -223,13 +240,15 @@ def fit(
 
 
 def _identify(
-    A: NDArray[np.float64], y: NDArray[np.float64], sigma: float | None, unit: str, explain
+    A: NDArray[np.float64], y: NDArray[np.float64], sigma: float | None, unit: str, explain,
+    groups: NDArray, noise_model: str,
 ) -> tuple[LinearFit, Identification]:
     """:func:`identify` on ``theta`` (also with fewer readings than coefficients)."""
     return identify(  # type: ignore[arg-type]
         A, y, sigma_si=sigma, names=NAMES, units={n: unit for n in NAMES},
         si_per_unit={n: 1.0 for n in NAMES}, noise_unit=unit, si_per_noise_unit=1.0,
-        pivot_order=("K0", "K2", "KPP", "KOO"), normalize_to="K0", explain=explain)
+        pivot_order=("K0", "K2", "KPP", "KOO"), normalize_to="K0", explain=explain,
+        groups=groups, noise_model=noise_model)
 
 
 def _check_instrument(plan: Plan) -> None:
@@ -270,7 +289,8 @@ def _engineering(lsq: LinearFit, ident: Identification, unit: str) -> Identifica
         coefficients=coefficients, combinations=tuple(combos), not_separable=ident.not_separable,
         covariance=cov, names=NAMES, noise_sigma=ident.noise_sigma, noise_unit=unit,
         sigma_from_residuals=ident.sigma_from_residuals, dof=ident.dof, rank=ident.rank,
-        residuals=ident.residuals)
+        residuals=ident.residuals, noise_model=ident.noise_model,
+        noise_components=ident.noise_components, checks=ident.checks)
 
 
 def _explainer(mountings: Sequence[str], gamma: float):

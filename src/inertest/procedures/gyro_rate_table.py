@@ -47,6 +47,8 @@ from numpy.typing import NDArray
 
 from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
+from inertest.estimation.identify import check_noise_model, solve
+from inertest.estimation.least_squares import weighted_least_squares
 from inertest.plan import Instrument, Plan
 from inertest.procedures.spec import (
     check_no_unknown_keys,
@@ -116,6 +118,11 @@ class GyroRateTableSpec:
         D) or a vector. Default ``"U"`` (vertical table).
     fit_k2 : bool
         Also fit the second-order scale-factor coefficient K2.
+    noise_model : str
+        Noise model behind the uncertainties: ``auto`` (default), ``white``,
+        ``position-offsets`` (an offset per rate run: the table rate or the gyro bias settles
+        differently at each run), ``random-walk`` or ``flicker``
+        (:func:`inertest.estimation.identify.solve`).
     """
 
     kind: ClassVar[str] = KIND
@@ -123,6 +130,7 @@ class GyroRateTableSpec:
     samples_per_rate: int = 1
     table_axis: str | tuple[float, ...] = "U"
     fit_k2: bool = False
+    noise_model: str = "auto"
 
     @property
     def axis_enu(self) -> NDArray[np.float64]:
@@ -133,7 +141,8 @@ class GyroRateTableSpec:
     def from_mapping(cls, params: Mapping[str, object]) -> GyroRateTableSpec:
         """Build from the ``[procedure]`` table of a plan file."""
         check_no_unknown_keys(
-            params, ("rates_deg_s", "samples_per_rate", "table_axis", "fit_k2"), KIND
+            params, ("rates_deg_s", "samples_per_rate", "table_axis", "fit_k2", "noise_model"),
+            KIND,
         )
         raw = params.get("rates_deg_s", list(cls.rates_deg_s))
         if not isinstance(raw, list) or not raw:
@@ -153,7 +162,8 @@ class GyroRateTableSpec:
         k2 = params.get("fit_k2", False)
         if not isinstance(k2, bool):
             raise PlanError(f"fit_k2 must be true or false, got {k2!r}")
-        return cls(rates_deg_s=rates, samples_per_rate=spr, table_axis=axis, fit_k2=k2)
+        return cls(rates_deg_s=rates, samples_per_rate=spr, table_axis=axis, fit_k2=k2,
+                   noise_model=check_noise_model(params.get("noise_model", "auto")))
 
 
 SPEC = GyroRateTableSpec
@@ -200,10 +210,11 @@ class GyroRateTableResult(LinearTestResult):
     output_unit: str = "deg/h"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary with nonlinearity and the closed-form pairs."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
         d["nonlinearity"] = (
             None if self.nonlinearity_ppm is None else {
                 "value": self.nonlinearity_ppm, "noise_floor": self.nonlinearity_noise_ppm,
@@ -215,33 +226,6 @@ class GyroRateTableResult(LinearTestResult):
         ]
         d["earth_rate_along_axis"] = {"value": self.earth_rate_deg_h, "unit": "deg/h"}
         return d
-
-
-@dataclass(frozen=True)
-class _SubFit:
-    """One linear sub-model: parameters ``x = P y`` with noise ``sigma`` per row (raw SI)."""
-
-    x: NDArray[np.float64]
-    P: NDArray[np.float64]
-    sigma: float
-    residuals: NDArray[np.float64]
-
-
-def _solve(A: NDArray[np.float64], y: NDArray[np.float64], sigma: float | None) -> _SubFit:
-    P = np.linalg.pinv(A)
-    x = P @ y
-    r = y - A @ x
-    dof = A.shape[0] - np.linalg.matrix_rank(A)
-    if sigma is None:
-        if dof <= 0:
-            raise IdentifiabilityError(
-                f"{A.shape[0]} readings leave no degree of freedom to estimate the noise; add "
-                "readings (samples_per_rate) or give the noise level (--sigma)"
-            )
-        s = float(np.sqrt(r @ r / dof))
-    else:
-        s = sigma
-    return _SubFit(x=x, P=P, sigma=s, residuals=r)
 
 
 def complex_step_jacobian(
@@ -261,8 +245,8 @@ def complex_step_jacobian(
     return np.column_stack(cols)
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
-        ) -> GyroRateTableResult:
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+        noise_model: str | None = None) -> GyroRateTableResult:
     """Scale factor, bias, asymmetry and nonlinearity from rate-table readings.
 
     Parameters
@@ -271,9 +255,12 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         Site (latitude), instrument (a gyro) and a :class:`GyroRateTableSpec` (table axis).
     data : mapping
         Columns ``rate_deg_s`` (commanded table rate [deg/s], signed) and ``output`` (mean
-        output at that rate [output unit; count/s for pulse outputs]).
+        output at that rate [output unit; count/s for pulse outputs]), in time order; the
+        readings at one rate are one run (the unit of independence of the noise model).
     sigma : float, optional
-        Known noise per reading [output unit]; estimated from the residuals when omitted.
+        Known white noise per reading [output unit]; estimated from the residuals when omitted.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model``.
 
     Raises
     ------
@@ -298,7 +285,9 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     not_sep: list[str] = []
 
     # Straight line E = K w_in + c (IEEE 952): nonlinearity is measured from it.
-    line = _solve(np.column_stack([w_in, np.ones_like(w_in)]), y, sig)
+    line = weighted_least_squares(np.column_stack([w_in, np.ones_like(w_in)]), y, sigma=1.0)
+    runs = np.char.mod("rate %.9g deg/s", cols["rate_deg_s"])
+    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
     if spec.fit_k2 and distinct.size < 3:
         raise IdentifiabilityError(
             f"K2 needs at least three distinct table rates, got {distinct.size} "
@@ -316,9 +305,9 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     names = ["K", "B", *(["K2"] if spec.fit_k2 else [])]
     if asymmetric:
         names += ["K_pos", "K_neg", "asymmetry"]
-        main = _solve(A_as, y, sig)
+        design = A_as
     else:
-        main = _solve(np.column_stack([rate_t, *quad, one]), y, sig)
+        design = np.column_stack([rate_t, *quad, one])
         need = "a third rate of one sign" if spec.fit_k2 else "a second rate of each sign"
         not_sep.append(
             "asymmetry (K_pos, K_neg): the rates run do not separate the two directions' scale "
@@ -336,10 +325,10 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             out += [kp / k_si, kn / k_si, (kp - kn) / k / PPM]
         return np.array(out)
 
+    main, noise = solve(design, y, sigma_si=sig, groups=runs, noise_model=model)
     values = engineering(main.x)
     J = complex_step_jacobian(engineering, main.x)
-    G = J @ main.P * main.sigma
-    cov = G @ G.T
+    cov = J @ main.covariance @ J.T
     std = np.sqrt(np.diag(cov))
     k_of = {"K": k_unit, "K_pos": k_unit, "K_neg": k_unit}
     units = {**k_of, "B": "deg/h", "K2": "ppm/(deg/s)", "asymmetry": "ppm"}
@@ -358,7 +347,11 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         fs = abs(K) * np.max(np.abs(rate_t))
         worst = int(np.argmax(np.abs(mean_res)))
         nl = float(np.max(np.abs(mean_res)) / fs / PPM)
-        nl_noise = float(main.sigma / np.sqrt(counts[worst]) / fs / PPM)
+        # Noise of that rate's mean under the noise model (its run's variance).
+        var_unit = noise.unit_covariance
+        var_unit = var_unit if var_unit.ndim == 1 else np.diag(var_unit)
+        row = int(np.flatnonzero(inv == worst)[0])
+        nl_noise = float(np.sqrt(var_unit[noise.unit_index[row]]) / fs / PPM)
     else:
         not_sep.append(
             "nonlinearity: a straight line through two distinct rates leaves no deviation to "
@@ -372,12 +365,15 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         not_separable=tuple(not_sep),
         covariance=cov,
         names=tuple(names),
-        noise_sigma=float(main.sigma * per_si),
+        noise_sigma=float(noise.white_sigma * per_si),
         noise_unit=raw_rate_unit(inst.output_unit),
         sigma_from_residuals=sigma is None,
-        dof=int(y.size - main.x.size),
-        rank=int(main.x.size),
+        dof=int(main.dof),
+        rank=int(main.rank),
         residuals=main.residuals * per_si,
+        noise_model=noise.model,
+        noise_components={k: v * per_si for k, v in noise.components.items()},
+        checks=noise.checks,
     )
     return GyroRateTableResult(
         site_latitude_deg=plan.site.latitude_deg,

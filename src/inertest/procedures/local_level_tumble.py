@@ -20,9 +20,10 @@ from numpy.typing import NDArray
 
 from inertest.equipment import level_fixture as fixture
 from inertest.errors import InertestWarning, PlanError
+from inertest.estimation.identify import check_noise_model
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Plan
+from inertest.plan import Instrument, Plan
 from inertest.procedures.sdf_drift import identify_drift
 from inertest.procedures.spec import (
     check_no_unknown_keys,
@@ -49,6 +50,10 @@ class LocalLevelTumbleSpec:
         right-handed positions (each axis up and down at four headings).
     samples_per_position : int
         Readings recorded at each position (for simulation).
+    noise_model : str
+        Noise model behind the uncertainties: ``auto`` (default), ``white``,
+        ``position-offsets``, ``random-walk`` or ``flicker``
+        (:func:`inertest.estimation.identify.solve`).
     """
 
     kind: ClassVar[str] = KIND
@@ -56,14 +61,16 @@ class LocalLevelTumbleSpec:
         default_factory=lambda: tuple(fixture.all_positions())
     )
     samples_per_position: int = 1
+    noise_model: str = "auto"
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> LocalLevelTumbleSpec:
         """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(params, ("positions", "samples_per_position"), KIND)
+        check_no_unknown_keys(params, ("positions", "samples_per_position", "noise_model"), KIND)
         spp = check_samples_per_position(params.get("samples_per_position", 1))
+        model = check_noise_model(params.get("noise_model", "auto"))
         if "positions" not in params:
-            return cls(samples_per_position=spp)
+            return cls(samples_per_position=spp, noise_model=model)
         raw = params["positions"]
         if not isinstance(raw, list) or not raw:
             raise PlanError('positions must be a non-empty list such as ["UNW", "DNE"]')
@@ -76,7 +83,8 @@ class LocalLevelTumbleSpec:
                 )
             fixture.axes_from_directions(*triple)  # validates letters and handedness
             positions.append(tuple(str(t).upper() for t in triple))
-        return cls(positions=tuple(positions), samples_per_position=spp)  # type: ignore[arg-type]
+        return cls(positions=tuple(positions), samples_per_position=spp,  # type: ignore[arg-type]
+                   noise_model=model)
 
 
 SPEC = LocalLevelTumbleSpec
@@ -108,10 +116,12 @@ class LocalLevelTumbleResult(LinearTestResult):
     output_unit: str = "deg/h"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
 
 def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> LocalLevelTumbleResult:
     """Identify what a local-level tumble determines of the static drift model.
 
@@ -121,9 +131,12 @@ def fit(
         Site, instrument and a :class:`LocalLevelTumbleSpec`.
     data : mapping
         Columns ``I_dir``, ``O_dir``, ``S_dir`` (letters E, W, N, S, U, D; S = south) and
-        ``output`` [instrument output unit].
+        ``output`` [instrument output unit], in time order; rows with the same directions are one
+        position (the unit of independence of the noise model).
     sigma : float, optional
-        Known noise per row [output unit]; estimated from the residuals when omitted.
+        Known white noise per row [output unit]; estimated from the residuals when omitted.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model``.
     """
     cols = require_columns(data, ("output",), ("I_dir", "O_dir", "S_dir"), procedure=KIND)
     site, inst = plan.site, plan.instrument
@@ -135,13 +148,17 @@ def fit(
     messages = _balance_messages(labels)
     for msg in messages:
         warnings.warn(msg, InertestWarning, stacklevel=2)
-    lsq, ident = identify_drift(
+    spec: LocalLevelTumbleSpec = plan.procedure
+    lsq, _, ident = identify_drift(
         f,
         drift,
         gravity_g=site.gravity_g,
         sigma_rad_s=sigma_rad_s,
         pivot_order=("DII", "DOO", "DSS", "DF"),
         normalize_to="DF",
+        groups=labels,
+        noise_model=check_noise_model(
+            noise_model if noise_model is not None else spec.noise_model),
     )
     k = DEG_PER_H_TO_RAD_PER_S
     return LocalLevelTumbleResult(

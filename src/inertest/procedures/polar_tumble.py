@@ -31,11 +31,12 @@ from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
-from inertest.estimation.harmonics import HarmonicFit, harmonic_fit
-from inertest.estimation.identify import combination_name
+from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
+from inertest.estimation.identify import NoiseFit, check_noise_model, combination_name
+from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Plan
+from inertest.plan import Instrument, Plan
 from inertest.procedures.sdf_drift import identify_drift
 from inertest.procedures.spec import (
     check_no_unknown_keys,
@@ -64,18 +65,26 @@ class PolarTumbleSpec:
         Table angles [deg]; default 16 equally spaced from 0 (``positions = 16``).
     samples_per_position : int
         Readings recorded at each angle (for simulation).
+    noise_model : str
+        Noise model of the gyro behind the uncertainties: ``auto`` (default: chosen by AIC),
+        ``white``, ``position-offsets`` (the table re-settles, the drift moves between
+        positions), ``random-walk`` or ``flicker``; see
+        :func:`inertest.estimation.identify.solve`.
     """
 
     kind: ClassVar[str] = KIND
     mountings: tuple[str, ...] = table.MOUNTINGS
     angles_deg: tuple[float, ...] = tuple(np.arange(16) * 22.5)
     samples_per_position: int = 1
+    noise_model: str = "auto"
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> PolarTumbleSpec:
         """Build from the ``[procedure]`` table of a plan file."""
         check_no_unknown_keys(
-            params, ("mountings", "positions", "angles_deg", "samples_per_position"), KIND
+            params,
+            ("mountings", "positions", "angles_deg", "samples_per_position", "noise_model"),
+            KIND,
         )
         mountings = tuple(str(m) for m in params.get("mountings", table.MOUNTINGS))  # type: ignore[union-attr]
         for m in mountings:
@@ -95,7 +104,8 @@ class PolarTumbleSpec:
         if not angles:
             raise PlanError("the plan lists no table angles")
         spp = check_samples_per_position(params.get("samples_per_position", 1))
-        return cls(mountings=mountings, angles_deg=angles, samples_per_position=spp)
+        return cls(mountings=mountings, angles_deg=angles, samples_per_position=spp,
+                   noise_model=check_noise_model(params.get("noise_model", "auto")))
 
 
 SPEC = PolarTumbleSpec
@@ -144,10 +154,11 @@ class PolarTumbleResult(LinearTestResult):
     output_unit: str = "deg/h"
     messages: tuple[str, ...] = ()
     procedure: str = KIND
+    instrument: Instrument | None = None
 
-    def to_dict(self) -> dict[str, object]:
-        """Versioned JSON-ready dictionary with the Fourier terms and the closed form."""
-        d = super().to_dict()
+    def details(self) -> dict[str, object]:
+        """The procedure's own block of the result (``result`` in the JSON envelope)."""
+        d: dict[str, object] = {}
         d["harmonics"] = {
             m: {t.name: t.to_dict() for t in h.terms} for m, h in self.harmonics.items()
         }
@@ -156,7 +167,8 @@ class PolarTumbleResult(LinearTestResult):
 
 
 def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> PolarTumbleResult:
     """Identify the static drift coefficients from polar-axis tumble data.
 
@@ -166,13 +178,30 @@ def fit(
         Site, instrument (output unit, scale factor) and a :class:`PolarTumbleSpec`.
     data : mapping
         Columns ``mounting`` (str), ``angle_deg`` [deg] and ``output`` [instrument output unit];
-        one row per sample or per position average.
+        one row per sample or per position average, in time order. Rows with the same mounting
+        and angle are one position (the unit of independence of the noise model).
     sigma : float, optional
-        Known noise per row [output unit]; estimated from the residuals when omitted.
+        Known white noise per row [output unit]; estimated from the residuals when omitted.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model`` (``auto``, ``white``, ``position-offsets``,
+        ``random-walk``, ``flicker``).
 
     Returns
     -------
     PolarTumbleResult
+        With ``identification.checks``: the goodness of fit; a warning is issued when the model
+        does not fit the data (e.g. a mounting's angle read 180 deg off with all four mountings).
+
+    Notes
+    -----
+    Angle convention: ``angle_deg`` is the table angle theta of the seed's figures, the same
+    encoder reading for every mounting, theta = 0 with the gyro's I axis pointing to the local
+    upward side of the equatorial plane (specific force on I = +gamma cos L). Flipping the
+    table over its trunnion for the Sp mountings must not re-zero the encoder differently: an
+    Sp angle read 180 deg off reverses S1 and C1 of that mounting. With all four mountings the
+    O and S pairs then disagree and the model checks warn; with only one pair (O-Np + O-Sp)
+    the design is exactly determined in S1 and C1 and the error cannot be seen (DI, DS, DIO,
+    DOS come out wrong). Check the convention on the first position of each mounting.
     """
     cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
     mounting, angle_deg = cols["mounting"], cols["angle_deg"]
@@ -191,19 +220,20 @@ def fit(
     messages = _spacing_messages(mounting, angle_deg, present)
     for msg in messages:
         warnings.warn(msg, InertestWarning, stacklevel=2)
-    lsq, ident = identify_drift(
-        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s
+    spec: PolarTumbleSpec = plan.procedure
+    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
+    positions = np.char.add(np.char.add(mounting.astype(str), " "),
+                            np.char.mod("%.9g deg", np.mod(angle_deg, 360.0)))
+    lsq, noise, ident = identify_drift(
+        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=positions,
+        noise_model=model,
     )
     k = DEG_PER_H_TO_RAD_PER_S
-    noise_deg_h = lsq.sigma / k if sigma is None else None
     harmonics = {}
     for m in present:
         sel = mounting == m
         try:
-            harmonics[m] = _harmonics(
-                m, angle_deg[sel], drift[sel] / k,
-                sigma=(noise_deg_h if sigma is None else sigma * inst.rad_s_per_output_unit / k),
-            )
+            harmonics[m] = _harmonics(m, angle_deg[sel], drift[sel] / k, sel, noise)
         except IdentifiabilityError as exc:
             # The general least squares above still says what the data determine.
             messages.append(f"no Fourier terms for {exc}")
@@ -308,12 +338,28 @@ def _spacing_messages(
 
 def _harmonics(
     mounting: str, angle_deg: NDArray[np.float64], drift_deg_h: NDArray[np.float64],
-    *, sigma: float | None,
+    rows: NDArray[np.bool_], noise: NoiseFit,
 ) -> MountingHarmonics:
-    try:
-        hf = harmonic_fit(angle_deg * DEG_TO_RAD, drift_deg_h, order=2, sigma=sigma)
-    except IdentifiabilityError as exc:
-        raise IdentifiabilityError(f"mounting {mounting}: {exc}") from None
+    """B0..C2 by GLS over the position means of one mounting, under the fitted noise model."""
+    k = DEG_PER_H_TO_RAD_PER_S
+    units = np.unique(noise.unit_index[rows])
+    counts = np.bincount(noise.unit_index[rows], minlength=units.max() + 1)[units]
+    ybar = np.bincount(noise.unit_index[rows], drift_deg_h,
+                       minlength=units.max() + 1)[units] / counts
+    angle = np.bincount(noise.unit_index[rows], np.mod(angle_deg, 360.0),
+                        minlength=units.max() + 1)[units]
+    angle = angle / counts
+    n_angles = np.unique(np.round(np.mod(angle, 360.0), 9)).size
+    if n_angles < 5:
+        raise IdentifiabilityError(
+            f"mounting {mounting}: {n_angles} distinct angle(s) cannot separate the 5 Fourier "
+            "terms B0, S1, C1, S2, C2; use at least 5 (the seed uses a multiple of 4)")
+    V = noise.unit_covariance
+    V = np.diag(V[units]) if V.ndim == 1 else V[np.ix_(units, units)]
+    L = np.linalg.cholesky(V / k**2)
+    H = harmonic_design(angle * DEG_TO_RAD, 2)
+    lsq = weighted_least_squares(np.linalg.solve(L, H), np.linalg.solve(L, ybar), sigma=1.0)
+    hf = HarmonicFit(harmonic_names(2), lsq.x, lsq.covariance, lsq)
     terms = tuple(
         Estimate(n, float(v), float(s), "deg/h")
         for n, v, s in zip(hf.names, hf.values, hf.std, strict=True)

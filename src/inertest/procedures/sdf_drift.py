@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.estimation.identify import identify
+from inertest.estimation.identify import NoiseFit, identify_with_noise
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
 from inertest.results import Identification
@@ -29,7 +29,9 @@ def identify_drift(
     sigma_rad_s: float | ArrayLike | None = None,
     pivot_order: Sequence[str] = ("DF", "DOO", "DSS", "DII"),
     normalize_to: str | None = "DF",
-) -> tuple[LinearFit, Identification]:
+    groups: ArrayLike | None = None,
+    noise_model: str = "auto",
+) -> tuple[LinearFit, NoiseFit, Identification]:
     """Fit the 10-term static drift model and report what the data determine.
 
     Parameters
@@ -46,17 +48,24 @@ def identify_drift(
         Preferred leading terms of the combinations (others are appended in model order).
     normalize_to : str, optional
         Scale each combination that contains this coefficient so that its weight is 1.
+    groups : array_like of str, optional
+        Position of each row (rows of one position share the specific force); the noise is
+        modelled per position (see :func:`inertest.estimation.identify.solve`).
+    noise_model : str
+        ``auto``, ``white``, ``position-offsets``, ``random-walk`` or ``flicker``.
 
     Returns
     -------
     fit : LinearFit
         The least-squares solution in SI (rad/s per g^k).
+    noise : NoiseFit
+        The noise model used, the covariance of the position means and the model checks.
     result : Identification
         Coefficients, combinations and statements in deg/h, deg/h/g, deg/h/g^2.
     """
     A = drift_regressors(f_ios_g)
     k = DEG_PER_H_TO_RAD_PER_S
-    return identify(
+    return identify_with_noise(
         A,
         drift_rad_s,
         names=COEFFICIENTS,
@@ -68,6 +77,8 @@ def identify_drift(
         pivot_order=pivot_order,
         normalize_to=normalize_to,
         explain=lambda fit, design: _explain_null_space(fit, design, gravity_g),
+        groups=groups,
+        noise_model=noise_model,
     )
 
 
