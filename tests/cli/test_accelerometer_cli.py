@@ -28,7 +28,8 @@ def test_multipoint_simulate_fit_json(examples_dir, tmp_path, capsys):
     k1 = out["identification"]["coefficients"]["K1"]
     assert k1["unit"] == "mA/g" and abs(k1["value"] - 1.2345) < 5 * k1["std"]
     assert out["identification"]["coefficients"]["dO"]["unit"] == "urad"
-    assert abs(out["identification"]["coefficients"]["dO"]["value"] - 45.0) < 5 * out["identification"]["coefficients"]["dO"]["std"]
+    d_o = out["identification"]["coefficients"]["dO"]
+    assert abs(d_o["value"] - 45.0) < 5 * d_o["std"]
     assert "KPO" not in out["identification"]["coefficients"]
     assert any(s.startswith("KPO: not excited") for s in out["identification"]["not_separable"])
     assert set(out["result"]["fourier"]) == {"IA-PA", "IA-OA"}
@@ -101,3 +102,15 @@ def test_multipoint_bad_plan(tmp_path, capsys):
     assert main(["simulate", str(plan), "--truth", str(truth), "-o", str(out)]) == 2
     assert "positions must be an integer >= 8" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_multipoint_fit_json_with_given_sigma(examples_dir, tmp_path, capsys):
+    """--json --sigma: the given noise is reported (no NaN in the JSON)."""
+    plan, data = _run(examples_dir, tmp_path, "accelerometer_multipoint", 0.01, capsys)
+    assert main(["fit", str(plan), str(data), "--json", "--sigma", "0.01", "--no-store"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    noise = out["identification"]["noise"]
+    assert noise == {"sigma": 0.01, "unit": "mA", "source": "given", "model": "white",
+                     "components": {"white": 0.01}}
+    (check,) = [c for c in out["checks"] if c["name"] == "noise model fit"]
+    assert check["verdict"] == "consistent"

@@ -30,7 +30,8 @@ def test_rate_table_simulate_fit_json_and_report(rate_table, tmp_path, capsys):
     assert main(["fit", str(plan), str(data), "--json", "--no-store"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["kind"] == "gyro-rate-table"
-    assert set(out["identification"]["coefficients"]) == {"K", "B", "K2", "K_pos", "K_neg", "asymmetry"}
+    assert set(out["identification"]["coefficients"]) == {"K", "B", "K2", "K_pos", "K_neg",
+                                                           "asymmetry"}
     k = out["identification"]["coefficients"]["K"]
     assert k["unit"] == "count/deg" and abs(k["value"] - 7200.0) < 5 * k["std"]
     a = out["identification"]["coefficients"]["asymmetry"]
@@ -135,3 +136,19 @@ def test_navigation_mode_bad_input(rotation, rate_table, tmp_path, capsys):
     bad.write_text("{not json")
     assert main(["nav-calibrate", str(plan), str(nav), "--initial", str(bad)]) == 2
     assert "is not JSON" in capsys.readouterr().err
+
+
+def test_rate_table_fit_json_with_given_sigma(rate_table, tmp_path, capsys):
+    """--json --sigma: the given noise is reported (no NaN in the JSON)."""
+    plan, truth = rate_table
+    data = tmp_path / "rt.csv"
+    assert main(["simulate", str(plan), "--truth", str(truth), "-o", str(data),
+                 "--noise", "0.01", "--seed", "2"]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--json", "--sigma", "0.01", "--no-store"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    noise = out["identification"]["noise"]
+    assert noise["source"] == "given" and noise["unit"] == "count/s"
+    assert noise["sigma"] == pytest.approx(0.01) and noise["model"] == "white"
+    (check,) = [c for c in out["checks"] if c["name"] == "noise model fit"]
+    assert check["verdict"] == "consistent"

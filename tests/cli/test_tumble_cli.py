@@ -35,7 +35,8 @@ def test_simulate_fit_json_layout(files, capsys):
         assert set(c) == {"name", "terms", "value", "std", "unit"}
         assert set(c["terms"]) <= {"DF", "DII", "DOO", "DSS"}
     assert set(out["result"]["harmonics"]) == {"O-Np", "O-Sp", "S-Np", "S-Sp"}
-    assert out["identification"]["noise"]["unit"] == "deg/h" and out["identification"]["noise"]["source"] == "residuals"
+    noise = out["identification"]["noise"]
+    assert noise["unit"] == "deg/h" and noise["source"] == "residuals"
 
 
 def test_fit_table_and_self_contained_report(files, capsys):
@@ -101,3 +102,21 @@ def test_left_handed_local_level_position(tmp_path, examples_dir, capsys):
     plan = examples_dir / "local_level_tumble" / "plan.toml"
     assert main(["fit", str(plan), str(data)]) == 2
     assert "left-handed" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("example", ["polar_tumble", "local_level_tumble"])
+def test_fit_json_with_given_sigma_reports_it(example, tmp_path, examples_dir, capsys):
+    """--json --sigma: the given noise is reported (no NaN), with the noise model and checks."""
+    truth = tmp_path / "truth.toml"
+    truth.write_text(TRUTH)
+    plan, data = examples_dir / example / "plan.toml", tmp_path / "data.csv"
+    assert main(["simulate", str(plan), "--truth", str(truth), "-o", str(data),
+                 "--noise", "0.01", "--seed", "5"]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--json", "--sigma", "0.01", "--no-store"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    noise = out["identification"]["noise"]
+    assert noise["source"] == "given" and noise["model"] == "white"
+    assert noise["sigma"] == pytest.approx(0.01 * 12.5) and noise["unit"] == "deg/h"
+    (check,) = [c for c in out["checks"] if c["name"] == "noise model fit"]
+    assert check["verdict"] == "consistent"

@@ -1,11 +1,13 @@
 """Polar-axis tumble: closed forms of seed 000, general LS, identifiability, Monte Carlo."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from inertest.earth import Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
-from inertest.models.sdf_gyro import COEFFICIENTS
+from inertest.models.sdf_gyro import COEFFICIENTS, drift_regressors
 from inertest.plan import Instrument, Plan
 from inertest.procedures import polar_tumble as pt
 
@@ -157,7 +159,9 @@ def test_monte_carlo_reported_std_matches_scatter():
     rng = np.random.default_rng(2024)
     runs, reported = [], []
     for _ in range(400):
-        res = pt.fit(plan, pt.simulate(plan, c, noise=0.01, rng=rng))
+        with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
+            warnings.simplefilter("ignore", InertestWarning)
+            res = pt.fit(plan, pt.simulate(plan, c, noise=0.01, rng=rng))
         vals = [res.coefficients[n].value for n in res.coefficients]
         vals += [k.value for k in res.combinations]
         runs.append(vals)
@@ -174,3 +178,46 @@ def test_monte_carlo_reported_std_matches_scatter():
 
 def test_coefficient_order_is_the_design_order():
     assert COEFFICIENTS[:4] == ("DF", "DI", "DO", "DS")
+
+
+def _sp_angle_180_off(mountings):
+    plan = make_plan(mountings=mountings, spp=10, unit="deg/h")
+    d = pt.simulate(plan, TRUTH, noise=0.01, rng=1)
+    sp = np.char.endswith(d["mounting"].astype(str), "Sp")
+    d["angle_deg"] = np.where(sp, np.mod(d["angle_deg"] + 180.0, 360.0), d["angle_deg"])
+    return plan, d
+
+
+def test_sp_angle_read_180_deg_off_is_flagged_with_four_mountings():
+    """Table flipped over its trunnion for Sp, same encoder: S1, C1 of Sp reverse; the O and S
+    pairs then disagree and the model checks must say so."""
+    plan, d = _sp_angle_180_off(pt.table.MOUNTINGS)
+    with pytest.warns(InertestWarning, match="does not fit the data"):
+        res = pt.fit(plan, d)
+    assert res.identification.checks.verdict == "model does not fit"
+    # Correct labels: no warning (PYTHONWARNINGS=error), verdict consistent.
+    res = pt.fit(plan, pt.simulate(plan, TRUTH, noise=0.01, rng=1))
+    assert res.identification.checks.verdict == "consistent"
+
+
+def test_position_offsets_give_the_std_of_position_means():
+    """50 samples per position and an offset per position: the reported std is that of least
+    squares over the position means (independent implementation), not of the samples."""
+    plan = make_plan(positions=8, spp=50, unit="deg/h")
+    d = pt.simulate(plan, TRUTH, noise=0.01, rng=4)
+    rng = np.random.default_rng(5)
+    d["output"] = d["output"] + np.repeat(rng.normal(0.0, 0.01, d["output"].size // 50), 50)
+    res = pt.fit(plan, d, noise_model="position-offsets")
+    assert res.identification.noise_model == "position-offsets"
+    means = d["output"].reshape(-1, 50).mean(axis=1)
+    clean = pt.simulate(make_plan(positions=8, spp=1, unit="deg/h"), TRUTH)
+    f, _ = pt._kinematics(clean["mounting"], np.radians(clean["angle_deg"]),
+                          plan.site.latitude_rad, plan.site.gravity_m_s2)
+    A = drift_regressors(f)
+    x, *_ = np.linalg.lstsq(A, means * np.radians(1 / 3600), rcond=None)
+    r = means * np.radians(1 / 3600) - A @ x
+    rank = np.linalg.matrix_rank(A)
+    s2 = r @ r / (len(means) - rank)
+    cov = s2 * np.linalg.pinv(A.T @ A) / np.radians(1 / 3600) ** 2
+    di = COEFFICIENTS.index("DI")
+    assert res.coefficients["DI"].std == pytest.approx(np.sqrt(cov[di, di]), rel=0.05)

@@ -392,13 +392,14 @@ def _flicker_unit_kernel(u: _Units) -> NDArray[np.float64]:
     """Covariance of unit means of flicker (1/f) noise of unit variance per row.
 
     Flicker is represented over the span of the test by equal-variance AR(1) processes with
-    correlation times 1, 4, 16, ... rows up to the length of the record (a sum of relaxation
+    correlation times 1, 4, 16, ... rows up to a quarter of the record (a sum of relaxation
     processes with log-spaced times has a 1/f spectrum between the extreme corner frequencies;
-    Keshner, Proc. IEEE 70(3), 1982, doi:10.1109/PROC.1982.12282). Slower wander than the
-    record is indistinguishable from the constant terms of the model and is not counted.
+    Keshner, Proc. IEEE 70(3), 1982, doi:10.1109/PROC.1982.12282). Slower wander is
+    indistinguishable from the constant terms of the model over one record and is not counted
+    (checked by Monte Carlo against FFT-shaped 1/f noise with power from 1/(2 record) up).
     """
     taus = [1.0]
-    while taus[-1] * _FLICKER_STEP <= u.n_rows:
+    while taus[-1] * _FLICKER_STEP <= u.n_rows / _FLICKER_STEP:
         taus.append(taus[-1] * _FLICKER_STEP)
     K = np.zeros((u.size, u.size))
     for t in taus:
@@ -591,7 +592,7 @@ def solve(
         model = "white"
         fit = row_fit
         V: NDArray[np.float64] = white_diag if given else fit.sigma**2 / u.counts
-        components = {"white": float(np.sqrt(sw2 if given else fit.sigma**2))}
+        components = {"white": _given_sigma(sigma_si) if given else float(fit.sigma)}
     else:
         V = s2 * (np.diag(white_diag) + theta * K)
         L = np.linalg.cholesky(V)
@@ -604,7 +605,8 @@ def solve(
         label = {"position-offsets": "position offset", "random-walk": "random walk",
                  "flicker": "flicker"}[model]
         # K was divided by c (mean diagonal 1): the component's size per reading.
-        components = {"white": float(np.sqrt(wsig2)), label: float(np.sqrt(s2 * theta / c))}
+        components = {"white": _given_sigma(sigma_si) if given else float(np.sqrt(wsig2)),
+                      label: float(np.sqrt(s2 * theta / c))}
     checks = _checks(u, fit.x, V, model, given, sw2 if n > G else np.nan, alpha)
     noise = NoiseFit(model=model, white_sigma=components["white"], sigma_given=given,
                      components=components, unit_index=u.index, unit_labels=u.labels,
@@ -612,6 +614,12 @@ def solve(
     if not checks.fits:
         warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=3)
     return fit, noise
+
+
+def _given_sigma(sigma_si: float | ArrayLike | None) -> float:
+    """The given white noise per reading as reported: itself, or the RMS of per-row values."""
+    s = np.asarray(sigma_si, dtype=float)
+    return float(s) if s.ndim == 0 else float(np.sqrt(np.mean(s**2)))
 
 
 def _checks(
@@ -650,16 +658,22 @@ def _checks(
     serial = serial_p = None
     lags = min(10, G // 5)
     if G >= 10 and dof > lags and chi2 > 0:
-        # Ljung-Box with each autocorrelation centred on its expectation under the model,
-        # E[e e^T] = I - Q Q^T, so that the fitted directions do not bias the test; normalised
-        # by the expected sum of squares when the residuals are smaller (rounding-level
-        # residuals of noise-free data carry no evidence).
-        q, c0 = 0.0, max(float(e @ e), float(dof))
+        # Portmanteau of the lag-k products e'S_k e (S_k the symmetric lag-k shift / 2), each
+        # standardised by its exact mean and variance under the model, e ~ N(0, I - Q Q'):
+        # mean -tr(Q'S_k Q), variance 2 tr(R S_k R S_k) = (G-k)/2 - 2|S_k Q|^2 + |Q'S_k Q|^2
+        # (quadratic forms in normal variables), so that the fitted directions (smooth in
+        # time for a tumble) bias neither its mean nor its spread. Residuals far below the
+        # noise level (noise-free data) are scaled by the expected sum, not their own.
+        es = e * np.sqrt(dof / max(float(e @ e), float(dof)))
+        serial = 0.0
         for k in range(1, lags + 1):
-            rk = float(e[:-k] @ e[k:]) / c0
-            ek = -float(np.sum(Q[:-k] * Q[k:])) / dof
-            q += (rk - ek) ** 2 / (G - k)
-        serial = G * (G + 2) * q
+            SQ = np.zeros_like(Q)
+            SQ[:-k] += 0.5 * Q[k:]
+            SQ[k:] += 0.5 * Q[:-k]
+            QSQ = Q.T @ SQ
+            mean = -float(np.trace(QSQ))
+            var = 2 * ((G - k) / 2 - 2 * float(np.sum(SQ**2)) + float(np.sum(QSQ**2)))
+            serial += (float(es[:-k] @ es[k:]) - mean) ** 2 / max(var, 1e-300)
         serial_p = float(scipy.stats.chi2.sf(serial, lags))
     z = e / np.sqrt(np.clip(1 - h, 1e-12, None))
     thr = max(4.0, float(scipy.stats.norm.isf(alpha / (2 * G))))
