@@ -65,8 +65,8 @@ class RunRecord:
     procedure: str
     tested_at: datetime
     software_version: str
-    latitude_deg: float
-    gravity_m_s2: float
+    latitude_deg: float | None
+    gravity_m_s2: float | None
     plan_text: str
     data_sha256: str
     n_observations: int
@@ -125,8 +125,8 @@ class RunRecord:
             procedure=str(result["kind"]),
             tested_at=_utc(tested_at or datetime.now(UTC)),
             software_version=software_version,
-            latitude_deg=float(site.get("latitude_deg", float("nan"))),
-            gravity_m_s2=float(site.get("gravity_m_s2", float("nan"))),
+            latitude_deg=_optional_float(site.get("latitude_deg")),
+            gravity_m_s2=_optional_float(site.get("gravity_m_s2")),
             plan_text=plan_text,
             data_sha256=data_sha256,
             n_observations=int(ident.get("n_observations", 0)),
@@ -301,6 +301,10 @@ def _record(r: Run) -> RunRecord:
         ),
         result=json.loads(r.result_json),
     )
+
+
+def _optional_float(v: object) -> float | None:
+    return None if v is None else float(v)  # type: ignore[arg-type]
 
 
 def _utc(t: datetime) -> datetime:
