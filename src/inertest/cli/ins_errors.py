@@ -160,7 +160,10 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         out["sign_convention"] = SIGN_CONVENTION
         if sigma is not None:
             out["sigma"] = {st: sigma[:, i].tolist() for i, st in enumerate(STATES)}
-        echo_json(envelope("ins-errors", result=out))
+        st = scenario.site
+        echo_json(envelope("ins-errors", result=out, site={
+            "latitude_deg": math.degrees(st.latitude_rad), "gravity_m_s2": st.gravity_m_s2,
+            "radius_m": st.radius_m, "earth_rate_rad_s": st.earth_rate_rad_s}))
         return
     click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table("characteristic periods (eigenvalues of A)", ["period", "value", "closed form"],
