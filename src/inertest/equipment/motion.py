@@ -1,0 +1,127 @@
+"""What test equipment does to an instrument over time: one protocol for every machine.
+
+A turntable, dividing head, multi-position fixture, rate table, centrifuge or rotation scheme is,
+to the error models, the same thing: over labelled segments (a position, a mounting at a table
+angle, a rate, a turn, a centrifuge run) it gives the instrument an attitude, an inertial angular
+rate and a specific force. :class:`Motion` is that protocol; :class:`Inputs` is what it returns.
+Procedures ask a motion for the inputs of each data row's segment at the row's time and build
+the regressors of the instrument's model from them (DESIGN.md: plan -> equipment kinematics ->
+model -> reduction -> identification).
+
+Conventions
+-----------
+* ``C_ni`` maps instrument axes to the local-level frame n = ENU (x east, y north, z up); its
+  columns are the instrument axes (I, O, S of an SDF gyro; x, y, z of a triad) in ENU.
+* ``omega_i`` is the inertial angular rate of the instrument (Earth rate plus the machine's
+  rates) on the instrument axes [rad/s]; ``f_i`` the specific force on the instrument axes
+  [m/s^2]. At rest ``f_i = C_ni^T (0, 0, g)``: +g along up.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from inertest.earth import Site, earth_rate_enu, specific_force_enu
+from inertest.errors import InputError
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """Attitude, angular rate and specific force of an instrument at ``n`` instants.
+
+    Attributes
+    ----------
+    C_ni : ndarray, shape (n, 3, 3)
+        Instrument axes -> ENU (columns: the instrument axes in ENU).
+    omega_i : ndarray, shape (n, 3)
+        Inertial angular rate on the instrument axes [rad/s].
+    f_i : ndarray, shape (n, 3)
+        Specific force on the instrument axes [m/s^2].
+    """
+
+    C_ni: NDArray[np.float64]
+    omega_i: NDArray[np.float64]
+    f_i: NDArray[np.float64]
+
+    @property
+    def n(self) -> int:
+        """Number of instants."""
+        return int(self.f_i.shape[0])
+
+
+@runtime_checkable
+class Motion(Protocol):
+    """What a machine does to the instrument, segment by segment.
+
+    ``segments`` names the labelled segments (positions, runs, turns) in plan order;
+    ``inputs(segment, t)`` gives the instrument's :class:`Inputs` at times ``t`` [s] since the
+    segment's start (a static segment ignores ``t`` beyond its length).
+    """
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Segment labels in plan order."""
+        ...
+
+    def inputs(self, segment: str, t: ArrayLike) -> Inputs:
+        """Inputs of ``segment`` at times ``t`` [s], shape (n,)."""
+        ...
+
+
+@dataclass(frozen=True)
+class StaticPositions:
+    """A fixture that holds the instrument still in labelled attitudes at a site.
+
+    Tumble positions, dividing-head angles, cube faces, multi-position sets. At rest the instrument feels the Earth rate and +g along up, resolved on its axes:
+    ``omega_i = C_ni^T W_n``, ``f_i = C_ni^T (0, 0, g)``.
+
+    Attributes
+    ----------
+    attitudes : mapping of str to ndarray (3, 3)
+        ``C_ni`` of each position, by label.
+    site : Site
+    """
+
+    attitudes: Mapping[str, NDArray[np.float64]]
+    site: Site
+
+    def __post_init__(self) -> None:
+        for label, c in self.attitudes.items():
+            m = np.asarray(c, dtype=float)
+            if m.shape != (3, 3) or not np.allclose(m.T @ m, np.eye(3), atol=1e-9):
+                raise InputError(f"attitude of position {label!r} is not a rotation matrix")
+            if np.linalg.det(m) < 0:
+                raise InputError(f"attitude of position {label!r} is left-handed")
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Position labels in plan order."""
+        return tuple(self.attitudes)
+
+    def inputs(self, segment: str, t: ArrayLike = 0.0) -> Inputs:
+        """Inputs in position ``segment`` (constant in time), one row per element of ``t``."""
+        try:
+            c = np.asarray(self.attitudes[segment], dtype=float)
+        except KeyError:
+            raise InputError(f"unknown position {segment!r}; the plan has "
+                             f"{', '.join(self.segments)}") from None
+        n = np.atleast_1d(np.asarray(t, dtype=float)).size
+        w = c.T @ earth_rate_enu(self.site.latitude_rad)
+        f = c.T @ specific_force_enu(self.site.gravity_m_s2)
+        return Inputs(np.broadcast_to(c, (n, 3, 3)).copy(), np.tile(w, (n, 1)),
+                      np.tile(f, (n, 1)))
+
+    def inputs_of_rows(self, labels: ArrayLike) -> Inputs:
+        """Inputs of every data row, by its position label, shape (n,)."""
+        lab = np.asarray(labels).astype(str)
+        uniq, inv = np.unique(lab, return_inverse=True)
+        parts = [self.inputs(str(u)) for u in uniq]
+        C = np.stack([p.C_ni[0] for p in parts])[inv]
+        w = np.stack([p.omega_i[0] for p in parts])[inv]
+        f = np.stack([p.f_i[0] for p in parts])[inv]
+        return Inputs(C, w, f)
