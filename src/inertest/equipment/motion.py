@@ -77,7 +77,8 @@ class Motion(Protocol):
 class StaticPositions:
     """A fixture that holds the instrument still in labelled attitudes at a site.
 
-    Tumble positions, dividing-head angles, cube faces, multi-position sets. At rest the instrument feels the Earth rate and +g along up, resolved on its axes:
+    Tumble positions, dividing-head angles, cube faces, multi-position sets. At rest the
+    instrument feels the Earth rate and +g along up, resolved on its axes:
     ``omega_i = C_ni^T W_n``, ``f_i = C_ni^T (0, 0, g)``.
 
     Attributes
