@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from inertest.earth import OMEGA_IE, Site
 from inertest.equipment import multiposition as mp
+from inertest.equipment.motion import Motion
 from inertest.errors import InputError
 
 
@@ -49,3 +51,23 @@ def test_bad_labels(label, message):
 def test_unknown_scheme():
     with pytest.raises(InputError, match='unknown multi-position scheme "7"'):
         mp.scheme_positions("7")
+
+
+def test_motion_static_positions_match_the_specific_force_and_earth_rate():
+    """|omega_i| = W_ie, |f_i| = g, f_i = C^T (0, 0, g) of each label (closed forms)."""
+    site = Site.at(45.0)
+    labels = ["UEN", "DWN", "UEN", "NUE/x+45"]
+    m = mp.motion(labels, site)
+    assert isinstance(m, Motion)
+    assert m.segments == ("UEN", "DWN", "NUE/x+45")
+    inp = m.inputs_of_rows(labels)
+    np.testing.assert_allclose(np.linalg.norm(inp.omega_i, axis=1), OMEGA_IE, rtol=1e-14)
+    np.testing.assert_allclose(inp.f_i[:2], [[site.gravity_m_s2, 0, 0],
+                                             [-site.gravity_m_s2, 0, 0]], atol=1e-15)
+    s = np.sqrt(0.5) * site.gravity_m_s2  # NUE/x+45: up is between y and -z... by hand:
+    # NUE: x north, y up, z east; +45 deg about x turns y towards z, so up = (0, c, -s) in body.
+    np.testing.assert_allclose(inp.f_i[3], [0.0, s, -s], atol=1e-12)
+    # Earth rate on the x-up position: x feels W sin L, y (east) nothing, z (north) W cos L.
+    lat = site.latitude_rad
+    np.testing.assert_allclose(inp.omega_i[0], OMEGA_IE * np.array([np.sin(lat), 0, np.cos(lat)]),
+                               atol=1e-19)

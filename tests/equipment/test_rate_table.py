@@ -5,8 +5,9 @@ import pytest
 from scipy.integrate import quad
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import OMEGA_IE
+from inertest.earth import OMEGA_IE, Site
 from inertest.equipment import rate_table as rt
+from inertest.equipment.motion import Motion
 from inertest.errors import InputError
 
 LAT = np.radians(34.246)
@@ -130,3 +131,62 @@ def test_table_turn_body_rate_integrates_to_the_body_angle():
                                rtol=1e-9, atol=1e-12)
     # At rest before the turn the attitude is the start attitude.
     np.testing.assert_allclose(turn.attitude([1.0]).as_matrix()[0], C0, atol=1e-15)
+
+
+# ---------------------------------------------------------------------------------------------
+# The rate table and its turns as motions (inertest.equipment.motion.Motion)
+
+SITE = Site.at(34.246)
+
+
+def test_constant_rates_motion_closed_forms():
+    """omega_i = C^T (w a + W_ie): |omega_i - w a_i| = W_ie, a . omega = w + W_ie . a; |f| = g."""
+    a = rt.direction_vector("N")
+    w = np.radians(-30.0)
+    m = rt.ConstantRates(SITE, a, (np.radians(10.0), w))
+    assert isinstance(m, Motion)
+    assert m.segments == ("rate 10 deg/s", "rate -30 deg/s")
+    t = np.linspace(0.0, 20.0, 7)
+    inp = m.inputs("rate -30 deg/s", t)
+    a_i = np.einsum("kji,j->ki", inp.C_ni, a)
+    np.testing.assert_allclose(a_i, np.tile([1.0, 0, 0], (7, 1)), atol=1e-15)  # x on the axis
+    np.testing.assert_allclose(inp.omega_i[:, 0], w + rt.earth_rate_along(a, SITE.latitude_rad),
+                               rtol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(inp.omega_i - w * a_i, axis=1), OMEGA_IE,
+                               rtol=1e-11)  # w cancels: rounding of w (0.5 rad/s) / W_ie
+    np.testing.assert_allclose(np.linalg.norm(inp.f_i, axis=1), SITE.gravity_m_s2, rtol=1e-14)
+    # A whole table turn returns the attitude; a quarter turn at -30 deg/s (left-handed about
+    # north) takes up to west.
+    back = m.inputs_at_rate(w, [0.0, 2 * np.pi / abs(w), np.pi / 2 / abs(w)]).C_ni
+    np.testing.assert_allclose(back[1], back[0], atol=1e-14)
+    np.testing.assert_allclose(back[2] @ (back[0].T @ [0, 0, 1.0]), [-1.0, 0, 0], atol=1e-14)
+    with pytest.raises(InputError, match="unknown rate-table segment"):
+        m.inputs("rate 11 deg/s")
+
+
+def test_constant_rates_triad_on_its_z_axis_feels_the_earth_rate_of_rt():
+    C0 = rt.triad_attitude("ENU")
+    m = rt.ConstantRates(SITE, rt.direction_vector("U"), (np.radians(5.0),), C_ni0=C0)
+    inp = m.inputs(m.segments[0], [0.0, 3.0])
+    np.testing.assert_allclose(inp.omega_i[:, 2], np.radians(5.0) + OMEGA_IE * np.sin(
+        SITE.latitude_rad), rtol=1e-14)
+    np.testing.assert_allclose(inp.f_i[:, 2], SITE.gravity_m_s2, rtol=1e-15)
+
+
+def test_turns_motion_integrates_to_the_exact_body_angle():
+    """A trapezoid turn as a motion: a whole turn returns the attitude, |f| = g throughout, and
+    the integral of omega_i (adaptive quadrature) is body_angle = 2 pi e_j + Earth angle."""
+    prof = rt.RotationProfile(np.radians(25.0), np.radians(8.0))
+    C0 = rt.triad_attitude("SDE")
+    m = rt.Turns(SITE, {"y-": (C0, 1, -1)}, prof, start_s=2.0)
+    assert isinstance(m, Motion) and m.segments == ("y-",)
+    window = 2.0 + prof.duration_s + 3.0
+    end = m.inputs("y-", [0.0, window, 2.0 + prof.duration_s / 2])
+    np.testing.assert_allclose(end.C_ni[1], C0, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(end.f_i, axis=1), SITE.gravity_m_s2, rtol=1e-14)
+    expect = [quad(lambda t, k=k: m.inputs("y-", t).omega_i[0, k], 0, window, limit=400,
+                   points=[2.0, 2.0 + prof.duration_s], epsabs=1e-14)[0] for k in range(3)]
+    got = m.body_angle("y-", window)
+    np.testing.assert_allclose(got, expect, rtol=1e-9, atol=1e-12)
+    w_b0 = C0.T @ (OMEGA_IE * np.array([0, np.cos(SITE.latitude_rad), np.sin(SITE.latitude_rad)]))
+    assert got[1] == pytest.approx(-2 * np.pi + w_b0[1] * window, rel=1e-14)

@@ -21,10 +21,15 @@ axes of the calibration), SI units.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from inertest.earth import Site
+from inertest.equipment.motion import StaticPositions
+from inertest.equipment.rate_table import Turns
 from inertest.errors import InputError
 
 AXES = ("x", "y", "z")
@@ -92,3 +97,78 @@ def turn_rate_profile(
     out = np.zeros((n_turn + 2 * n_rest, 3))
     out[n_rest : n_rest + n_turn, axis] = w
     return out
+
+
+def faces_motion(site: Site, heading_rad: float = 0.0) -> StaticPositions:
+    """The six level faces as a :class:`~inertest.equipment.motion.Motion` (labels ``x_p``...).
+
+    ``C_ni`` of each face is :func:`face_attitude` at ``heading_rad``; at rest
+    ``f_i = C_ni^T (0, 0, g)`` (``sign * g`` along the face's axis) and
+    ``omega_i = C_ni^T W_ie_n``.
+    """
+    return StaticPositions(
+        {label: face_attitude(axis, sign, heading_rad) for label, axis, sign in FACES}, site)
+
+
+#: Gauss-Legendre nodes over a raised-cosine turn for the Earth-rate integral.
+_GL_NODES = 64
+
+
+@dataclass(frozen=True)
+class RaisedCosineProfile:
+    """A hand-made turn: rate ``angle/T (1 - cos(2 pi t/T))`` over ``T = duration_s``.
+
+    The continuous profile of :func:`turn_rate_profile`: angle
+    ``theta(t) = angle (t/T - sin(2 pi t/T)/(2 pi))``, 0 before and ``angle_rad`` after.
+
+    Attributes
+    ----------
+    angle_rad : float
+        Turn angle [rad], > 0 (the direction is the turn's).
+    duration_s : float
+        Turn time ``T`` [s], > 0.
+    """
+
+    angle_rad: float
+    duration_s: float
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.angle_rad) and self.angle_rad > 0):
+            raise InputError(f"turn angle must be positive, got {self.angle_rad} rad")
+        if not (np.isfinite(self.duration_s) and self.duration_s > 0):
+            raise InputError(f"turn duration must be positive, got {self.duration_s} s")
+
+    def angle(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Angle turned at ``t`` [s] after the start [rad]."""
+        x = np.clip(np.asarray(t, dtype=float), 0.0, self.duration_s) / self.duration_s
+        out: NDArray[np.float64] = self.angle_rad * (x - np.sin(2 * np.pi * x) / (2 * np.pi))
+        return out
+
+    def rate(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Rate at ``t`` [s] after the start [rad/s]."""
+        tt = np.asarray(t, dtype=float)
+        inside = (tt >= 0) & (tt <= self.duration_s)
+        w = self.angle_rad / self.duration_s * (1 - np.cos(2 * np.pi * tt / self.duration_s))
+        out: NDArray[np.float64] = np.where(inside, w, 0.0)
+        return out
+
+    def quadrature(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Gauss-Legendre nodes and weights over the turn [s]."""
+        x, w = np.polynomial.legendre.leggauss(_GL_NODES)
+        return 0.5 * self.duration_s * (x + 1), 0.5 * self.duration_s * w
+
+
+def turns_motion(
+    site: Site, angle_rad: float, duration_s: float, rest_s: float = 0.0,
+    heading_rad: float = 0.0,
+) -> Turns:
+    """The three turns (``x_rot``, ``y_rot``, ``z_rot``) as a :class:`~.motion.Motion`.
+
+    Each turn starts in the axis-up face (:func:`face_attitude` at ``heading_rad``), rests
+    ``rest_s``, turns by ``angle_rad`` (signed, right-handed about the +axis) over
+    ``duration_s`` with the raised-cosine rate (:class:`RaisedCosineProfile`), and rests.
+    """
+    direction = 1 if angle_rad > 0 else -1
+    starts = {label: (face_attitude(axis, +1, heading_rad), axis, direction)
+              for label, axis in TURNS}
+    return Turns(site, starts, RaisedCosineProfile(abs(angle_rad), duration_s), rest_s)

@@ -29,8 +29,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import DIRECTIONS_ENU
+from inertest.earth import DIRECTIONS_ENU, Site
 from inertest.equipment.level_fixture import all_positions
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import InputError
 
 SCHEMES = ("6", "12", "24")
@@ -88,6 +89,26 @@ def attitudes(labels: object) -> NDArray[np.float64]:
     uniq, inverse = np.unique(arr, return_inverse=True)
     table = np.stack([attitude(u) for u in uniq]) if uniq.size else np.zeros((0, 3, 3))
     return table[inverse.ravel()]
+
+
+def motion(labels: object, site: Site) -> StaticPositions:
+    """The fixture as a :class:`~inertest.equipment.motion.Motion`: one static segment per label.
+
+    Parameters
+    ----------
+    labels : sequence of str
+        Position labels (repeats allowed; each distinct label is one segment, in first-seen
+        order).
+    site : Site
+
+    Returns
+    -------
+    StaticPositions
+        ``C_ni`` = :func:`attitude` of each label; at rest ``f_i = C_ni^T (0, 0, g)`` and
+        ``omega_i = C_ni^T W_ie_n``.
+    """
+    distinct = dict.fromkeys(str(x) for x in np.asarray(labels, dtype=str).ravel())
+    return StaticPositions({lab: attitude(lab) for lab in distinct}, site)
 
 
 def specific_force_body(labels: object, gravity_m_s2: float) -> NDArray[np.float64]:

@@ -20,15 +20,18 @@ the window is spent at rest in the start (= end) attitude.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import DIRECTIONS_ENU, earth_rate_enu
+from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
+from inertest.equipment.motion import Inputs
 from inertest.errors import InputError
+from inertest.units import DEG_TO_RAD
 
 AXES = ("x", "y", "z")
 #: Gauss-Legendre nodes per profile phase for the Earth-rate integral (the integrand is smooth).
@@ -119,6 +122,36 @@ def vertical_axis(C_nb: NDArray[np.float64]) -> int | None:
     up = np.abs(C_nb[2])
     j = int(np.argmax(up))
     return j if up[j] > 1 - 1e-9 else None
+
+
+class TurnProfile(Protocol):
+    """Angle history of one turn: what :class:`Turns` and :func:`rotation_earth_angle` need.
+
+    :class:`RotationProfile` (trapezoid in rate) and
+    :class:`inertest.equipment.ferraris_session.RaisedCosineProfile` implement it.
+    """
+
+    @property
+    def angle_rad(self) -> float:
+        """Total rotation angle [rad] (signed by the profile's own convention, > 0 here)."""
+        ...
+
+    @property
+    def duration_s(self) -> float:
+        """Time from start to stop [s]."""
+        ...
+
+    def angle(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Angle turned at time ``t`` after the start [rad]."""
+        ...
+
+    def rate(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Rate at time ``t`` after the start [rad/s]."""
+        ...
+
+    def quadrature(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Nodes [s] and weights [s] integrating smooth functions of the angle over the turn."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -217,7 +250,7 @@ def rotation_earth_angle(
     C_nb0: ArrayLike,
     axis: int,
     direction: int,
-    profile: RotationProfile,
+    profile: TurnProfile,
     window_s: float,
     latitude_rad: float,
 ) -> NDArray[np.float64]:
@@ -263,7 +296,7 @@ def body_angle(
     C_nb0: ArrayLike,
     axis: int,
     direction: int,
-    profile: RotationProfile,
+    profile: TurnProfile,
     window_s: float,
     latitude_rad: float,
 ) -> NDArray[np.float64]:
@@ -311,7 +344,7 @@ class TableTurn:
     C_nb0: NDArray[np.float64]
     axis: int
     direction: int
-    profile: RotationProfile
+    profile: TurnProfile
     latitude_rad: float
     start_s: float = 0.0
 
@@ -329,3 +362,161 @@ class TableTurn:
         w = self.attitude(t).inv().apply(earth_rate_enu(self.latitude_rad))
         w[:, self.axis] += self.direction * self.profile.rate(t - self.start_s)
         return w
+
+
+def _check_attitude(C: ArrayLike, what: str) -> NDArray[np.float64]:
+    m = np.asarray(C, dtype=float)
+    if m.shape != (3, 3) or not np.allclose(m.T @ m, np.eye(3), atol=1e-9) or (
+            np.linalg.det(m) < 0):
+        raise InputError(f"{what} must be a right-handed rotation matrix (3, 3)")
+    return m
+
+
+def _frame_with_x_along(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """A right-handed ``C_ni`` whose first axis (x, or an SDF gyro's I) is ``a``."""
+    helper = np.eye(3)[int(np.argmin(np.abs(a)))]
+    y = np.cross(a, helper)
+    y /= np.linalg.norm(y)
+    return np.column_stack([a, y, np.cross(a, y)])
+
+
+def rate_label(rate_rad_s: float) -> str:
+    """Segment label of a constant table rate: ``"rate 10 deg/s"``."""
+    return f"rate {rate_rad_s / DEG_TO_RAD:.9g} deg/s"
+
+
+@dataclass(frozen=True)
+class ConstantRates:
+    """A single-axis rate table at constant rates: a :class:`~inertest.equipment.motion.Motion`.
+
+    Each segment is one commanded rate ``w`` [rad/s] about the fixed ENU table axis ``a``,
+    starting (``t = 0``) with the instrument in attitude ``C_ni0``::
+
+        C_ni(t) = R_a(w t) C_ni0                 (right-handed about a, in ENU)
+        omega_i = C_ni(t)^T (w a + W_ie_n)       (table rate plus Earth rate)
+        f_i     = C_ni(t)^T (0, 0, g)            (at rest on the table: +g along up)
+
+    Attributes
+    ----------
+    site : Site
+    axis_enu : ndarray, shape (3,)
+        Table axis (unit vector, ENU; :func:`direction_vector`).
+    rates_rad_s : tuple of float
+        Commanded rates [rad/s], signed; segment labels by :func:`rate_label`.
+    C_ni0 : ndarray (3, 3) or None
+        Instrument attitude at ``t = 0``; default: instrument x (an SDF gyro's input axis I)
+        along the table axis.
+    """
+
+    site: Site
+    axis_enu: NDArray[np.float64]
+    rates_rad_s: tuple[float, ...]
+    C_ni0: NDArray[np.float64] | None = None
+
+    def __post_init__(self) -> None:
+        a = direction_vector(tuple(np.asarray(self.axis_enu, dtype=float)))
+        object.__setattr__(self, "axis_enu", a)
+        c0 = _frame_with_x_along(a) if self.C_ni0 is None else _check_attitude(
+            self.C_ni0, "rate-table start attitude C_ni0")
+        object.__setattr__(self, "C_ni0", c0)
+        rates = tuple(float(r) for r in self.rates_rad_s)
+        if not rates or not np.all(np.isfinite(rates)):
+            raise InputError("rate table needs at least one finite rate [rad/s]")
+        object.__setattr__(self, "rates_rad_s", rates)
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """One label per distinct rate, in plan order."""
+        return tuple(dict.fromkeys(rate_label(r) for r in self.rates_rad_s))
+
+    def rate_of(self, segment: str) -> float:
+        """Table rate of a segment [rad/s]."""
+        for r in self.rates_rad_s:
+            if rate_label(r) == segment:
+                return r
+        raise InputError(f"unknown rate-table segment {segment!r}; the plan has "
+                         f"{', '.join(self.segments)}")
+
+    def inputs(self, segment: str, t: ArrayLike = 0.0) -> Inputs:
+        """Inputs at times ``t`` [s] since the segment's start, one row per element of ``t``."""
+        return self.inputs_at_rate(self.rate_of(segment), t)
+
+    def inputs_at_rate(self, rate_rad_s: float, t: ArrayLike = 0.0) -> Inputs:
+        """Inputs at table rate ``rate_rad_s`` [rad/s] and times ``t`` [s]."""
+        tt = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
+        C0 = np.asarray(self.C_ni0, dtype=float)
+        R = Rotation.from_rotvec(np.outer(rate_rad_s * tt, self.axis_enu)).as_matrix()
+        C = R @ C0
+        w_n = rate_rad_s * self.axis_enu + earth_rate_enu(self.site.latitude_rad)
+        f_n = specific_force_enu(self.site.gravity_m_s2)
+        return Inputs(C, np.einsum("kji,j->ki", C, w_n), np.einsum("kji,j->ki", C, f_n))
+
+
+@dataclass(frozen=True)
+class Turns:
+    """Whole turns of a triad about its body axes: a :class:`~inertest.equipment.motion.Motion`.
+
+    Each segment is one turn (:class:`TableTurn`): at rest in ``C_nb0`` for ``start_s``, then
+    a turn about body axis ``j`` by ``direction * profile.angle_rad`` following ``profile``
+    (trapezoid :class:`RotationProfile` or the raised cosine of a hand-made Ferraris turn),
+    then at rest in the end attitude::
+
+        C_ni(t) = C_nb0 R_j(direction theta(t - start_s))
+        omega_i = direction theta_dot e_j + C_ni(t)^T W_ie_n
+        f_i     = C_ni(t)^T (0, 0, g)
+
+    Attributes
+    ----------
+    site : Site
+    starts : mapping of str to (ndarray (3, 3), int, int)
+        Per segment label: start attitude ``C_nb0``, body axis (0, 1, 2), direction (+1, -1).
+    profile : TurnProfile
+    start_s : float
+        Rest before each turn [s].
+    """
+
+    site: Site
+    starts: Mapping[str, tuple[NDArray[np.float64], int, int]]
+    profile: TurnProfile
+    start_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for label, (C0, axis, direction) in self.starts.items():
+            _check_attitude(C0, f"start attitude of turn {label!r}")
+            if axis not in (0, 1, 2) or direction not in (1, -1):
+                raise InputError(f"turn {label!r}: axis must be 0, 1 or 2 and direction +1 or -1"
+                                 f", got {axis!r}, {direction!r}")
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Turn labels in plan order."""
+        return tuple(self.starts)
+
+    def turn(self, segment: str) -> TableTurn:
+        """The :class:`TableTurn` of a segment."""
+        try:
+            C0, axis, direction = self.starts[segment]
+        except KeyError:
+            raise InputError(f"unknown turn {segment!r}; the plan has "
+                             f"{', '.join(self.segments)}") from None
+        return TableTurn(np.asarray(C0, dtype=float), axis, direction, self.profile,
+                         self.site.latitude_rad, self.start_s)
+
+    def inputs(self, segment: str, t: ArrayLike = 0.0) -> Inputs:
+        """Inputs at times ``t`` [s] since the segment's start (rest, turn, rest)."""
+        tt = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
+        tr = self.turn(segment)
+        C = tr.attitude(tt).as_matrix()
+        f = np.einsum("kji,j->ki", C, specific_force_enu(self.site.gravity_m_s2))
+        return Inputs(C, tr.body_rate(tt), f)
+
+    def body_angle(self, segment: str, window_s: float) -> NDArray[np.float64]:
+        """Integral of ``omega_i`` over a window of ``window_s`` [s] holding the turn [rad], (3,).
+
+        :func:`body_angle`: the table angle ``direction * angle_rad e_j`` plus the Earth-rate
+        angle by Gauss-Legendre over the profile's phases (exact to rounding for a smooth
+        integrand), independent of where the rest lies in the window.
+        """
+        tr = self.turn(segment)
+        return body_angle(tr.C_nb0, tr.axis, tr.direction, self.profile, window_s,
+                          self.site.latitude_rad)
