@@ -147,8 +147,34 @@ def test_bad_data():
         pt.fit(few, one)
     with pytest.raises(PlanError, match="cos L"):
         pt.simulate(make_plan(lat=89.5), TRUTH)
-    with pytest.raises(PlanError, match="unknown parameter"):
+    with pytest.raises(PlanError, match='unknown key.*postions.*did you mean "positions"'):
         pt.PolarTumbleSpec.from_mapping({"postions": 8})
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"positions": True}, "positions must be a whole number"),
+    ({"positions": 8.0}, "positions must be a whole number"),
+    ({"positions": 0}, "positions must be positive"),
+    ({"angles_deg": [0.0, False]}, "angles_deg must be a number"),
+    ({"angles_deg": []}, "angles_deg must be a non-empty list"),
+    ({"angles_deg": [0.0, 90.0], "positions": 2}, "either positions .* or angles_deg"),
+    ({"samples_per_position": True}, "samples_per_position must be a whole number"),
+    ({"mountings": ["O-Np", "O-Up"]}, 'O-Up" is not one of O-Np, O-Sp, S-Np, S-Sp'),
+    ({"mountings": "O-Np"}, "mountings must be a non-empty list"),
+    ({"noise_model": "whte"}, 'did you mean "white"'),
+    ({"samples_per_positon": 2}, 'did you mean "samples_per_position"'),
+])
+def test_plan_parameters_are_read_strictly(params, message):
+    with pytest.raises(PlanError, match=message):
+        pt.PolarTumbleSpec.from_mapping({"kind": "polar-tumble", **params})
+
+
+def test_plan_defaults_and_angles():
+    spec = pt.PolarTumbleSpec.from_mapping({"kind": "polar-tumble"})
+    assert spec.mountings == pt.table.MOUNTINGS and len(spec.angles_deg) == 16
+    assert spec.angles_deg[1] == 22.5 and spec.noise_model == "auto"
+    spec = pt.PolarTumbleSpec.from_mapping({"angles_deg": [0, 90, 180, 270], "mountings": ["S-Sp"]})
+    assert spec.angles_deg == (0.0, 90.0, 180.0, 270.0) and spec.mountings == ("S-Sp",)
 
 
 @pytest.mark.slow
@@ -211,8 +237,13 @@ def test_position_offsets_give_the_std_of_position_means():
     assert res.identification.noise_model == "position-offsets"
     means = d["output"].reshape(-1, 50).mean(axis=1)
     clean = pt.simulate(make_plan(positions=8, spp=1, unit="deg/h"), TRUTH)
-    f, _ = pt._kinematics(clean["mounting"], np.radians(clean["angle_deg"]),
-                          plan.site.latitude_rad, plan.site.gravity_m_s2)
+    # independent of the motion: the seed's table of fI, fO, fS (gamma = g/g0) per mounting
+    gm, L, th = plan.site.gravity_g, plan.site.latitude_rad, np.radians(clean["angle_deg"])
+    sign = np.where(np.char.endswith(clean["mounting"].astype(str), "Np"), 1.0, -1.0)
+    o_up = np.char.startswith(clean["mounting"].astype(str), "O")
+    f_i, f_in_plane, f_pole = np.cos(L) * np.sin(th), np.cos(L) * np.cos(th), sign * np.sin(L)
+    f = gm * np.column_stack([f_i, np.where(o_up, f_pole, f_in_plane),
+                              np.where(o_up, f_in_plane, f_pole)])
     A = drift_regressors(f)
     x, *_ = np.linalg.lstsq(A, means * np.radians(1 / 3600), rcond=None)
     r = means * np.radians(1 / 3600) - A @ x

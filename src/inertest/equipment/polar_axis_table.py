@@ -14,6 +14,10 @@ towards up. Then, with latitude L and specific force in units of local gravity::
     O-Sp      cosL sin(theta) -sinL           cosL cos(theta)
     S-Np      cosL sin(theta) cosL cos(theta) +sinL
     S-Sp      cosL sin(theta) cosL cos(theta) -sinL
+
+:func:`motion` gives the positions of a plan as a :class:`~inertest.equipment.motion.Motion`
+(segments labelled ``"O-Np@45"``: mounting, then the table angle in deg, see
+:func:`position_labels`), the one source of the inputs of the polar-tumble procedure.
 """
 
 from __future__ import annotations
@@ -22,9 +26,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import earth_rate_enu, polar_axis_enu, specific_force_enu
+from inertest.earth import Site, earth_rate_enu, polar_axis_enu, specific_force_enu
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import InputError
-from inertest.units import G0
+from inertest.units import DEG_TO_RAD, G0
 
 MOUNTINGS: tuple[str, ...] = ("O-Np", "O-Sp", "S-Np", "S-Sp")
 
@@ -90,3 +95,59 @@ def input_rate(
     """Earth rate along the input axis [rad/s] (zero by design of the test, to rounding)."""
     axes = instrument_axes_enu(mounting, table_angle_rad, latitude_rad)
     return axes[:, 0, :] @ earth_rate_enu(latitude_rad)
+
+
+def position_labels(mounting: ArrayLike, angle_deg: ArrayLike) -> NDArray[np.str_]:
+    """Segment label of each (mounting, table angle) row: ``"O-Np@45"``.
+
+    The angle is taken modulo 360 deg and written with 9 significant digits, so readings of one
+    position (``0`` and ``360``, or the same angle read back from a file) share a label.
+
+    Parameters
+    ----------
+    mounting : array_like of str, shape (n,) or a single str
+    angle_deg : array_like, shape (n,)
+        Table angle theta [deg].
+
+    Returns
+    -------
+    ndarray of str, shape (n,)
+    """
+    a = np.atleast_1d(np.asarray(angle_deg, dtype=float))
+    m = np.broadcast_to(np.asarray(mounting).astype(str), a.shape)
+    return np.char.add(np.char.add(m, "@"), np.char.mod("%.9g", np.mod(a, 360.0) + 0.0))
+
+
+def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPositions:
+    """The table holding the gyro at every table angle of every mounting, as a motion.
+
+    Parameters
+    ----------
+    mountings : array_like of str
+        Mountings, any of ``O-Np``, ``O-Sp``, ``S-Np``, ``S-Sp``.
+    angles_deg : array_like, shape (k,)
+        Table angles theta [deg] (the same encoder angles for every mounting).
+    site : Site
+        Latitude (the polar axis) and local gravity.
+
+    Returns
+    -------
+    StaticPositions
+        Segments ``"<mounting>@<angle>"`` (:func:`position_labels`), mounting by mounting in the
+        order given, angles in the order given; attitude ``C_ni`` with columns I, O, S in ENU
+        (:func:`instrument_axes_enu` transposed). Its inputs: Earth rate and ``+g`` up on
+        I, O, S, so ``f_i / g`` follows the table of the module docstring and ``omega_i[:, 0]``
+        vanishes (the input axis stays in the equatorial plane).
+
+    Raises
+    ------
+    InputError
+        An unknown mounting.
+    """
+    angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
+    attitudes: dict[str, NDArray[np.float64]] = {}
+    for m in np.atleast_1d(np.asarray(mountings).astype(str)):
+        axes = instrument_axes_enu(str(m), angles * DEG_TO_RAD, site.latitude_rad)
+        for label, rows in zip(position_labels(m, angles), axes, strict=True):
+            attitudes[str(label)] = rows.T
+    return StaticPositions(attitudes, site)

@@ -30,23 +30,23 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
-from inertest.estimation.identify import NoiseFit, check_noise_model, combination_name
+from inertest.estimation.identify import (
+    NOISE_MODELS,
+    NoiseFit,
+    check_noise_model,
+    combination_name,
+)
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Instrument, Plan
+from inertest.plan import Field, Instrument, Plan, read_fields
 from inertest.procedures.sdf_drift import identify_drift
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    check_samples_per_position,
-    known_sigma,
-    noise_samples,
-    require_columns,
-)
+from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Combination, Estimate, Identification, LinearTestResult
-from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, G0
 
 KIND = "polar-tumble"
 #: Latitudes closer than this to a pole leave I without gravity: the test needs cos L > 0.
@@ -80,34 +80,30 @@ class PolarTumbleSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> PolarTumbleSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(
-            params,
-            ("mountings", "positions", "angles_deg", "samples_per_position", "noise_model"),
-            KIND,
-        )
-        mountings = tuple(str(m) for m in params.get("mountings", table.MOUNTINGS))  # type: ignore[union-attr]
-        for m in mountings:
-            if m not in table.MOUNTINGS:
-                raise PlanError(
-                    f'unknown polar-tumble mounting "{m}"; use any of {", ".join(table.MOUNTINGS)}'
-                )
-        if "angles_deg" in params and "positions" in params:
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        if v["angles_deg"] is not None and v["positions"] is not None:
             raise PlanError("give either positions (a count) or angles_deg (a list), not both")
-        if "angles_deg" in params:
-            angles = tuple(float(a) for a in params["angles_deg"])  # type: ignore[union-attr]
+        if v["angles_deg"] is not None:
+            angles = v["angles_deg"]
         else:
-            count = params.get("positions", 16)
-            if not isinstance(count, int) or isinstance(count, bool) or count < 1:
-                raise PlanError(f"positions must be a positive integer, got {count!r}")
+            count = 16 if v["positions"] is None else v["positions"]
             angles = tuple(float(a) for a in np.arange(count) * 360.0 / count)
-        if not angles:
-            raise PlanError("the plan lists no table angles")
-        spp = check_samples_per_position(params.get("samples_per_position", 1))
-        return cls(mountings=mountings, angles_deg=angles, samples_per_position=spp,
-                   noise_model=check_noise_model(params.get("noise_model", "auto")))
+        return cls(mountings=v["mountings"], angles_deg=angles,
+                   samples_per_position=v["samples_per_position"], noise_model=v["noise_model"])
 
 
+#: Parameters of the ``[procedure]`` table of a polar-tumble plan.
+FIELDS = (
+    Field("mountings", "texts", default=table.MOUNTINGS, choices=table.MOUNTINGS,
+          doc="mountings to run"),
+    Field("positions", "integer", default=None, positive=True,
+          doc="count of table angles equally spaced over 360 deg from 0 (default 16)"),
+    Field("angles_deg", "numbers", default=None, unit="deg", doc="table angles"),
+    Field("samples_per_position", "integer", default=1, positive=True,
+          doc="readings at each angle (simulation)"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
+)
 SPEC = PolarTumbleSpec
 
 
@@ -214,7 +210,8 @@ def fit(
             f"use {', '.join(table.MOUNTINGS)}"
         )
     present = [m for m in table.MOUNTINGS if np.any(mounting == m)]
-    f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
+    positions = table.position_labels(mounting, angle_deg)
+    f, w_in = _inputs(table.motion(present, np.unique(angle_deg), site), positions)
     drift = inst.output_to_rate(cols["output"]) - w_in
     sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
     messages = _spacing_messages(mounting, angle_deg, present)
@@ -222,8 +219,6 @@ def fit(
         warnings.warn(msg, InertestWarning, stacklevel=2)
     spec: PolarTumbleSpec = plan.procedure
     model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    positions = np.char.add(np.char.add(mounting.astype(str), " "),
-                            np.char.mod("%.9g deg", np.mod(angle_deg, 360.0)))
     lsq, noise, ident = identify_drift(
         f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=positions,
         noise_model=model,
@@ -288,7 +283,8 @@ def simulate(
     ang = np.repeat(np.asarray(spec.angles_deg, dtype=float), reps)
     mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
     angle_deg = np.tile(ang, len(spec.mountings))
-    f, w_in = _kinematics(mounting, angle_deg * DEG_TO_RAD, site.latitude_rad, site.gravity_m_s2)
+    motion = table.motion(spec.mountings, spec.angles_deg, site)
+    f, w_in = _inputs(motion, table.position_labels(mounting, angle_deg))
     rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
@@ -302,18 +298,12 @@ def _check_latitude(latitude_rad: float) -> None:
         )
 
 
-def _kinematics(
-    mounting: NDArray, angle_rad: NDArray[np.float64], latitude_rad: float, gravity: float
+def _inputs(
+    motion: StaticPositions, labels: NDArray
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    f = np.empty((angle_rad.size, 3))
-    w = np.empty(angle_rad.size)
-    for m in np.unique(mounting):
-        sel = np.flatnonzero(mounting == m)
-        # Rows repeat a few table angles: evaluate each distinct angle once.
-        angles, inverse = np.unique(angle_rad[sel], return_inverse=True)
-        f[sel] = table.specific_force_ios(m, angles, latitude_rad, gravity)[inverse]
-        w[sel] = table.input_rate(m, angles, latitude_rad)[inverse]
-    return f, w
+    """Specific force on I, O, S [g0] and the rate on I [rad/s] of each row, from the motion."""
+    inputs = motion.inputs_of_rows(labels)
+    return inputs.f_i / G0, inputs.omega_i[:, 0]
 
 
 def _spacing_messages(
