@@ -97,7 +97,7 @@ def test_k2_needs_three_rates():
 
 
 def test_bad_plans_and_data():
-    with pytest.raises(PlanError, match="unknown parameter"):
+    with pytest.raises(PlanError, match='unknown key.*rates .*did you mean "rates_deg_s"'):
         grt.SPEC.from_mapping({"rates": [1, 2]})
     with pytest.raises(PlanError, match="tests a gyro"):
         grt.fit(make_plan([-1, 1], kind="accelerometer", unit="g"), {})
@@ -108,6 +108,21 @@ def test_bad_plans_and_data():
     with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
         plan = make_plan([-1, 1])
         grt.fit(plan, grt.simulate(plan, {"K": 10.0}))
+
+
+@pytest.mark.parametrize(("params", "msg"), [
+    ({"fit_k2": 1}, "fit_k2 must be true or false"),
+    ({"samples_per_rate": True}, "samples_per_rate must be a whole number"),
+    ({"rates_deg_s": [1.0, True]}, r"rates_deg_s must be a number \[deg/s\], got True"),
+    ({"rates_deg_s": []}, "rates_deg_s must be a non-empty list"),
+    ({"samples_per_rate": 0}, "samples_per_rate must be positive"),
+    ({"noise_model": "whte"}, 'noise_model = "whte" is not one of .*did you mean "white"'),
+    ({"fit_K2": True}, 'unknown key.*fit_K2 .*did you mean "fit_k2"'),
+])
+def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
+    """A boolean where a number belongs, a number where a boolean belongs, a misspelt key."""
+    with pytest.raises(PlanError, match=msg):
+        grt.SPEC.from_mapping(params)
 
 
 @pytest.mark.slow

@@ -62,8 +62,9 @@ from the parameter vector ``p``.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -282,14 +283,27 @@ def engineering_jacobian(
     x = np.asarray(p, dtype=float)
     if x.size not in (12, 21):
         raise InputError(f"triad parameters must be 12 or 21, got {x.size}")
-    value = engineering(x, sensor, scale)
+    return complex_step_jacobian(lambda q: engineering(q, sensor, scale), x)
+
+
+def complex_step_jacobian(
+    fun: Callable[[NDArray[Any]], NDArray[Any]], x: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``fun(x)`` and its Jacobian by the complex step, for any analytic vector function.
+
+    Step ``1e-20 |x_k|`` (``1e-20 max |x|`` where ``x_k = 0``): exact to rounding (Squire &
+    Trapp, SIAM Review 40(1), 1998, doi:10.1137/S003614459631241X). The triad model's
+    :func:`engineering_jacobian` and the single-axis rate-table fit use it.
+    """
+    x = np.asarray(x, dtype=float)
+    value = np.asarray(fun(x))
     ref = float(np.max(np.abs(x))) or 1.0
     h = 1e-20 * np.where(x != 0, np.abs(x), ref)
     J = np.empty((value.size, x.size))
     for k in range(x.size):
         xc = x.astype(complex)
         xc[k] += 1j * h[k]
-        J[:, k] = engineering(xc, sensor, scale).imag / h[k]
+        J[:, k] = np.asarray(fun(xc)).imag / h[k]
     return value.real.astype(float), J
 
 

@@ -38,24 +38,21 @@ Output units: a rate output (``deg/h``, ``deg/s``, ``rad/s``) gives a dimensionl
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
+from inertest.earth import Site
 from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
-from inertest.estimation.identify import check_noise_model, solve
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model, solve
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.plan import Instrument, Plan
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    known_sigma,
-    noise_samples,
-    require_columns,
-)
+from inertest.models import triad
+from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, RATE_UNITS
 
@@ -76,22 +73,19 @@ def raw_rate_per_si(output_unit: str) -> float:
     return 1.0 / RATE_UNITS[output_unit] if output_unit in RATE_UNITS else 1.0
 
 
-def scale_factor_unit(output_unit: str) -> tuple[str, float]:
-    """Engineering unit of a gyro scale factor and its SI value [raw SI unit per rad/s].
-
-    ``("1", 1.0)`` for rate outputs; ``("count/deg", 180/pi)`` for pulses (count/s per deg/s);
-    ``("<u>/(deg/s)", 180/pi)`` for electrical outputs.
-    """
-    if output_unit in RATE_UNITS:
-        return "1", 1.0
-    if output_unit == "count":
-        return "count/deg", 1.0 / DEG_TO_RAD
-    return f"{output_unit}/(deg/s)", 1.0 / DEG_TO_RAD
-
-
 def raw_rate_unit(output_unit: str) -> str:
     """Unit of a raw rate reading: ``count/s`` for pulse outputs, the output unit otherwise."""
     return "count/s" if output_unit == "count" else output_unit
+
+
+def _scale_unit(output_unit: str) -> tuple[str, float]:
+    """Unit of K and its SI value [raw SI per rad/s]: the triad model's rule for one gyro.
+
+    ``("1", 1.0)`` for rate outputs, ``("count/deg", 180/pi)`` for pulses (count/s per deg/s),
+    ``("<u>/(deg/s)", 180/pi)`` otherwise (:func:`inertest.models.triad.scale_unit`).
+    """
+    su = triad.scale_unit(raw_rate_unit(output_unit), "gyroscope")
+    return su.unit, su.si_per_unit
 
 
 def check_gyro(instrument: Instrument, kind: str) -> None:
@@ -137,35 +131,33 @@ class GyroRateTableSpec:
         """Unit vector of the table axis in ENU."""
         return table.direction_vector(self.table_axis)
 
+    def motion(self, site: Site) -> table.ConstantRates:
+        """The plan's rate table as a motion: the gyro's input axis (x) along the table axis."""
+        return table.ConstantRates(site, self.axis_enu,
+                                   tuple(np.asarray(self.rates_deg_s) * DEG_TO_RAD))
+
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> GyroRateTableSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(
-            params, ("rates_deg_s", "samples_per_rate", "table_axis", "fit_k2", "noise_model"),
-            KIND,
-        )
-        raw = params.get("rates_deg_s", list(cls.rates_deg_s))
-        if not isinstance(raw, list) or not raw:
-            raise PlanError("rates_deg_s must be a non-empty list of table rates in deg/s")
-        try:
-            rates = tuple(float(r) for r in raw)
-        except (TypeError, ValueError):
-            raise PlanError(f"rates_deg_s must be numbers, got {raw!r}") from None
-        if not all(np.isfinite(rates)):
-            raise PlanError("rates_deg_s must be finite")
-        spr = params.get("samples_per_rate", 1)
-        if not isinstance(spr, int) or isinstance(spr, bool) or spr < 1:
-            raise PlanError(f"samples_per_rate must be a positive integer, got {spr!r}")
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`).
+
+        ``table_axis`` is a letter or an ENU vector (two types): read here.
+        """
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}",
+                        ignore=("kind", "table_axis"))
         axis = params.get("table_axis", "U")
         axis = axis if isinstance(axis, str) else tuple(axis)  # type: ignore[arg-type]
         table.direction_vector(axis)  # validate now, not at fit time
-        k2 = params.get("fit_k2", False)
-        if not isinstance(k2, bool):
-            raise PlanError(f"fit_k2 must be true or false, got {k2!r}")
-        return cls(rates_deg_s=rates, samples_per_rate=spr, table_axis=axis, fit_k2=k2,
-                   noise_model=check_noise_model(params.get("noise_model", "auto")))
+        return cls(table_axis=axis, **v)
 
 
+FIELDS = (
+    Field("rates_deg_s", "numbers", default=GyroRateTableSpec.rates_deg_s, unit="deg/s",
+          doc="commanded table rates, signed"),
+    Field("samples_per_rate", "integer", default=1, positive=True,
+          doc="readings at each rate (simulation)"),
+    Field("fit_k2", "bool", default=False, doc="fit the second-order scale factor K2"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
+)
 SPEC = GyroRateTableSpec
 
 
@@ -228,23 +220,6 @@ class GyroRateTableResult(LinearTestResult):
         return d
 
 
-def complex_step_jacobian(
-    fun: Callable[[NDArray], NDArray], x: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Jacobian of ``fun`` at ``x`` by the complex step (exact to rounding for analytic ``fun``).
-
-    Squire & Trapp, SIAM Review 40(1), 1998, doi:10.1137/S003614459631241X.
-    """
-    x = np.asarray(x, dtype=float)
-    cols = []
-    for k in range(x.size):
-        h = 1e-20 * max(abs(x[k]), 1e-300)
-        xc = x.astype(complex)
-        xc[k] += 1j * h
-        cols.append(np.imag(fun(xc)) / h)
-    return np.column_stack(cols)
-
-
 def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         noise_model: str | None = None) -> GyroRateTableResult:
     """Scale factor, bias, asymmetry and nonlinearity from rate-table readings.
@@ -277,9 +252,8 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     y = cols["output"] / per_si  # rad/s for rate outputs, raw otherwise
     sig = None if sigma is None else known_sigma(sigma, 1.0 / per_si)
     _check_rates(cols["rate_deg_s"])
-    w_e = table.earth_rate_along(spec.axis_enu, plan.site.latitude_rad)
-    w_in = rate_t + w_e
-    k_unit, k_si = scale_factor_unit(inst.output_unit)
+    w_in, w_e = _input_rate(spec.motion(plan.site), rate_t)
+    k_unit, k_si = _scale_unit(inst.output_unit)
     distinct = np.unique(cols["rate_deg_s"])
     messages: list[str] = []
     not_sep: list[str] = []
@@ -326,8 +300,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         return np.array(out)
 
     main, noise = solve(design, y, sigma_si=sig, groups=runs, noise_model=model)
-    values = engineering(main.x)
-    J = complex_step_jacobian(engineering, main.x)
+    values, J = triad.complex_step_jacobian(engineering, main.x)
     cov = J @ main.covariance @ J.T
     std = np.sqrt(np.diag(cov))
     k_of = {"K": k_unit, "K_pos": k_unit, "K_neg": k_unit}
@@ -392,6 +365,19 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         output_unit=raw_rate_unit(inst.output_unit),
         messages=tuple(messages),
     )
+
+
+def _input_rate(
+    motion: table.ConstantRates, rate_rad_s: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """Rate on the gyro's input axis per row [rad/s] and the Earth rate along it [rad/s].
+
+    ``omega_i`` of the rate table's motion on the instrument's x (input) axis at the run's
+    start: the table rate plus ``W_ie . a``.
+    """
+    distinct, inv = np.unique(rate_rad_s, return_inverse=True)
+    w = np.array([motion.inputs_at_rate(float(r)).omega_i[0, 0] for r in distinct])
+    return w[inv], float(motion.inputs_at_rate(0.0).omega_i[0, 0])
 
 
 def _check_rates(rates_deg_s: NDArray[np.float64]) -> None:
@@ -465,7 +451,7 @@ def simulate(
         )
     spec: GyroRateTableSpec = plan.procedure
     inst = plan.instrument
-    k_unit, k_si = scale_factor_unit(inst.output_unit)
+    k_unit, k_si = _scale_unit(inst.output_unit)
     if "K" not in truth and inst.output_unit not in RATE_UNITS:
         raise PlanError(f"truth needs the scale factor K in {k_unit} for a {inst.output_unit} "
                         "output")
@@ -475,7 +461,7 @@ def simulate(
     k2 = float(truth.get("K2", 0.0)) * PPM / DEG_TO_RAD
     rates = np.repeat(np.asarray(spec.rates_deg_s, dtype=float), spec.samples_per_rate)
     w_t = rates * DEG_TO_RAD
-    w_e = table.earth_rate_along(spec.axis_enu, plan.site.latitude_rad)
+    _, w_e = _input_rate(spec.motion(plan.site), w_t)
     k_dir = K * (1 + np.sign(w_t) * a / 2)
     out_si = k_dir * w_t + K * (w_e + B + k2 * w_t**2)
     per_si = raw_rate_per_si(inst.output_unit)
