@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from inertest.earth import OMEGA_IE, Site
-from inertest.errors import InertestWarning, InputError
+from inertest.errors import InertestWarning, InputError, PlanError
 from inertest.plan import Instrument, Plan
 from inertest.procedures import local_level_tumble as ll
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
@@ -74,3 +74,24 @@ def test_monte_carlo_reported_std_matches_scatter():
     vals, stds = np.array(vals), np.array(stds)
     ratio = vals.std(axis=0, ddof=1) / np.sqrt(np.mean(stds**2, axis=0))
     assert np.all(np.abs(ratio - 1) < 0.2), ratio
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"samples_per_position": True}, "samples_per_position must be a whole number"),
+    ({"samples_per_position": 0}, "samples_per_position must be positive"),
+    ({"positon": ["UNW"]}, 'unknown key.*did you mean "positions"'),
+    ({"noise_model": "flicer"}, 'did you mean "flicker"'),
+    ({"positions": "UNW"}, "positions must be a non-empty list"),
+    ({"positions": ["UN"]}, "must give three directions"),
+    ({"positions": [[1, 2, 3]]}, "must give three directions"),
+])
+def test_plan_parameters_are_read_strictly(params, message):
+    with pytest.raises(PlanError, match=message):
+        ll.LocalLevelTumbleSpec.from_mapping({"kind": "local-level-tumble", **params})
+
+
+def test_plan_defaults():
+    spec = ll.LocalLevelTumbleSpec.from_mapping({"kind": "local-level-tumble"})
+    assert len(spec.positions) == 24 and spec.samples_per_position == 1
+    spec = ll.LocalLevelTumbleSpec.from_mapping({"positions": ["unw", ["D", "N", "E"]]})
+    assert spec.positions == (("U", "N", "W"), ("D", "N", "E"))

@@ -2,14 +2,20 @@
 
 Used by the local-level ("geographic") tumble (seed ``000_dad8be616c6569c7.txt``, sec. 3). The
 letter S names *south* here; the gyro's spin-reference axis is the third column of a position.
+
+:func:`motion` gives a plan's positions as a :class:`~inertest.equipment.motion.Motion`
+(segments labelled ``"U N W"``: the directions of I, O, S, see :func:`position_labels`).
 """
 
 from __future__ import annotations
 
-import numpy as np
-from numpy.typing import NDArray
+from collections.abc import Iterable, Sequence
 
-from inertest.earth import DIRECTIONS_ENU, earth_rate_enu, specific_force_enu
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import InputError
 from inertest.units import G0
 
@@ -79,3 +85,41 @@ def all_positions() -> list[tuple[str, str, str]]:
             c = np.cross(va, vb)
             out.append((a, b, _direction_name(c)))
     return out
+
+
+def position_labels(i_dir: ArrayLike, o_dir: ArrayLike, s_dir: ArrayLike) -> NDArray[np.str_]:
+    """Segment label of each row from its I, O, S direction letters: ``"U N W"`` (upper case)."""
+    i, o, s = (np.char.upper(np.asarray(d).astype(str)) for d in (i_dir, o_dir, s_dir))
+    return np.char.add(np.char.add(np.char.add(i, " "), np.char.add(o, " ")), s)
+
+
+def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositions:
+    """The fixture holding the gyro in each position, as a motion.
+
+    Parameters
+    ----------
+    positions : iterable
+        Directions of (I, O, S) at each position: ``("U", "N", "W")``, ``"UNW"`` or a label
+        ``"U N W"`` (letters E, W, N, S, U, D; S = south).
+    site : Site
+
+    Returns
+    -------
+    StaticPositions
+        Segments ``"U N W"`` (:func:`position_labels`) in the order given; attitude ``C_ni``
+        with columns I, O, S in ENU. At rest: ``f_i = C_ni^T (0, 0, g)`` (``+-g`` on the
+        vertical axis, zero on the others) and ``omega_i[:, 0] = W I . (0, cos L, sin L)``.
+
+    Raises
+    ------
+    InputError
+        A position that is not three local directions of a right-handed triad.
+    """
+    attitudes: dict[str, NDArray[np.float64]] = {}
+    for p in positions:
+        triple = p.split() if isinstance(p, str) and " " in p.strip() else list(p)
+        if len(triple) != 3:
+            raise InputError(f"position {p!r} must give three directions (I, O, S), e.g. \"UNW\"")
+        label = str(position_labels(*triple))
+        attitudes[label] = axes_from_directions(*triple).T
+    return StaticPositions(attitudes, site)

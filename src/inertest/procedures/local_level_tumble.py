@@ -11,7 +11,7 @@ input axis, ``W (I . (0, cos L, sin L))``, is subtracted from each reading.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -20,18 +20,12 @@ from numpy.typing import NDArray
 
 from inertest.equipment import level_fixture as fixture
 from inertest.errors import InertestWarning, PlanError
-from inertest.estimation.identify import check_noise_model
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Instrument, Plan
-from inertest.procedures.sdf_drift import identify_drift
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    check_samples_per_position,
-    known_sigma,
-    noise_samples,
-    require_columns,
-)
+from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.procedures.sdf_drift import identify_drift, row_inputs
+from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
@@ -65,26 +59,33 @@ class LocalLevelTumbleSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> LocalLevelTumbleSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(params, ("positions", "samples_per_position", "noise_model"), KIND)
-        spp = check_samples_per_position(params.get("samples_per_position", 1))
-        model = check_noise_model(params.get("noise_model", "auto"))
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS` and positions)."""
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}",
+                        ignore=("kind", "positions"))
         if "positions" not in params:
-            return cls(samples_per_position=spp, noise_model=model)
+            return cls(**v)
         raw = params["positions"]
         if not isinstance(raw, list) or not raw:
             raise PlanError('positions must be a non-empty list such as ["UNW", "DNE"]')
         positions = []
         for p in raw:
             triple = tuple(p) if isinstance(p, (list, str)) else ()
-            if len(triple) != 3:
+            if len(triple) != 3 or not all(isinstance(t, str) for t in triple):
                 raise PlanError(
                     f"position {p!r} must give three directions (I, O, S), e.g. \"UNW\""
                 )
             fixture.axes_from_directions(*triple)  # validates letters and handedness
-            positions.append(tuple(str(t).upper() for t in triple))
-        return cls(positions=tuple(positions), samples_per_position=spp,  # type: ignore[arg-type]
-                   noise_model=model)
+            positions.append(tuple(t.upper() for t in triple))
+        return cls(positions=tuple(positions), **v)  # type: ignore[arg-type]
+
+
+#: Parameters of the ``[procedure]`` table besides ``positions`` (a list of direction triples,
+#: read by :meth:`LocalLevelTumbleSpec.from_mapping`).
+FIELDS = (
+    Field("samples_per_position", "integer", default=1, positive=True,
+          doc="readings at each position (simulation)"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
+)
 
 
 SPEC = LocalLevelTumbleSpec
@@ -140,9 +141,8 @@ def fit(
     """
     cols = require_columns(data, ("output",), ("I_dir", "O_dir", "S_dir"), procedure=KIND)
     site, inst = plan.site, plan.instrument
-    axes, labels = _axes(cols["I_dir"], cols["O_dir"], cols["S_dir"])
-    f = fixture.specific_force_ios(axes, site.gravity_m_s2)
-    w_in = fixture.input_rate(axes, site.latitude_rad)
+    labels = fixture.position_labels(cols["I_dir"], cols["O_dir"], cols["S_dir"])
+    f, w_in = row_inputs(fixture.motion(np.unique(labels), site), labels)
     drift = inst.output_to_rate(cols["output"]) - w_in
     sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
     messages = _balance_messages(labels)
@@ -192,25 +192,11 @@ def simulate(
     reps = spec.samples_per_position
     pos = [p for p in spec.positions for _ in range(reps)]
     cols = [np.array([p[j] for p in pos]) for j in range(3)]
-    axes, _ = _axes(*cols)
-    f = fixture.specific_force_ios(axes, plan.site.gravity_m_s2)
-    drift = model_drift(f, coefficients_from_deg_h(truth))
-    rate = fixture.input_rate(axes, plan.site.latitude_rad) + drift
+    f, w_in = row_inputs(fixture.motion(spec.positions, plan.site),
+                         fixture.position_labels(*cols))
+    rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
-
-
-def _axes(
-    i_dir: Sequence[str], o_dir: Sequence[str], s_dir: Sequence[str]
-) -> tuple[NDArray[np.float64], NDArray]:
-    labels = np.char.add(
-        np.char.add(np.char.add(np.char.upper(np.asarray(i_dir, dtype=str)), " "),
-                    np.char.add(np.char.upper(np.asarray(o_dir, dtype=str)), " ")),
-        np.char.upper(np.asarray(s_dir, dtype=str)),
-    )
-    uniq, inverse = np.unique(labels, return_inverse=True)
-    table = np.stack([fixture.axes_from_directions(*u.split(" ")) for u in uniq])
-    return table[inverse], labels
 
 
 def _balance_messages(labels: NDArray) -> list[str]:

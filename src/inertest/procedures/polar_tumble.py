@@ -30,7 +30,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
-from inertest.equipment.motion import StaticPositions
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
@@ -43,10 +42,10 @@ from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Instrument, Plan, read_fields
-from inertest.procedures.sdf_drift import identify_drift
+from inertest.procedures.sdf_drift import identify_drift, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Combination, Estimate, Identification, LinearTestResult
-from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, G0
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 KIND = "polar-tumble"
 #: Latitudes closer than this to a pole leave I without gravity: the test needs cos L > 0.
@@ -211,7 +210,7 @@ def fit(
         )
     present = [m for m in table.MOUNTINGS if np.any(mounting == m)]
     positions = table.position_labels(mounting, angle_deg)
-    f, w_in = _inputs(table.motion(present, np.unique(angle_deg), site), positions)
+    f, w_in = row_inputs(table.motion(present, np.unique(angle_deg), site), positions)
     drift = inst.output_to_rate(cols["output"]) - w_in
     sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
     messages = _spacing_messages(mounting, angle_deg, present)
@@ -284,7 +283,7 @@ def simulate(
     mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
     angle_deg = np.tile(ang, len(spec.mountings))
     motion = table.motion(spec.mountings, spec.angles_deg, site)
-    f, w_in = _inputs(motion, table.position_labels(mounting, angle_deg))
+    f, w_in = row_inputs(motion, table.position_labels(mounting, angle_deg))
     rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
     output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
     return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
@@ -296,14 +295,6 @@ def _check_latitude(latitude_rad: float) -> None:
             f"a polar-axis tumble at latitude {np.degrees(latitude_rad):.2f} deg gives the I axis "
             "almost no gravity (cos L < 0.05); use a local-level tumble near the poles"
         )
-
-
-def _inputs(
-    motion: StaticPositions, labels: NDArray
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Specific force on I, O, S [g0] and the rate on I [rad/s] of each row, from the motion."""
-    inputs = motion.inputs_of_rows(labels)
-    return inputs.f_i / G0, inputs.omega_i[:, 0]
 
 
 def _spacing_messages(

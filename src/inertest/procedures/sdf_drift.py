@@ -1,7 +1,8 @@
 """Identification of the SDF-gyro static drift model from 1 g tumble data.
 
-Shared by every 1 g procedure (polar-axis tumble, local-level tumble): given the specific force
-on the gyro axes and the true input rate at each observation, solve the linear model of
+Shared by every 1 g procedure (polar-axis tumble, local-level tumble): the inputs of each data
+row come from the fixture's motion (:func:`row_inputs`); given the specific force on the gyro axes
+and the true input rate at each observation, solve the linear model of
 :mod:`inertest.models.sdf_gyro` by weighted least squares and say what the test determines.
 """
 
@@ -12,13 +13,37 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from inertest.equipment.motion import StaticPositions
 from inertest.estimation.identify import NoiseFit, identify_with_noise
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
 from inertest.results import Identification
-from inertest.units import DEG_PER_H_TO_RAD_PER_S
+from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 
 _SQUARES = ("DII", "DOO", "DSS")
+
+
+def row_inputs(
+    motion: StaticPositions, labels: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Inputs of the drift model for each data row, from the fixture's motion.
+
+    Parameters
+    ----------
+    motion : StaticPositions
+        The fixture's positions (segments by label).
+    labels : array_like of str, shape (n,)
+        Position label of each row.
+
+    Returns
+    -------
+    f_ios_g : ndarray, shape (n, 3)
+        Specific force on I, O, S [g0].
+    rate_in_rad_s : ndarray, shape (n,)
+        Inertial angular rate on the input axis I [rad/s] (the Earth rate at rest).
+    """
+    inputs = motion.inputs_of_rows(labels)
+    return inputs.f_i / G0, inputs.omega_i[:, 0]
 
 
 def identify_drift(
