@@ -43,7 +43,7 @@ def test_calibration_inverts_the_simulated_triad():
     data = tm.simulate(plan, TRUTH)
     r = tm.fit(plan, data, sigma=1.0)
     raw = np.column_stack([data[c] for c in tm.OUTPUT_COLUMNS])
-    f = mp.specific_force_body(data["position"], plan.site.gravity_m_s2)
+    f = mp.attitudes(data["position"])[:, 2, :] * plan.site.gravity_m_s2  # C^T (0, 0, g)
     cal = TriadCalibration.from_dict(r.to_dict()["result"]["calibration"]["accelerometer"])
     np.testing.assert_allclose(cal.apply(raw), f, atol=1e-9)
 
@@ -196,7 +196,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     reports M_xy = 300 urad, M_yx = 0, K in count/(m/s^2) and B_x = +2 mg."""
     plan = make_plan("12")
     labels = np.array(plan.procedure.positions)
-    f = mp.specific_force_body(labels, plan.site.gravity_m_s2)  # m/s^2, fixture axes
+    f = mp.attitudes(labels)[:, 2, :] * plan.site.gravity_m_s2  # m/s^2, fixture axes
     K = np.diag([1000.0, 1100.0, 900.0])  # count/(m/s^2)
     M = np.zeros((3, 3))
     M[0, 1] = 300e-6
@@ -210,3 +210,15 @@ def test_convention_misalignment_scale_bias_by_hand():
     assert c["K_y"].value == pytest.approx(1100.0, rel=1e-12)
     assert c["K_y"].unit == "count/(m/s^2)"
     assert c["B_x"].value == pytest.approx(2.0, rel=1e-9) and c["B_x"].unit == "mg"
+
+
+@pytest.mark.parametrize(("params", "msg"), [
+    ({"nominal_scale_factor": True}, "nominal_scale_factor must be a number"),
+    ({"nominal_scale_factor": -2.0}, "nominal_scale_factor must be positive"),
+    ({"samples_per_position": 2.5}, "samples_per_position must be a whole number"),
+    ({"positions": True}, 'positions must be "6", "12", "24" or a list'),
+    ({"postions": "6"}, 'unknown key.*postions .*did you mean "positions"'),
+])
+def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
+    with pytest.raises(PlanError, match=msg):
+        tm.SPEC.from_mapping(params)

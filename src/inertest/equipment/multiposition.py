@@ -110,8 +110,3 @@ def motion(labels: object, site: Site) -> StaticPositions:
     distinct = dict.fromkeys(str(x) for x in np.asarray(labels, dtype=str).ravel())
     return StaticPositions({lab: attitude(lab) for lab in distinct}, site)
 
-
-def specific_force_body(labels: object, gravity_m_s2: float) -> NDArray[np.float64]:
-    """Specific force on the body axes at rest [m/s^2], shape (n, 3): ``C_nb^T (0, 0, g)``."""
-    C = attitudes(labels)
-    return C[:, 2, :] * float(gravity_m_s2)

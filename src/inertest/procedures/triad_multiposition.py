@@ -44,14 +44,8 @@ from inertest.models.triad import (
     calibration_from_parameters,
     stack_parameters,
 )
-from inertest.plan import Instrument, Plan
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    check_samples_per_position,
-    known_sigma,
-    noise_samples,
-    require_columns,
-)
+from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import MICRORAD_TO_RAD
 
@@ -84,10 +78,12 @@ class TriadMultipositionSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> TriadMultipositionSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(params, ("positions", "samples_per_position",
-                                       "nominal_scale_factor"), KIND)
-        spp = check_samples_per_position(params.get("samples_per_position", 1))
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`).
+
+        ``positions`` is a scheme name or a list of labels (two types): read here.
+        """
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}",
+                        ignore=("kind", "positions"))
         raw = params.get("positions", "12")
         if isinstance(raw, (str, int)) and not isinstance(raw, bool):
             positions = mp.scheme_positions(str(raw))
@@ -97,15 +93,15 @@ class TriadMultipositionSpec:
                 mp.attitude(p)  # validates each label
         else:
             raise PlanError('positions must be "6", "12", "24" or a list such as ["UEN", "DWN"]')
-        nominal = params.get("nominal_scale_factor")
-        if nominal is not None:
-            if isinstance(nominal, bool) or not isinstance(nominal, (int, float)) or not (
-                    np.isfinite(nominal) and nominal > 0):
-                raise PlanError(f"nominal_scale_factor must be a positive number, got {nominal!r}")
-            nominal = float(nominal)
-        return cls(positions=positions, samples_per_position=spp, nominal_scale_factor=nominal)
+        return cls(positions=positions, **v)
 
 
+FIELDS = (
+    Field("samples_per_position", "integer", default=1, positive=True,
+          doc="readings per position (simulation)"),
+    Field("nominal_scale_factor", "number", default=None, positive=True, unit="scale unit",
+          doc="nominal K of a count output, for the ppm deviations"),
+)
 SPEC = TriadMultipositionSpec
 
 
@@ -331,12 +327,12 @@ def check_identifiable(f: NDArray[np.float64], labels: NDArray) -> None:
     """
     distinct = np.unique(labels)
     A = np.column_stack([f / np.max(np.abs(f)), np.ones(len(f))])
-    _, s, vt = np.linalg.svd(A, full_matrices=True)
-    rank = int(np.sum(s > 1e-9 * s[0]))
+    design = weighted_least_squares(A, np.zeros(len(f)), sigma=1.0)
+    rank = design.rank
     if rank == 4:
         return
     msgs = []
-    for v in vt[rank:]:
+    for v in design.null_space.T:
         d, c = v[:3], v[3]
         if np.linalg.norm(d) < 1e-9:  # pragma: no cover - the ones column is never zero
             continue
@@ -434,7 +430,7 @@ def fit(
     cols = require_columns(data, OUTPUT_COLUMNS, ("position",), procedure=KIND)
     labels = np.char.strip(cols["position"])
     try:
-        f = mp.specific_force_body(labels, plan.site.gravity_m_s2)
+        f = mp.motion(labels, plan.site).inputs_of_rows(labels).f_i
     except InputError as exc:
         raise DataError(f"column position: {exc}") from None
     check_identifiable(f, labels)
@@ -535,7 +531,7 @@ def simulate(
     su = _scale(plan)
     spec: TriadMultipositionSpec = plan.procedure
     labels = np.array([p for p in spec.positions for _ in range(spec.samples_per_position)])
-    f = mp.specific_force_body(labels, plan.site.gravity_m_s2)
+    f = mp.motion(labels, plan.site).inputs_of_rows(labels).f_i
     S, b = truth_model(truth, su)
     raw = (f @ S.T + b) / su.raw_si_per_raw
     raw = raw + noise_samples(raw.size, noise, rng).reshape(raw.shape)
