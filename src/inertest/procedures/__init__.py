@@ -92,6 +92,9 @@ REGISTRY: dict[str, ProcedureInfo] = {
             "Floated gyro, dual-axis centrifuge",
             "inertest.report.centrifuge:nine_position_sections",
         ),
+        ProcedureInfo("servo-table", "inertest.procedures.servo_table",
+                      "Floated gyro, servo-table drift test",
+                      "inertest.report.servo_table:servo_table_sections"),
     )
 }
 
