@@ -128,6 +128,27 @@ def test_plan_and_data_errors():
         amp.simulate(plan, {"K0": 1.0})
 
 
+@pytest.mark.parametrize(("params", "message"), [
+    ({"positions": True}, "positions must be a whole number"),
+    ({"positions": 12.0}, "positions must be a whole number"),
+    ({"samples_per_position": False}, "samples_per_position must be a whole number"),
+    ({"mountings": "IA-PA"}, "mountings must be a non-empty list"),
+    ({"mountings": ["IA-PA", 3]}, "mountings must be text"),
+    ({"mounting": ["IA-PA"]}, 'unknown key.*did you mean "mountings"'),
+    ({"noise_model": "positon-offsets"}, 'did you mean "position-offsets"'),
+])
+def test_plan_parameters_are_read_strictly(params, message):
+    with pytest.raises(PlanError, match=message):
+        amp.AccelerometerMultipointSpec.from_mapping({"kind": amp.KIND, **params})
+
+
+def test_plan_defaults_and_canonical_mountings():
+    spec = amp.AccelerometerMultipointSpec.from_mapping({"kind": amp.KIND})
+    assert spec.mountings == ("IA-PA", "IA-OA") and spec.positions == 24
+    spec = amp.AccelerometerMultipointSpec.from_mapping({"mountings": [" pa-oa "]})
+    assert spec.mountings == ("PA-OA",)
+
+
 def test_inverted_output_sign_is_reported():
     plan = make_plan()
     data = amp.simulate(plan, TRUTH, noise=1e-6, rng=1)

@@ -15,13 +15,21 @@ along the horizontal head axis and feels no gravity):
 
 ``theta`` is the head angle [deg in plans and data], zero with the first axis of the plane up
 and increasing as the second axis turns up; ``gamma = g_local / g0``.
+
+:func:`motion` gives the head positions as a :class:`~inertest.equipment.motion.Motion`
+(segments labelled ``"IA-PA@45"``): instrument axes (IA, PA, OA), right-handed
+(``OA = IA x PA``), the head axis horizontal and pointing to the azimuth ``head_azimuth_deg``
+(default north; it matters only for the Earth rate).
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
 
+from inertest.earth import Site
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import InputError
 
 MOUNTINGS: tuple[str, ...] = ("IA-PA", "IA-OA", "PA-OA")
@@ -69,3 +77,77 @@ def equally_spaced(n: int) -> NDArray[np.float64]:
     if n < 1:
         raise InputError(f"the number of head positions must be positive, got {n}")
     return np.arange(n) * 360.0 / n
+
+
+def position_labels(mounting: ArrayLike, angle_deg: ArrayLike) -> NDArray[np.str_]:
+    """Segment label of each (mounting, head angle) row: ``"IA-PA@45"``.
+
+    The mounting in canonical form (:func:`check_mounting`), the angle modulo 360 deg with 9
+    significant digits, so that readings of one position share a label.
+    """
+    a = np.atleast_1d(np.asarray(angle_deg, dtype=float))
+    m = np.broadcast_to(np.asarray(mounting).astype(str), a.shape)
+    keys, inverse = np.unique(m, return_inverse=True)
+    canon = np.array([check_mounting(k) for k in keys], dtype=str)[inverse.reshape(a.shape)]
+    return np.char.add(np.char.add(canon, "@"), np.char.mod("%.9g", np.mod(a, 360.0) + 0.0))
+
+
+def attitudes(
+    mounting: str, angle_deg: ArrayLike, head_azimuth_deg: float = 0.0
+) -> NDArray[np.float64]:
+    """``C_ni`` (columns IA, PA, OA in ENU) at each head angle, shape (k, 3, 3).
+
+    With the head axis along north, the plane's first axis is ``a1 = (-sin t, 0, cos t)`` and its
+    second ``a2 = (cos t, 0, sin t)`` (``a1`` up at ``t = 0``, ``a2`` up at 90 deg) and
+    ``a1 x a2`` = north: IA-PA ``(a1, a2, N)``, IA-OA ``(a1, -N, a2)``, PA-OA ``(N, a1, a2)``.
+    The head azimuth (clockwise from north) turns all three about up.
+    """
+    t = np.radians(np.atleast_1d(np.asarray(angle_deg, dtype=float)))
+    zero = np.zeros_like(t)
+    a1 = np.stack([-np.sin(t), zero, np.cos(t)], axis=1)
+    a2 = np.stack([np.cos(t), zero, np.sin(t)], axis=1)
+    north = np.tile([0.0, 1.0, 0.0], (t.size, 1))
+    cols = {"IA-PA": (a1, a2, north), "IA-OA": (a1, -north, a2),
+            "PA-OA": (north, a1, a2)}[check_mounting(mounting)]
+    c = np.stack(cols, axis=2)
+    if head_azimuth_deg:
+        c = Rotation.from_rotvec([0.0, 0.0, -np.radians(head_azimuth_deg)]).as_matrix() @ c
+    return c
+
+
+def motion(
+    mountings: ArrayLike, angles_deg: ArrayLike, site: Site, *, head_azimuth_deg: float = 0.0
+) -> StaticPositions:
+    """The head holding the instrument at every angle of every mounting, as a motion.
+
+    Parameters
+    ----------
+    mountings : array_like of str
+        Mountings, any of ``IA-PA``, ``IA-OA``, ``PA-OA``.
+    angles_deg : array_like, shape (k,)
+        Head angles [deg].
+    site : Site
+        Local gravity (and latitude, for the Earth rate).
+    head_azimuth_deg : float
+        Azimuth of the head axis, clockwise from north [deg].
+
+    Returns
+    -------
+    StaticPositions
+        Segments ``"<mounting>@<angle>"`` (:func:`position_labels`), mounting by mounting;
+        instrument axes (IA, PA, OA). Its specific force ``f_i / g0`` equals
+        :func:`specific_force` with ``gravity_g = g / g0``; the axis along the head axis feels
+        none.
+
+    Raises
+    ------
+    InputError
+        An unknown mounting.
+    """
+    angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
+    out: dict[str, NDArray[np.float64]] = {}
+    for m in np.atleast_1d(np.asarray(mountings).astype(str)):
+        for label, c in zip(position_labels(m, angles), attitudes(str(m), angles,
+                                                                  head_azimuth_deg), strict=True):
+            out[str(label)] = c
+    return StaticPositions(out, site)

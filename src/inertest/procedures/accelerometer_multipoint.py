@@ -36,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import dividing_head as head
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import (
     DataError,
     IdentifiabilityError,
@@ -43,17 +44,13 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import check_noise_model, identify
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model, identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models import pendulous_accelerometer as model
-from inertest.plan import Instrument, Plan
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    check_samples_per_position,
-    noise_samples,
-    require_columns,
-)
+from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Combination, Estimate, Identification, LinearTestResult
+from inertest.units import G0
 
 KIND = "accelerometer-multipoint"
 NAMES = model.COEFFICIENTS
@@ -93,24 +90,29 @@ class AccelerometerMultipointSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> AccelerometerMultipointSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        check_no_unknown_keys(
-            params, ("mountings", "positions", "samples_per_position", "noise_model"), KIND)
-        spp = check_samples_per_position(params.get("samples_per_position", 1))
-        raw = params.get("mountings", ["IA-PA", "IA-OA"])
-        if not isinstance(raw, list) or not raw:
-            raise PlanError('mountings must be a non-empty list such as ["IA-PA", "IA-OA"]')
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
         try:
-            mountings = tuple(head.check_mounting(str(m)) for m in raw)
+            mountings = tuple(head.check_mounting(m) for m in v["mountings"])
         except InputError as exc:
             raise PlanError(str(exc)) from None
-        n = params.get("positions", 24)
-        if isinstance(n, bool) or not isinstance(n, int) or n < MIN_POSITIONS:
+        if v["positions"] < MIN_POSITIONS:
             raise PlanError(
                 f"positions must be an integer >= {MIN_POSITIONS} (equally spaced over 360 deg, "
-                f"so the 3rd harmonic of K3 is not aliased), got {n!r}")
-        return cls(mountings=mountings, positions=n, samples_per_position=spp,
-                   noise_model=check_noise_model(params.get("noise_model", "auto")))
+                f"so the 3rd harmonic of K3 is not aliased), got {v['positions']!r}")
+        return cls(**{**v, "mountings": mountings})
+
+
+#: Parameters of the ``[procedure]`` table of a dividing-head plan.
+FIELDS = (
+    Field("mountings", "texts", default=("IA-PA", "IA-OA"),
+          doc="planes turned in the vertical plane: IA-PA, IA-OA, PA-OA"),
+    Field("positions", "integer", default=24,
+          doc=f"head positions per mounting, equally spaced over 360 deg (>= {MIN_POSITIONS})"),
+    Field("samples_per_position", "integer", default=1, positive=True,
+          doc="readings per position (simulation)"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
+)
 
 
 SPEC = AccelerometerMultipointSpec
@@ -196,7 +198,9 @@ def fit(
     except InputError as exc:
         raise InputError(f"column mounting: {exc}") from None
     gamma = plan.site.gravity_g
-    a = head.specific_force(mounting, cols["angle_deg"], gamma)
+    positions = head.position_labels(mounting, cols["angle_deg"])
+    a = _specific_force(head.motion(np.unique(mounting), np.unique(cols["angle_deg"]), plan.site),
+                        positions)
     A = model.regressors(a)
     y = cols["output"]
     unit = plan.instrument.output_unit
@@ -208,8 +212,6 @@ def fit(
             "positions or readings, or give --sigma")
     spec: AccelerometerMultipointSpec = plan.procedure
     noise = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    positions = np.char.add(np.char.add(mounting.astype(str), " "),
-                            np.char.mod("%.9g deg", np.mod(cols["angle_deg"], 360.0)))
     lsq, theta_ident = _identify(A, y, sigma, unit, _explainer(tuple(np.unique(mounting)), gamma),
                                  positions, noise)
     if not lsq.identifiable[NAMES.index("K1")]:
@@ -249,6 +251,11 @@ def _identify(
         si_per_unit={n: 1.0 for n in NAMES}, noise_unit=unit, si_per_noise_unit=1.0,
         pivot_order=("K0", "K2", "KPP", "KOO"), normalize_to="K0", explain=explain,
         groups=groups, noise_model=noise_model)
+
+
+def _specific_force(motion: StaticPositions, labels: NDArray) -> NDArray[np.float64]:
+    """Specific force (aI, aP, aO) [g0] of each row, from the head's motion."""
+    return motion.inputs_of_rows(labels).f_i / G0
 
 
 def _check_instrument(plan: Plan) -> None:
@@ -420,7 +427,8 @@ def simulate(
     reps = spec.samples_per_position
     mounting = np.repeat(np.array(spec.mountings), angles.size * reps)
     angle = np.tile(np.repeat(angles, reps), len(spec.mountings))
-    a = head.specific_force(mounting, angle, plan.site.gravity_g)
+    a = _specific_force(head.motion(spec.mountings, angles, plan.site),
+                        head.position_labels(mounting, angle))
     try:
         e = model.output(a, truth)
     except InputError as exc:
