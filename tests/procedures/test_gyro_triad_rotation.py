@@ -122,7 +122,7 @@ def test_too_few_windows_and_bad_plan():
         gtr.fit(plan, gtr.simulate(plan, TRUTH))
     with pytest.raises(PlanError, match="shorter than one turn"):
         make_plan(rate_deg_s=10.0, rotation_window_s=30.0)
-    with pytest.raises(PlanError, match="noise_model must be one of white, random-walk"):
+    with pytest.raises(PlanError, match='noise_model = "pink" is not one of white, random-walk'):
         make_plan(noise_model="pink")
     with pytest.raises(PlanError, match="unknown name"):
         gtr.simulate(make_plan(), {"K_w": 1.0})
@@ -196,7 +196,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     plan = make_plan(rate_deg_s=20.0, rotation_window_s=22.0)
     rows = gtr.plan_rows(plan.procedure)
     theta = gtr.body_angles(rows["attitude"], rows["axis"], rows["direction"],
-                            rows["duration_s"], plan.procedure, plan.site.latitude_rad)
+                            rows["duration_s"], plan.procedure, plan.site)
     A = 7200.0 * 180 / np.pi * (np.eye(3) + np.array([[0, 100e-6, 0], [0, 0, 0], [0, 0, 0]]))
     b = A @ np.array([0.5 * DEG_H, 0.0, 0.0])
     counts = theta @ A.T + np.outer(rows["duration_s"], b)
@@ -206,3 +206,15 @@ def test_convention_misalignment_scale_bias_by_hand():
     assert abs(c["M_yx"].value) < 1e-6
     assert c["K_z"].value == pytest.approx(7200.0, rel=1e-12) and c["K_z"].unit == "count/deg"
     assert c["B_x"].value == pytest.approx(0.5, rel=1e-9) and c["B_x"].unit == "deg/h"
+
+
+@pytest.mark.parametrize(("params", "msg"), [
+    ({"rate_deg_s": True}, r"rate_deg_s must be a number \[deg/s\], got True"),
+    ({"accel_deg_s2": -1.0}, "accel_deg_s2 must be positive"),
+    ({"repeats": 1.5}, "repeats must be a whole number"),
+    ({"directions": [2]}, "directions must be a list of 1 and/or -1"),
+    ({"rate_degs": 5.0}, 'unknown key.*rate_degs .*did you mean "rate_deg_s"'),
+])
+def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
+    with pytest.raises(PlanError, match=msg):
+        gtr.SPEC.from_mapping(params)

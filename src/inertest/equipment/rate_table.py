@@ -309,11 +309,6 @@ def body_angle(
     return out
 
 
-def static_body_angle(C_nb: ArrayLike, window_s: float, latitude_rad: float) -> NDArray[np.float64]:
-    """Earth-rate angle on the triad's axes over ``window_s`` at rest in attitude ``C_nb`` [rad]."""
-    return np.asarray(C_nb, dtype=float).T @ earth_rate_enu(latitude_rad) * float(window_s)
-
-
 def attitude_history(
     C_nb0: ArrayLike, axis: int, direction: int, angle_rad: ArrayLike
 ) -> Rotation:

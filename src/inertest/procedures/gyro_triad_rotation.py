@@ -50,13 +50,16 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from inertest.earth import Site
 from inertest.equipment import rate_table as table
+from inertest.equipment.motion import StaticPositions
 from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
+from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
-from inertest.plan import Instrument, Plan
+from inertest.plan import Field, Instrument, Plan, read_fields
 from inertest.procedures.gyro_rate_table import check_gyro, raw_rate_per_si, raw_rate_unit
-from inertest.procedures.spec import check_no_unknown_keys, noise_samples, require_columns
+from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import DEG_TO_RAD
 
@@ -134,17 +137,14 @@ class GyroTriadRotationSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> GyroTriadRotationSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        known = ("rate_deg_s", "accel_deg_s2", "rotations", "directions", "rotation_window_s",
-                 "static_attitudes", "static_window_s", "repeats", "noise_model")
-        check_no_unknown_keys(params, known, KIND)
-        kw: dict[str, object] = {}
-        for key in ("rate_deg_s", "accel_deg_s2", "rotation_window_s", "static_window_s"):
-            if key in params:
-                v = params[key]
-                if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                    raise PlanError(f"{key} must be a positive number, got {v!r}")
-                kw[key] = float(v)
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`).
+
+        ``rotations`` (a list of tables), ``directions`` (+1/-1) and ``static_attitudes`` (a
+        list that may be empty) are read here.
+        """
+        kw: dict[str, object] = read_fields(params, FIELDS, f"[procedure] of kind {KIND}",
+                                            ignore=("kind", "rotations", "directions",
+                                                    "static_attitudes"))
         if "rotations" in params:
             raw = params["rotations"]
             if not isinstance(raw, list):
@@ -165,21 +165,13 @@ class GyroTriadRotationSpec:
             if not isinstance(d, list) or not d or any(x not in (1, -1) for x in d):
                 raise PlanError(f"directions must be a list of 1 and/or -1, got {d!r}")
             kw["directions"] = tuple(int(x) for x in d)
-        if "static_attitudes" in params:
+        if "static_attitudes" in params:  # may be empty (rotations only): not a Field
             s = params["static_attitudes"]
             if not isinstance(s, list):
                 raise PlanError('static_attitudes must be a list like ["ENU", "WND"]')
             for a in s:
                 table.triad_attitude(str(a))
             kw["static_attitudes"] = tuple(str(a).upper() for a in s)
-        rep = params.get("repeats", 1)
-        if not isinstance(rep, int) or isinstance(rep, bool) or rep < 1:
-            raise PlanError(f"repeats must be a positive integer, got {rep!r}")
-        kw["repeats"] = rep
-        model = params.get("noise_model", "white")
-        if model not in NOISE_MODELS:
-            raise PlanError(f'noise_model must be one of {", ".join(NOISE_MODELS)}, got {model!r}')
-        kw["noise_model"] = model
         spec = cls(**kw)  # type: ignore[arg-type]
         if spec.window_s < spec.profile.duration_s:
             raise PlanError(
@@ -189,6 +181,18 @@ class GyroTriadRotationSpec:
         return spec
 
 
+FIELDS = (
+    Field("rate_deg_s", default=GyroTriadRotationSpec.rate_deg_s, positive=True, unit="deg/s",
+          doc="table rate during a rotation"),
+    Field("accel_deg_s2", default=None, positive=True, unit="deg/s^2",
+          doc="table acceleration (none: constant rate from start to stop)"),
+    Field("rotation_window_s", default=None, positive=True, unit="s",
+          doc="counting window of a rotation"),
+    Field("static_window_s", default=GyroTriadRotationSpec.static_window_s, positive=True,
+          unit="s", doc="counting window at rest"),
+    Field("repeats", "integer", default=1, positive=True, doc="runs of the whole sequence"),
+    Field("noise_model", "text", default="white", choices=NOISE_MODELS),
+)
 SPEC = GyroTriadRotationSpec
 
 
@@ -288,10 +292,14 @@ def _read(data: Mapping[str, object]) -> _Rows:
 
 def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.float64],
                 duration_s: NDArray[np.float64], spec: GyroTriadRotationSpec,
-                latitude_rad: float) -> NDArray[np.float64]:
-    """``Theta`` [rad], shape (n, 3): table angle plus Earth-rate angle over each window."""
+                site: Site) -> NDArray[np.float64]:
+    """``Theta`` [rad], shape (n, 3): the integral of the body rate over each window.
+
+    The table's motion gives it: a whole turn (:class:`~inertest.equipment.rate_table.Turns`,
+    table angle plus the Earth-rate angle of the profile) or a static window
+    (:class:`~inertest.equipment.motion.StaticPositions`, Earth rate times the window).
+    """
     out = np.empty((axis.size, 3))
-    profile = spec.profile
     cache: dict[tuple[str, str, float, float], NDArray[np.float64]] = {}
     for i in range(axis.size):
         key = (str(rows_attitude[i]), str(axis[i]), float(direction[i]), float(duration_s[i]))
@@ -299,10 +307,12 @@ def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.flo
             try:
                 C = table.triad_attitude(key[0])
                 if key[1] == _STATIC:
-                    cache[key] = table.static_body_angle(C, key[3], latitude_rad)
+                    rest = StaticPositions({key[0]: C}, site)
+                    cache[key] = rest.inputs(key[0]).omega_i[0] * key[3]
                 else:
-                    cache[key] = table.body_angle(C, table.axis_index(key[1]), int(key[2]),
-                                                  profile, key[3], latitude_rad)
+                    turn = table.Turns(site, {"turn": (C, table.axis_index(key[1]), int(key[2]))},
+                                       spec.profile)
+                    cache[key] = turn.body_angle("turn", key[3])
             except InputError as exc:
                 raise DataError(f"data row {i + 1}: {exc}") from None
         out[i] = cache[key]
@@ -385,16 +395,17 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     _check_excitation(rows)
     per_si = raw_rate_per_si(inst.output_unit)
     theta = body_angles(rows.attitude, rows.axis, rows.direction, rows.duration, spec,
-                        plan.site.latitude_rad)
+                        plan.site)
     X = np.column_stack([theta, rows.duration])
     Y = rows.counts / per_si  # raw SI: count, or rad for rate outputs
     n = X.shape[0]
     # Relative noise of each window: 1, or sqrt(T) for an angle random walk.
     rel = np.sqrt(rows.duration) if spec.noise_model == "random-walk" else np.ones(n)
     Xw = X / rel[:, None]
-    scale = np.linalg.norm(Xw, axis=0)
-    U, s, Vt = np.linalg.svd(Xw / scale, full_matrices=False)
-    if s[-1] < 1e-9 * s[0]:
+    # Each gyro's row of A and its bias from the same weighted design; unit weights here, the
+    # noise of each gyro is applied below.
+    fits = [weighted_least_squares(Xw, Y[:, i] / rel, sigma=1.0) for i in range(3)]
+    if fits[0].rank < 4:
         raise IdentifiabilityError(
             "the windows do not separate the scale factors, misalignments and biases (the design "
             "is singular); run every axis in both directions and add static positions"
@@ -404,8 +415,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             f"{n} windows leave no degree of freedom to estimate the noise (4 unknowns per gyro); "
             "add rotations or static windows, or give the noise level (--sigma)"
         )
-    P = (Vt.T / s) @ U.T / scale[:, None]  # pseudo-inverse of the weighted design
-    coef = P @ (Y / rel[:, None])  # (4, 3): column i = gyro i's [A_ix, A_iy, A_iz, b_i]
+    coef = np.column_stack([f.x for f in fits])  # (4, 3): column i = [A_ix, A_iy, A_iz, b_i]
     resid = Y - X @ coef
     if sigma is None:
         sig = np.sqrt(np.sum((resid / rel[:, None]) ** 2, axis=0) / (n - 4))
@@ -413,7 +423,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         if not np.isfinite(sigma) or sigma <= 0:
             raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
         sig = np.full(3, sigma / per_si)
-    cov_unit = P @ P.T
+    cov_unit = fits[0].covariance  # (Xw^T Xw)^-1, the same for every gyro
     # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k, all rows share the
     # design); reorder to the triad model's p = [A.ravel(), b].
     cov_i = np.kron(np.diag(sig**2), cov_unit)
@@ -540,7 +550,7 @@ def simulate(
     A, b = truth_model(truth, plan.instrument.output_unit)
     cols = plan_rows(spec)
     theta = body_angles(cols["attitude"], cols["axis"], cols["direction"], cols["duration_s"],
-                        spec, plan.site.latitude_rad)
+                        spec, plan.site)
     counts = (theta @ A.T + np.outer(cols["duration_s"], b)) * per_si
     gen = np.random.default_rng(rng)
     rel = np.sqrt(cols["duration_s"]) if spec.noise_model == "random-walk" else 1.0
