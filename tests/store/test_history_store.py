@@ -59,7 +59,7 @@ def test_round_trip_in_time_order(db_url):
 
 
 def test_migrations_build_exactly_the_orm_schema(db_url):
-    store = HistoryStore(db_url)
+    store = HistoryStore(db_url, create=True)
     with store.engine.connect() as conn:
         diffs = compare_metadata(MigrationContext.configure(conn), Base.metadata)
     assert diffs == []
@@ -67,7 +67,7 @@ def test_migrations_build_exactly_the_orm_schema(db_url):
 
 
 def test_newer_schema_is_refused(db_url):
-    HistoryStore(db_url).close()
+    HistoryStore(db_url, create=True).close()
     engine = sa.create_engine(db_url)
     with engine.begin() as conn:
         conn.execute(sa.text("UPDATE alembic_version SET version_num = '9999'"))

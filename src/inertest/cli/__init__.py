@@ -2,14 +2,25 @@
 
 Each sub-command lives in its own module of this package and is registered in
 :data:`_COMMANDS`. Errors a user can cause (:class:`inertest.errors.InertestError`, unreadable
-files, bad options) print one clear line to stderr and give a non-zero exit status, no traceback.
+files, a full disk, bad options) print one clear line to stderr and give a non-zero exit status,
+no traceback. Anything else (a bug) prints one line and the path of a log file holding the
+traceback. Database URLs in every message have their password masked, and control characters
+(terminal escape codes from a file or a serial) are shown escaped, never sent to the terminal.
 """
 
 from __future__ import annotations
 
+import errno
 import importlib
+import os
+import re
+import signal
 import sys
+import tempfile
+import time
+import traceback
 from collections.abc import Sequence
+from pathlib import Path
 
 import click
 
@@ -48,6 +59,83 @@ _COMMANDS: dict[str, tuple[str, str, str]] = {
 
 #: Exit status for errors in the user's input (as click uses for usage errors).
 EXIT_INPUT_ERROR = 2
+#: Exit status for a failure of the machine (full disk, I/O error) rather than of the input.
+EXIT_SYSTEM_ERROR = 74  # EX_IOERR of sysexits.h
+#: Exit status for a bug in inertest (an unexpected exception; details in the log file).
+EXIT_INTERNAL_ERROR = 70  # EX_SOFTWARE of sysexits.h
+
+#: ``scheme://user:password@`` in a URL: the password is replaced by ``***`` in every message.
+_URL_PASSWORD = re.compile(r"([A-Za-z][A-Za-z0-9+.\-]*://[^\s:/@]*:)([^\s@/]+)(@)")
+#: Control characters other than tab (ESC starts terminal escape sequences).
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+
+
+def mask_secrets(text: str) -> str:
+    """``text`` with the password of every ``scheme://user:password@host`` URL masked."""
+    return _URL_PASSWORD.sub(r"\1***\3", text)
+
+
+def safe_line(text: str) -> str:
+    """One line for the terminal: passwords masked, control characters and newlines escaped."""
+    text = mask_secrets(str(text)).replace("\r\n", " ").replace("\n", " ")
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+
+
+def _oserror_line(exc: OSError) -> tuple[str, int]:
+    """One line naming the problem and the fix for an OSError, and the exit status."""
+    where = exc.filename if exc.filename is not None else ""
+    if exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
+        what = "disk full" if exc.errno == errno.ENOSPC else "disk quota exceeded"
+        return (f"{what} at {where or 'the output'}: nothing was written; free space or choose "
+                "another output folder", EXIT_SYSTEM_ERROR)
+    if isinstance(exc, FileNotFoundError | IsADirectoryError | NotADirectoryError
+                  | PermissionError | FileExistsError):
+        return (f"cannot use file {where!s}: {exc.strerror or exc}", EXIT_INPUT_ERROR)
+    if exc.errno == errno.EROFS:
+        return (f"cannot write {where}: read-only file system; choose another output folder",
+                EXIT_SYSTEM_ERROR)
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    return (f"input/output error{' at ' + str(where) if where else ''}: {reason}",
+            EXIT_SYSTEM_ERROR)
+
+
+def _log_dir() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "inertest" / "logs"
+
+
+def write_crash_log(exc: BaseException, argv: Sequence[str] | None) -> Path | None:
+    """Write the traceback of an unexpected exception to a log file; return its path."""
+    from importlib import metadata
+
+    try:
+        version = metadata.version("inertest")
+    except metadata.PackageNotFoundError:  # pragma: no cover
+        version = "unknown"
+    text = (f"inertest {version}, python {sys.version.split()[0]}\n"
+            f"argv: {mask_secrets(repr(list(argv) if argv is not None else sys.argv[1:]))}\n\n"
+            + mask_secrets("".join(traceback.format_exception(exc))))
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    for folder in (_log_dir(), Path(tempfile.gettempdir())):
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            fd, name = tempfile.mkstemp(prefix=f"inertest-crash-{stamp}-", suffix=".log",
+                                        dir=folder)
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            return Path(name)
+        except OSError:
+            continue
+    return None
+
+
+def _error(text: str) -> None:
+    click.echo(f"error: {safe_line(text)}", err=True)
+
+
+def _terminate(signum: int, _frame: object) -> None:
+    # SIGTERM/SIGHUP unwind like Ctrl-C, so that temporary files and folders are removed.
+    raise KeyboardInterrupt
 
 
 class _LazyGroup(click.Group):
@@ -61,7 +149,10 @@ class _LazyGroup(click.Group):
         if entry is None:
             return None
         module, attr, _ = entry
-        return getattr(importlib.import_module(module), attr)  # type: ignore[no-any-return]
+        command = getattr(importlib.import_module(module), attr)
+        if "matplotlib" in sys.modules:  # the command draws figures: no math text from labels
+            sys.modules["matplotlib"].rcParams["text.parse_math"] = False
+        return command  # type: ignore[no-any-return]
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, short) for name, (_, _, short) in _COMMANDS.items()]
@@ -79,25 +170,62 @@ def cli() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line with ``argv`` (default ``sys.argv[1:]``) and return the exit status."""
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``) and return the exit status.
+
+    Never raises: every failure is one line on stderr and a non-zero status (2 bad input,
+    74 full disk or I/O error, 70 a bug in inertest with the traceback in a log file, 130
+    interrupted, 1 a batch with failed runs).
+    """
+    previous = {}
+    if argv is None:  # the real command line: a kill unwinds (temporary files are removed)
+        for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+            if sig is not None:
+                try:
+                    previous[sig] = signal.signal(sig, _terminate)
+                except ValueError:  # pragma: no cover - not the main thread
+                    pass
     try:
         cli.main(args=list(argv) if argv is not None else None, standalone_mode=False)
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
-    except click.Abort:
-        click.echo("aborted", err=True)
-        return 1
+    except (click.Abort, KeyboardInterrupt):
+        click.echo("aborted; nothing was written", err=True)
+        return 130
     except click.ClickException as exc:
-        exc.show()
+        click.echo(f"error: {safe_line(exc.format_message())}" if not isinstance(
+            exc, click.UsageError) else _usage_line(exc), err=True)
         return int(exc.exit_code)
     except InertestError as exc:
-        click.echo(f"error: {exc}", err=True)
+        _error(str(exc))
         return EXIT_INPUT_ERROR
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        where = getattr(exc, "filename", None) or ""
-        click.echo(f"error: cannot use file {where!s}: {exc.strerror or exc}", err=True)
-        return EXIT_INPUT_ERROR
+    except OSError as exc:
+        line, status = _oserror_line(exc)
+        _error(line)
+        return status
+    except MemoryError:
+        _error("out of memory; analyse a shorter record or a raw binary file (.f32/.f64), "
+               "which is read in chunks")
+        return EXIT_SYSTEM_ERROR
+    except SystemExit as exc:
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
+    except Exception as exc:  # a bug: one line, the details in a log file
+        log = write_crash_log(exc, argv)
+        where = f"; details in {log}" if log is not None else ""
+        _error(f"internal error ({type(exc).__name__}: {safe_line(str(exc))[:200]}){where}. "
+               "Please report it with that file")
+        return EXIT_INTERNAL_ERROR
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return 0
+
+
+def _usage_line(exc: click.UsageError) -> str:
+    hint = ""
+    if exc.ctx is not None:
+        hint = f" (see '{exc.ctx.command_path} --help')"
+    return f"error: {safe_line(exc.format_message())}{hint}"
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,14 +1,23 @@
-"""Small pieces shared by the sub-commands: JSON output and console tables."""
+"""Small pieces shared by the sub-commands: JSON output, console tables, figures, paths."""
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
+
+from inertest.cli import safe_line
+from inertest.errors import InputError, OutputPathError
+from inertest.io.atomic import check_outputs, target_file
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def echo_json(obj: object) -> None:
@@ -19,11 +28,12 @@ def echo_json(obj: object) -> None:
 def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
     """Print a table on the terminal (rich); the first column is left-aligned, the rest right."""
     # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
-    table = Table(title=escape(title), title_justify="left")
+    # Control characters (terminal escape codes from a serial or a data label) are shown escaped.
+    table = Table(title=escape(safe_line(title)), title_justify="left")
     for i, h in enumerate(header):
-        table.add_column(escape(str(h)), justify="left" if i == 0 else "right")
+        table.add_column(escape(safe_line(str(h))), justify="left" if i == 0 else "right")
     for r in rows:
-        table.add_row(*(escape(str(v)) for v in r))
+        table.add_row(*(escape(safe_line(str(v))) for v in r))
     # Piped output (files, pytest) gets a wide console instead of 80 columns, so rows don't wrap.
     console = Console(soft_wrap=True)
     if not console.is_terminal:
@@ -45,3 +55,56 @@ def parse_float_list(text: str, *, name: str, count: int | None = None) -> list[
             param_hint=name,
         )
     return values
+
+
+#: Figure formats by file suffix (``--plot``).
+FIGURE_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+
+
+def figure_format(path: Path | None, option: str = "--plot") -> str | None:
+    """The figure format of ``path`` by suffix; a clear error before any work if unknown."""
+    if path is None:
+        return None
+    fmt = FIGURE_FORMATS.get(path.suffix.lower())
+    if fmt is None:
+        raise InputError(f"{option} {path}: unknown figure format {path.suffix or '(none)'!r}; "
+                         "name it .png, .svg or .pdf")
+    return fmt
+
+
+def save_figure(fig: Figure, path: Path, *, dpi: int = 110) -> None:
+    """Write ``fig`` to ``path`` (format by suffix) atomically and close it."""
+    import matplotlib.pyplot as plt
+
+    fmt = figure_format(path)
+    try:
+        with target_file(path) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=dpi, bbox_inches="tight")
+    finally:
+        plt.close(fig)
+
+
+def plain_text_figures() -> None:
+    """Draw every figure text as plain text, never as matplotlib math.
+
+    A ``$`` in a file name, serial or data label is then a dollar sign; as math text its parse
+    error would stop the command.
+    """
+    import matplotlib
+
+    matplotlib.rcParams["text.parse_math"] = False
+
+
+def check_paths(outputs: Iterable[Path | None], inputs: Iterable[Path | None]) -> None:
+    """Refuse, before any work, an output that is an input (or holds one), or two equal outputs.
+
+    Symlinks are resolved (:func:`inertest.io.atomic.check_outputs`).
+    """
+    outs = [o for o in outputs if o is not None]
+    check_outputs(outs, [i for i in inputs if i is not None])
+    seen: dict[Path, Path] = {}
+    for o in outs:
+        key = o.resolve()
+        if key in seen:
+            raise OutputPathError(f"two outputs are the same file {o}; give each its own path")
+        seen[key] = o

@@ -12,9 +12,16 @@ import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 
-from inertest.cli._common import echo_json, print_table
+from inertest.cli import safe_line
+from inertest.cli._common import (
+    check_paths,
+    echo_json,
+    figure_format,
+    print_table,
+    save_figure,
+)
 from inertest.errors import InputError
-from inertest.io.atomic import target_file, write_text
+from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
 from inertest.noise.identification import identify_noise
@@ -36,7 +43,6 @@ _ANGLE_UNITS: dict[str, tuple[float, str, str | None]] = {
     "m/s": (1.0, "m/s^2", "accelerometer"),
     "1": (1.0, "1", None),
 }
-_FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 
 
 def _scaled(r: DeviationResult, f: float) -> DeviationResult:
@@ -106,8 +112,13 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
         raise InputError(f"unknown --unit {unit!r} for {data_type} input; use one of "
                          f"{', '.join(table)}")
     factor, si_unit, instrument = table[unit]
-    if plot is not None and plot.suffix.lower() not in _FORMATS:
-        raise InputError(f"--plot {plot}: unknown figure format; name it .png, .svg or .pdf")
+    figure_format(plot)
+    check_paths([plot, report], [data])
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError(f"--rate must be a positive sampling rate in Hz, got {rate_hz:g}")
+    if not 1e-9 <= rate_hz <= 1e12:
+        raise InputError(f"--rate {rate_hz:g} Hz is not a usable sample rate; give the rate in "
+                         "Hz, between 1e-9 and 1e12")
     names = [s.strip() for s in stats.split(",") if s.strip()]
     bad = [s for s in names if s not in STATISTICS]
     if bad or not names:
@@ -138,8 +149,7 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     if plot is not None:
         fig = allan_figure(shown, model, unit=dev_unit, title=f"{data.name}",
                            scale=1.0 / factor)
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format=_FORMATS[plot.suffix.lower()], dpi=110, bbox_inches="tight")
+        save_figure(fig, plot)
     if report is not None:
         settings = [["data", data.name], ["column", column or "(the only one)"],
                     ["samples", str(len(samples))], ["sample rate", f"{rate_hz:g} Hz"],
@@ -184,6 +194,6 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
                     header, rows)
         click.echo(f"fit: {model.verdict}")
     if plot is not None:
-        click.echo(f"figure: {plot}")
+        click.echo(safe_line(f"figure: {plot}"))
     if report is not None:
-        click.echo(f"report: {report}")
+        click.echo(safe_line(f"report: {report}"))

@@ -15,6 +15,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from inertest.cli._common import check_paths
 from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import read_table, write_table
@@ -48,6 +49,7 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
 def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_columns: str,
           acc_unit: str, gyr_unit: str) -> None:
     """Apply the triad calibration in CALIBRATION to the raw columns of DATA."""
+    check_paths([output], [calibration, data])
     acc_cols = _columns(acc_columns, "--acc-columns")
     gyr_cols = _columns(gyr_columns, "--gyr-columns")
     cal = load_calibration(calibration)

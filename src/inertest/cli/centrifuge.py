@@ -6,7 +6,8 @@ from pathlib import Path
 
 import click
 
-from inertest.cli._common import echo_json, print_table
+from inertest.cli._common import check_paths, echo_json, print_table
+from inertest.errors import PlanError
 from inertest.io.atomic import write_text
 from inertest.io.plan_file import read_toml
 from inertest.procedures.centrifuge_nine_position import fit_inputs
@@ -39,7 +40,12 @@ def centrifuge_study(plan_file: Path, as_json: bool, report: Path | None,
     if monte_carlo is not None and (monte_carlo < 0 or monte_carlo == 1):
         raise click.BadParameter("give 0 (no Monte Carlo) or at least 2 repetitions",
                                  param_hint="--monte-carlo")
-    plan = cs.plan_from_mapping(read_toml(plan_file, "study plan"), source=str(plan_file))
+    check_paths([report], [plan_file])
+    doc = read_toml(plan_file, "study plan")
+    if not doc:
+        raise PlanError(f"study plan {plan_file} is empty; give at least [site] and one "
+                        "[errors.KEY] table (see examples/centrifuge/study.toml)")
+    plan = cs.plan_from_mapping(doc, source=str(plan_file))
     result = cs.run_study(plan, fit_inputs, monte_carlo_runs=monte_carlo)
     if report is not None:
         write_text(report, study_page(result))

@@ -13,7 +13,7 @@ import click
 import numpy as np
 
 from inertest.api import load_data, load_plan
-from inertest.cli._common import echo_json, print_table
+from inertest.cli._common import check_paths, echo_json, print_table
 from inertest.equipment.rate_table import axis_index, triad_attitude
 from inertest.errors import InputError, PlanError
 from inertest.io.atomic import target_directory
@@ -59,6 +59,7 @@ def _rotation_plan(path: Path) -> Plan:
 def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: float,
                  noise: float, seed: int | None) -> None:
     """Simulate navigation-mode turns of PLAN (each rotation, each direction) sample by sample."""
+    check_paths([output], [plan, truth])
     p = _rotation_plan(plan)
     if not rate_hz > 0 or not rest_s >= 0 or not noise >= 0:
         raise InputError("--rate-hz must be positive, --rest-s and --noise non-negative")
@@ -110,6 +111,7 @@ def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
 def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, no_bias: bool,
                   max_iterations: int, as_json: bool, report_dir: Path | None) -> None:
     """Refine the gyro calibration by navigating through the 360-degree turns in DATA."""
+    check_paths([report_dir], [plan, data, initial])
     p = _rotation_plan(plan)
     if max_iterations < 1:
         raise InputError("--max-iterations must be at least 1")
@@ -129,7 +131,7 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
     if report_dir is not None:
         html = navigation_page(result, scale_unit=k_unit, si_per_scale_unit=k_si,
                                serial=p.instrument.serial)
-        with target_directory(report_dir) as tmp:
+        with target_directory(report_dir, inputs=[plan, data, initial]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     d = result.to_dict(scale_unit=k_unit, si_per_scale_unit=k_si)
     if as_json:

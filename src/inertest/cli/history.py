@@ -6,11 +6,11 @@ from pathlib import Path
 
 import click
 
-from inertest.cli._common import echo_json, print_table
-from inertest.io.atomic import target_file
+from inertest.cli import safe_line
+from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
 from inertest.report.history import history_figure, history_rows
 from inertest.results import envelope
-from inertest.store import HistoryStore
+from inertest.store import HistoryStore, check_label
 from inertest.store.summary import summarize_runs
 
 
@@ -29,7 +29,10 @@ from inertest.store.summary import summarize_runs
 def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str | None,
             k: float, as_json: bool, plot: Path | None) -> None:
     """Runs of instrument SERIAL in time order: mean, repeatability, trend, outliers."""
+    serial = check_label(serial, "serial")
+    figure_format(plot)
     store = HistoryStore(db)
+    check_paths([plot], [store.path])
     try:
         runs = store.runs(serial, procedure=procedure)
     finally:
@@ -37,9 +40,7 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
     summaries = summarize_runs(runs, names=names or None, k=k)
     if plot is not None:
         fig = history_figure([h for h, _ in summaries], [t for _, t in summaries])
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=120,
-                        bbox_inches="tight")
+        save_figure(fig, plot, dpi=120)
     if as_json:
         echo_json(envelope("history", instrument={"serial": serial}, result={
             "runs": [{"tested_at": r.tested_at.isoformat(), "procedure": r.procedure,
@@ -48,12 +49,12 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
             "quantities": [h.to_dict() for h, _ in summaries],
         }))
         return
-    click.echo(f"{serial}: {len(runs)} run(s) from {runs[0].tested_at:%Y-%m-%d %H:%M} to "
-               f"{runs[-1].tested_at:%Y-%m-%d %H:%M} UTC")
+    click.echo(safe_line(f"{serial}: {len(runs)} run(s) from {runs[0].tested_at:%Y-%m-%d %H:%M} "
+                         f"to {runs[-1].tested_at:%Y-%m-%d %H:%M} UTC"))
     header, rows = history_rows([h for h, _ in summaries])
     print_table(f"history of {serial}", header, rows)
     for h, _ in summaries[:1]:
         for m in h.messages:
-            click.echo(f"note: {m}")
+            click.echo(f"note: {safe_line(m)}")
     if plot is not None:
         click.echo(f"figure: {plot}")

@@ -9,7 +9,14 @@ from typing import Any
 import click
 import numpy as np
 
-from inertest.cli._common import echo_json, parse_float_list, print_table
+from inertest.cli._common import (
+    check_paths,
+    echo_json,
+    figure_format,
+    parse_float_list,
+    print_table,
+    save_figure,
+)
 from inertest.ins.covariance import RandomSources, propagate_covariance
 from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
 from inertest.ins.propagation import (
@@ -18,7 +25,7 @@ from inertest.ins.propagation import (
     source_responses,
 )
 from inertest.ins.scenario import InsScenario, scenario_from_mapping, seed_scenario
-from inertest.io.atomic import target_file, write_text
+from inertest.io.atomic import write_text
 from inertest.io.plan_file import read_toml
 from inertest.report.html import page
 from inertest.report.ins_errors import (
@@ -98,6 +105,8 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
     phi turns the true ENU frame into the computed one (a drift enters phi' with a minus
     sign).
     """
+    figure_format(plot)
+    check_paths([plot, report], [scenario_file])
     doc = _base_document(scenario_file, example)
     lists = {"accel_bias_ug": accel_bias_ug, "gyro_drift_deg_h": gyro_drift_deg_h,
              "initial_velocity_m_s": initial_velocity_m_s,
@@ -143,9 +152,7 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         table = _closed_form_table(scenario, resp)
     if plot is not None:
         fig = responses_figure(resp, sigma=sigma, title=scenario.name)
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=110,
-                        bbox_inches="tight")
+        save_figure(fig, plot)
     if report is not None:
         html = page("INS error propagation", ins_error_sections(
             resp, periods, closed_form_table=table, sigma=sigma), subtitle=scenario.name)

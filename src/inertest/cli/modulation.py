@@ -7,9 +7,16 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.cli._common import echo_json, parse_float_list, print_table
+from inertest.cli._common import (
+    check_paths,
+    echo_json,
+    figure_format,
+    parse_float_list,
+    print_table,
+    save_figure,
+)
 from inertest.ins.error_model import SIGN_CONVENTION, InsSite
-from inertest.io.atomic import target_file, write_text
+from inertest.io.atomic import write_text
 from inertest.models import triad
 from inertest.report.html import page
 from inertest.report.modulation import (
@@ -72,7 +79,15 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
               house_rate_deg_s: str, house_sine_deg_s: float, house_sine_hz: float, seed: int,
               as_json: bool, plot: Path | None) -> None:
     """Stator rotation of a suspended gyro (seed 001): residual drift with and without it."""
+    figure_format(plot)
     k = DEG_PER_H_TO_RAD_PER_S
+    if not (np.isfinite(sample_hz) and sample_hz > 0):
+        raise click.BadParameter(f"the sample rate must be positive, got {sample_hz:g} Hz",
+                                 param_hint="--sample-hz")
+    if not (np.isfinite(duration_s) and duration_s * sample_hz <= 1e8):
+        raise click.BadParameter(f"{duration_s:g} s at {sample_hz:g} Hz is more than 1e8 "
+                                 "samples; shorten --duration-s or lower --sample-hz",
+                                 param_hint="--duration-s")
     rates_hz = parse_float_list(stator_hz, name="--stator-hz")
     if not rates_hz or any(r <= 0 for r in rates_hz):
         raise click.BadParameter("stator frequencies must be positive (0 = no modulation is "
@@ -98,9 +113,7 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
             for f in rates_hz]
     if plot is not None:
         fig = component_figure(runs)
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=110,
-                        bbox_inches="tight")
+        save_figure(fig, plot)
     rows = [{"stator_hz": f, "rms_residual_modulated_deg_h": r.rms(True) / k,
              "rms_residual_fixed_deg_h": r.rms(False) / k, "delay_s": r.cost.delay_s,
              "bandwidth_hz": r.cost.bandwidth_hz, "window_s": r.cost.window_s}
@@ -164,6 +177,8 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
            scale_factor_ppm: str, accel_scale_factor_ppm: str, gyro_misalignment_urad: str,
            compare: bool, as_json: bool, plot: Path | None, report: Path | None) -> None:
     """IMU on a rotating mount in a static-base INS: navigation errors with and without it."""
+    figure_format(plot)
+    check_paths([plot, report], [])
     if not (np.isfinite(hours) and hours > 0):
         raise click.BadParameter(f"the span must be positive, got {hours} h", param_hint="--hours")
     span = hours * HOUR_TO_S
@@ -187,9 +202,7 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         runs = [rm.run_scheme(site, s, imu, t)]
     if plot is not None:
         fig = system_figure(runs)
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=110,
-                        bbox_inches="tight")
+        save_figure(fig, plot)
     if report is not None:
         write_text(report, page("Rotation modulation of a strapdown INS", system_sections(runs),
                                 subtitle=f"latitude {latitude_deg:g} deg, {hours:g} h"))

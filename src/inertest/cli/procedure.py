@@ -10,7 +10,8 @@ import click
 
 from inertest.api import load_plan
 from inertest.api import simulate as api_simulate
-from inertest.cli._common import echo_json, print_table
+from inertest.cli import safe_line
+from inertest.cli._common import check_paths, echo_json, plain_text_figures, print_table
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 from inertest.report.identification import coefficient_rows
@@ -30,6 +31,7 @@ _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | None) -> None:
     """Simulate the test in PLAN on a virtual instrument with coefficients TRUTH."""
+    check_paths([output], [plan, truth])
     p = load_plan(plan)
     data = api_simulate(p, load_truth(truth), noise=noise, rng=seed)
     write_table(output, data)
@@ -68,17 +70,19 @@ def fit(
     """
     if pdf and report_dir is None:
         raise click.UsageError("--pdf needs --report DIR")
+    if report_dir is not None:
+        plain_text_figures()
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
               allow_duplicate=allow_duplicate)
     for w in out.warnings:
-        click.echo(f"warning: {w}", err=True)
+        click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
         echo_json(out.result.to_dict())
         return
     print_result(out.result)
     if out.stored_run is not None:
-        click.echo(f"stored run of {out.plan.instrument.serial} in {out.database}")
+        click.echo(safe_line(f"stored run of {out.plan.instrument.serial} in {out.database}"))
     if out.report is not None:
         click.echo(f"report: {out.report}")
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import click
 
-from inertest.cli._common import echo_json, print_table
-from inertest.io.atomic import target_directory, target_file
+from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
+from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
 from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
 from inertest.report.html import page
@@ -57,25 +57,26 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
 @click.option("--max-iter", type=int, default=3000, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write the figure (PNG).")
+              help="Write the figure (.png, .svg or .pdf).")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Write a self-contained HTML report into this folder.")
 def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_rate: bool,
         hidden: int, max_iter: int, as_json: bool, plot: Path | None,
         report_dir: Path | None) -> None:
     """Fit the compensation models to the temperature cycles in DATA."""
+    figure_format(plot)
+    check_paths([plot, report_dir], [data])
     result = fit_thermal(read_table(data), quantity=quantity,
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter)
     if plot is not None:
         fig = thermal_figure(result)
-        with target_file(plot) as tmp:
-            fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+        save_figure(fig, plot)
     if report_dir is not None:
         html = page(f"Temperature compensation: {quantity}",
                     thermal_sections(result, title=f"{quantity} compensation"),
                     subtitle=f"data: {data}")
-        with target_directory(report_dir) as tmp:
+        with target_directory(report_dir, inputs=[data]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if as_json:
         echo_json(result.to_dict())

@@ -46,8 +46,18 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
             table = pacsv.read_csv(p)
         else:
             table = pq.read_table(p)
-    except (pa.ArrowInvalid, pa.ArrowTypeError, OSError) as exc:
-        raise DataError(f"data file {p} cannot be read: {exc}") from None
+    except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError) as exc:
+        raise DataError(f"data file {p} cannot be read: {_first_line(exc)}") from None
+    except OSError as exc:
+        if exc.errno is not None:  # the file system's error (permission, I/O), not the format
+            raise
+        raise DataError(f"data file {p} cannot be read: {_first_line(exc)}") from None
+    except UnicodeDecodeError:
+        raise DataError(f"data file {p} is not UTF-8 text; save it as UTF-8 CSV") from None
+    dup = sorted({n for n in table.column_names if table.column_names.count(n) > 1})
+    if dup:
+        raise DataError(f"data file {p} has the column {dup[0]!r} more than once; give each "
+                        "column its own name")
     out: dict[str, NDArray] = {}
     for name in table.column_names:
         col = table.column(name)
@@ -58,6 +68,11 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         else:
             out[name] = _text_column(col)
     return out
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
 
 
 def _text_column(col: pa.ChunkedArray) -> NDArray:
@@ -72,6 +87,46 @@ def _text_column(col: pa.ChunkedArray) -> NDArray:
     enc = pc.dictionary_encode(pc.fill_null(pc.cast(col, pa.string()), "")).combine_chunks()
     labels = np.asarray(enc.dictionary.to_pylist(), dtype=str)
     return labels[enc.indices.to_numpy(zero_copy_only=False)]
+
+
+#: Names of a time column [s] that :func:`check_sample_rate` compares with the plan's rate.
+TIME_COLUMNS = ("t_s", "time_s", "time", "t")
+
+
+def check_sample_rate(
+    columns: Mapping[str, NDArray], sample_rate_hz: float, *, source: str = "data",
+    tolerance: float = 0.05,
+) -> None:
+    """Refuse a plan's sample rate that the data's own time column contradicts.
+
+    A rate 10 times too low silently makes every integral over the samples (the Ferraris
+    turns) 10 times too large, and so the gyro scale factors. The median step of the first
+    column in :data:`TIME_COLUMNS` [s] must match ``1 / sample_rate_hz`` within ``tolerance``
+    (relative); steps that are not positive (a new segment restarting its clock) are ignored.
+    Data without a time column are not checked.
+
+    Raises
+    ------
+    DataError
+        Naming both rates and the fix.
+    """
+    name = next((c for c in TIME_COLUMNS if c in columns), None)
+    if name is None or not (np.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        return
+    t = np.asarray(columns[name])
+    if t.dtype.kind not in "fiu" or t.size < 3:
+        return
+    dt = np.diff(t.astype(float))
+    dt = dt[np.isfinite(dt) & (dt > 0)]
+    if dt.size < 2:
+        return
+    step = float(np.median(dt))
+    rate = 1.0 / step
+    if abs(rate * (1.0 / sample_rate_hz) - 1.0) > tolerance:
+        raise DataError(
+            f"{source}: the plan's sample_rate_hz = {sample_rate_hz:g} Hz, but the time column "
+            f"{name!r} steps by {step:.6g} s ({rate:.6g} Hz); fix sample_rate_hz in the plan "
+            "(or the time column)")
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:

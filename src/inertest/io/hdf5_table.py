@@ -1,7 +1,9 @@
 """Tabular data in HDF5: one 1-D dataset per column at the file's root, via h5py.
 
 Text columns are stored as UTF-8 strings; a dataset attribute ``unit`` carries the column's
-unit when known. Reached through :func:`inertest.io.data_file.read_table` and ``write_table``
+unit when known. Only datasets stored in the file itself are read: external and soft links,
+external raw storage and virtual datasets (which would read other files) are refused.
+Reached through :func:`inertest.io.data_file.read_table` and ``write_table``
 for ``.h5`` and ``.hdf5`` files.
 """
 
@@ -35,18 +37,39 @@ def read_hdf5_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     out: dict[str, NDArray] = {}
     try:
         with h5py.File(p, "r") as fh:
-            for name, ds in fh.items():
+            for name in fh:
+                link = fh.get(name, getlink=True)
+                if not isinstance(link, h5py.HardLink):
+                    raise DataError(
+                        f"data file {p}: {name!r} is a link to {_link_target(link)}; inertest "
+                        "reads only datasets stored in the file itself: copy the data in")
+                ds = fh[name]
                 if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
                     continue
+                if ds.external or ds.is_virtual:
+                    raise DataError(
+                        f"data file {p}: dataset {name!r} keeps its values in other files "
+                        "(external or virtual storage); copy the data into the file")
                 if ds.dtype.kind in "SO":
                     out[name] = np.asarray(ds.asstr()[()], dtype=str)
                 else:
                     out[name] = np.asarray(ds[()], dtype=float)
-    except OSError as exc:
-        raise DataError(f"data file {p} cannot be read as HDF5: {exc}") from None
+    except DataError:
+        raise
+    except (OSError, ValueError, TypeError, UnicodeDecodeError) as exc:
+        if isinstance(exc, OSError) and exc.errno is not None:
+            raise  # the file system's error (permission, I/O), not the format
+        reason = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise DataError(f"data file {p} cannot be read as HDF5: {reason}") from None
     if not out:
         raise DataError(f"data file {p} has no 1-D datasets at its root (one per column)")
     return out
+
+
+def _link_target(link: object) -> str:
+    file = getattr(link, "filename", None)
+    path = getattr(link, "path", "?")
+    return f"{path} in {file}" if file else str(path)
 
 
 def write_hdf5_table(

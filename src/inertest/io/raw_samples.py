@@ -107,6 +107,11 @@ def read_samples(
         if arr.ndim == 1 and arr.dtype.kind in "fiu":
             return SampleFile(p, arr.dtype, int(arr.offset), arr.shape[0])
         if arr.ndim == 2 and column is not None and column.isdigit():
+            if int(column) >= arr.shape[1]:
+                raise DataError(f"{p} has {arr.shape[1]} columns (0 to {arr.shape[1] - 1}); "
+                                f"--column {column} is out of range")
+            if arr.dtype.kind not in "fiu":
+                raise DataError(f"{p} holds {arr.dtype} values, not numbers")
             return arr[:, int(column)]
         raise DataError(
             f"{p} holds an array of shape {arr.shape}; save one column (1-D), or give "

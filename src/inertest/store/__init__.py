@@ -11,6 +11,7 @@ from inertest.store.history import (
     RunRecord,
     StoredEstimate,
     StoreError,
+    check_label,
     default_database_url,
     resolve_database_url,
 )
@@ -20,6 +21,7 @@ __all__ = [
     "RunRecord",
     "StoreError",
     "StoredEstimate",
+    "check_label",
     "default_database_url",
     "resolve_database_url",
 ]

@@ -3,15 +3,19 @@
 Writes are single transactions, so a failed fit or a crash stores nothing half-way. SQLite
 databases use WAL journaling, a busy timeout and ``BEGIN IMMEDIATE`` so that concurrent writers
 (two fits at once) queue instead of failing or losing data. The schema is migrated with Alembic
-on open; a database written by a newer inertest (an unknown revision) is refused.
+on open; a database written by a newer inertest (an unknown revision) is refused. A SQLite file
+that does not exist yet is created only when the first run is stored, so a command that fails,
+or only reads, leaves no empty database behind. Serials are checked the same way on every
+backend (:func:`check_label`): printable text of at most 200 characters.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import uuid
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -24,7 +28,11 @@ from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 from sqlalchemy import event, select
 from sqlalchemy.engine import Engine, make_url
-from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
+from sqlalchemy.exc import (
+    ArgumentError,
+    NoSuchModuleError,
+    SQLAlchemyError,
+)
 from sqlalchemy.orm import Session, selectinload
 
 from inertest.errors import InertestError
@@ -42,6 +50,29 @@ _MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 
 class StoreError(InertestError):
     """The history database cannot be used (unreachable, newer schema, unknown serial)."""
+
+
+#: Longest serial or label stored (the ``runs.serial`` column is VARCHAR(200)).
+MAX_LABEL_CHARS = 200
+
+
+def check_label(text: object, what: str = "serial") -> str:
+    """``text`` if it can be stored and shown as a serial or label on every backend.
+
+    Printable characters only (no NUL, which PostgreSQL refuses, no terminal escape codes or
+    newlines), at most :data:`MAX_LABEL_CHARS` characters; anything else is a
+    :class:`StoreError` naming the fix.
+    """
+    if not isinstance(text, str):
+        raise StoreError(f"the {what} must be text, got {type(text).__name__}")
+    if len(text) > MAX_LABEL_CHARS:
+        raise StoreError(f"the {what} has {len(text)} characters; at most {MAX_LABEL_CHARS} can "
+                         f"be stored: shorten it")
+    bad = next((c for c in text if not c.isprintable()), None)
+    if bad is not None:
+        raise StoreError(f"the {what} {text.encode('unicode_escape').decode('ascii')[:80]!r} "
+                         f"holds the control character U+{ord(bad):04X}; use printable text")
+    return text
 
 
 @dataclass(frozen=True)
@@ -102,6 +133,7 @@ class RunRecord:
                 "the plan gives no [instrument] serial; a run cannot be stored without one "
                 "(add serial = \"...\" or use --no-store)"
             )
+        check_label(serial, "[instrument] serial")
         if "kind" not in result or "schema_version" not in result:
             raise StoreError("only results in the inertest envelope (kind, schema_version, ...) "
                              "can be stored; pass result.to_dict()")
@@ -161,26 +193,53 @@ class HistoryStore:
     ----------
     url : str
         SQLAlchemy URL (``sqlite:///path.db``, ``postgresql+psycopg://user:pw@host/db``) or a path.
+
+    create : bool
+        Create (and migrate) a new SQLite file now rather than at the first :meth:`add`.
+
+    Notes
+    -----
+    A SQLite file that does not exist is not created here but by the first :meth:`add`; until
+    then the store reads as empty. If that first add fails, the new file is removed again.
     """
 
-    def __init__(self, url: str | None = None) -> None:
+    def __init__(self, url: str | None = None, *, create: bool = False) -> None:
         self.url = resolve_database_url(url)
         try:
             parsed = make_url(self.url)
         except ArgumentError:
-            raise StoreError(f"not a database URL or path: {self.url!r}") from None
+            raise StoreError("not a database URL or path: "
+                             f"{_mask(self.url)!r}") from None
         self._shown = parsed.render_as_string(hide_password=True)
-        if parsed.get_backend_name() == "sqlite" and self.url == resolve_database_url(
-            default_database_url()
-        ):
-            Path(parsed.database or "").parent.mkdir(parents=True, exist_ok=True)
+        backend = parsed.get_backend_name()
+        database = parsed.database or ""
+        #: The SQLite file (None for other backends and in-memory databases).
+        self.path: Path | None = (
+            Path(database) if backend == "sqlite" and database not in ("", ":memory:")
+            and not database.startswith("file:") else None)
+        self._is_default = backend == "sqlite" and self.url == resolve_database_url(
+            default_database_url())
         try:
-            self.engine = _create_engine(self.url, parsed.get_backend_name())
+            self.engine = _create_engine(self.url, backend)
         except NoSuchModuleError as exc:
             raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}") from None
+        except (ArgumentError, TypeError, ValueError) as exc:
+            raise StoreError(f"unusable database URL {self._shown}: {_reason(exc)}") from None
+        self._ready = False
+        if (self.path is not None and not self._is_default
+                and not self.path.expanduser().parent.is_dir()):
+            raise StoreError(f"cannot open the history database {self._shown}: its folder "
+                             f"{self.path.parent} does not exist; check --db or ${ENV_VAR}, or "
+                             "use --no-store")
+        if create or self.path is None or self.path.exists():
+            self._open()
+
+    def _open(self) -> None:
+        if self.path is not None and self._is_default:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
         try:
             self._migrate()
-        except (OperationalError, DBAPIError) as exc:
+        except SQLAlchemyError as exc:
             self.engine.dispose()
             raise StoreError(
                 f"cannot open the history database {self._shown}: {_reason(exc)}; "
@@ -189,6 +248,15 @@ class HistoryStore:
         except BaseException:
             self.engine.dispose()
             raise
+        self._ready = True
+
+    def _readable(self) -> bool:
+        """Open the database for reading if it exists; False if there is none yet."""
+        if not self._ready:
+            if self.path is not None and not self.path.exists():
+                return False
+            self._open()
+        return True
 
     @property
     def display_url(self) -> str:
@@ -214,7 +282,32 @@ class HistoryStore:
             command.upgrade(cfg, "head")
 
     def add(self, record: RunRecord) -> None:
-        """Store one run and its estimates in a single transaction."""
+        """Store one run and its estimates in a single transaction (creating a new database)."""
+        check_label(record.serial, "serial")
+        created = None
+        if not self._ready:
+            created = self.path if self.path is not None and not self.path.exists() else None
+            try:
+                self._open()
+            except BaseException:
+                self._remove_new_file(created)
+                raise
+        try:
+            self._add(record)
+        except BaseException:
+            self._remove_new_file(created)
+            raise
+
+    def _remove_new_file(self, path: Path | None) -> None:
+        """Remove a SQLite file (and its WAL) that this store created for a failed first add."""
+        if path is None:
+            return
+        self.engine.dispose()
+        self._ready = False
+        for suffix in ("", "-wal", "-shm", "-journal"):
+            Path(str(path) + suffix).unlink(missing_ok=True)
+
+    def _add(self, record: RunRecord) -> None:
         run = Run(
             **{f: getattr(record, f) for f in _RUN_FIELDS},
             stored_at=datetime.now(UTC),
@@ -228,23 +321,34 @@ class HistoryStore:
         try:
             with Session(self.engine) as session, session.begin():
                 session.add(run)
-        except (OperationalError, DBAPIError) as exc:
+        except SQLAlchemyError as exc:
             raise StoreError(f"could not store the run in {self._shown}: {_reason(exc)}") from None
 
     def runs_with_data(self, serial: str, procedure: str, data_sha256: str) -> list[str]:
         """UUIDs of stored runs of ``serial`` and ``procedure`` made from the same data file."""
+        check_label(serial, "serial")
+        if not self._readable():
+            return []
         stmt = select(Run.run_uuid).where(
             Run.serial == serial, Run.procedure == procedure, Run.data_sha256 == data_sha256)
-        with Session(self.engine) as session:
-            return list(session.scalars(stmt))
+        with self._reading():
+            with Session(self.engine) as session:
+                return list(session.scalars(stmt))
 
     def serials(self) -> list[str]:
         """Serial numbers with stored runs."""
-        with Session(self.engine) as session:
-            return list(session.scalars(select(Run.serial).distinct().order_by(Run.serial)))
+        if not self._readable():
+            return []
+        with self._reading():
+            with Session(self.engine) as session:
+                return list(session.scalars(select(Run.serial).distinct().order_by(Run.serial)))
 
     def runs(self, serial: str, *, procedure: str | None = None) -> list[RunRecord]:
         """Stored runs of ``serial`` in time order; an unknown serial is an error."""
+        check_label(serial, "serial")
+        if not self._readable():
+            raise StoreError(f'no runs stored for serial "{serial}": there is no history '
+                             f"database at {self._shown} yet; check --db or ${ENV_VAR}")
         stmt = (
             select(Run)
             .where(Run.serial == serial)
@@ -253,9 +357,10 @@ class HistoryStore:
         )
         if procedure is not None:
             stmt = stmt.where(Run.procedure == procedure)
-        with Session(self.engine) as session:
-            rows = list(session.scalars(stmt))
-            out = [_record(r) for r in rows]
+        with self._reading():
+            with Session(self.engine) as session:
+                rows = list(session.scalars(stmt))
+                out = [_record(r) for r in rows]
         if not out:
             known = self.serials()
             hint = f"known serials: {', '.join(known)}" if known else "the database is empty"
@@ -265,6 +370,19 @@ class HistoryStore:
     def close(self) -> None:
         """Release the connection pool."""
         self.engine.dispose()
+
+    @contextlib.contextmanager
+    def _reading(self) -> Iterator[None]:
+        """Turn a damaged database or stored document into one :class:`StoreError`."""
+        try:
+            yield
+        except SQLAlchemyError as exc:
+            raise StoreError(f"cannot read the history database {self._shown}: {_reason(exc)}; "
+                             "it may be damaged: restore it from a backup") from None
+        except (ValueError, TypeError, KeyError) as exc:
+            raise StoreError(f"the history database {self._shown} holds a damaged run record "
+                             f"({type(exc).__name__}: {str(exc)[:100]}); restore it from a "
+                             "backup") from None
 
 
 def _create_engine(url: str, backend: str) -> Engine:
@@ -315,4 +433,11 @@ def _utc(t: datetime) -> datetime:
 def _reason(exc: Exception) -> str:
     orig = getattr(exc, "orig", None)
     text = str(orig if orig is not None else exc).strip().splitlines()
-    return text[0] if text else type(exc).__name__
+    return _mask(text[0]) if text else type(exc).__name__
+
+
+def _mask(text: str) -> str:
+    """``text`` with the password of any ``scheme://user:password@`` URL in it masked."""
+    import re
+
+    return re.sub(r"(://[^\s:/@]*:)([^\s@/]+)(@)", r"\1***\3", text)
