@@ -257,6 +257,12 @@ def test_plan_errors():
         ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "acc_unit": "furlong"})
     with pytest.raises(PlanError, match="unknown name"):
         ferraris.simulate(make_plan(), {"Ka_q": 1.0})
+    with pytest.raises(PlanError, match="earth_rate must be true or false"):
+        ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "earth_rate": 1})
+    with pytest.raises(PlanError, match="sample_rate_hz must be a number"):
+        ferraris.SPEC.from_mapping({"sample_rate_hz": True})
+    with pytest.raises(PlanError, match='unknown key.*sample_rate .*did you mean "sample_rate_hz"'):
+        ferraris.SPEC.from_mapping({"sample_rate": 100.0})
 
 
 # --- Monte Carlo of the stated uncertainties --------------------------------------------------

@@ -98,8 +98,8 @@ from inertest.equipment import ferraris_session as session
 from inertest.errors import DataError, IdentifiabilityError, PlanError
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
-from inertest.plan import Plan
-from inertest.procedures.spec import check_no_unknown_keys, require_columns
+from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.spec import require_columns
 from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
 from inertest.results import Estimate, Identification
 from inertest.units import (
@@ -165,44 +165,14 @@ class FerrarisSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> FerrarisSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        known = ("sample_rate_hz", "rotation_deg", "acc_unit", "gyr_unit", "g_sensitivity",
-                 "earth_rate", "face_duration_s", "turn_duration_s", "rest_s")
-        check_no_unknown_keys(params, known, KIND)
-        if "sample_rate_hz" not in params:
-            raise PlanError("ferraris needs [procedure] sample_rate_hz (sample rate in Hz)")
-        kw: dict[str, object] = {}
-        for key in ("sample_rate_hz", "face_duration_s", "turn_duration_s"):
-            if key in params:
-                kw[key] = _positive(params[key], key)
-        if "rest_s" in params:
-            v = params["rest_s"]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
-                raise PlanError(f"rest_s must be a number >= 0, got {v!r}")
-            kw["rest_s"] = float(v)
-        if "rotation_deg" in params:
-            v = params["rotation_deg"]
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or abs(v) < 90:
-                raise PlanError(
-                    "rotation_deg must be the signed turn angle in deg (e.g. 360 or -360), "
-                    f"got {v!r}"
-                )
-            kw["rotation_deg"] = float(v)
-        acc_units = [*COUNT_UNITS, *ACCEL_UNITS]
-        gyr_units = [*COUNT_UNITS, *RATE_UNITS]
-        for key, allowed in (("acc_unit", acc_units), ("gyr_unit", gyr_units)):
-            if key in params:
-                if params[key] not in allowed:
-                    raise PlanError(
-                        f"{key} {params[key]!r} unknown; use one of {', '.join(allowed)}"
-                    )
-                kw[key] = str(params[key])
-        for key in ("g_sensitivity", "earth_rate"):
-            if key in params:
-                if not isinstance(params[key], bool):
-                    raise PlanError(f"{key} must be true or false, got {params[key]!r}")
-                kw[key] = params[key]
-        return cls(**kw)  # type: ignore[arg-type]
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
+        kw = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        if abs(kw["rotation_deg"]) < 90:
+            raise PlanError(
+                "rotation_deg must be the signed turn angle in deg (e.g. 360 or -360), "
+                f"got {params['rotation_deg']!r}"
+            )
+        return cls(**kw)
 
     @property
     def acc_scale(self) -> triad.ScaleUnit:
@@ -218,13 +188,18 @@ class FerrarisSpec:
         return triad.scale_unit(self.gyr_unit, "gyroscope")
 
 
+FIELDS = (
+    Field("sample_rate_hz", positive=True, unit="Hz", doc="sample rate in Hz"),
+    Field("rotation_deg", default=360.0, unit="deg", doc="signed turn angle"),
+    Field("acc_unit", "text", default="count", choices=(*COUNT_UNITS, *ACCEL_UNITS)),
+    Field("gyr_unit", "text", default="count", choices=(*COUNT_UNITS, *RATE_UNITS)),
+    Field("g_sensitivity", "bool", default=False, doc="estimate the gyro g-sensitivity"),
+    Field("earth_rate", "bool", default=True, doc="remove the vertical Earth rate"),
+    Field("face_duration_s", default=5.0, positive=True, unit="s", doc="time on each face"),
+    Field("turn_duration_s", default=4.0, positive=True, unit="s", doc="duration of a turn"),
+    Field("rest_s", default=1.0, minimum=0.0, unit="s", doc="rest before and after a turn"),
+)
 SPEC = FerrarisSpec
-
-
-def _positive(v: object, key: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-        raise PlanError(f"{key} must be a positive number, got {v!r}")
-    return float(v)
 
 
 @dataclass(frozen=True)
