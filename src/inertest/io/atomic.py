@@ -1,10 +1,19 @@
-"""Atomic writes, so that a failed command leaves nothing half-written."""
+"""Atomic writes, so that a failed command leaves nothing half-written.
+
+Files and report folders are written under a hidden temporary name beside their target and
+renamed into place at the end; every exit path that Python sees (errors, Ctrl-C, SIGTERM through
+the command line) removes the temporary. A process killed outright (SIGKILL, power loss) leaves
+its hidden temporary behind: the temporary's name carries the host and process id, and the next
+write to the same target removes those whose process is gone.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
+import socket
 import tempfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
@@ -25,12 +34,53 @@ def _umask() -> int:
     return mask
 
 
+def _host() -> str:
+    return re.sub(r"[^A-Za-z0-9_-]", "_", socket.gethostname())[:40] or "host"
+
+
+def _temp_prefix(final: Path) -> str:
+    """Hidden name prefix of this process's temporaries for ``final``."""
+    return f".{final.name}.inertest-tmp-{_host()}-{os.getpid()}-"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's live process
+        return True
+    return True
+
+
+def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
+    """Remove temporaries of ``final`` left by killed inertest processes on this host."""
+    target = Path(final)
+    pattern = re.compile(re.escape(f".{target.name}.inertest-tmp-{_host()}-") + r"(\d+)-")
+    removed = []
+    try:
+        siblings = list(target.parent.iterdir())
+    except OSError:
+        return removed
+    for sib in siblings:
+        m = pattern.match(sib.name)
+        if m is None or _alive(int(m.group(1))):
+            continue
+        if sib.is_dir() and not sib.is_symlink():
+            shutil.rmtree(sib, ignore_errors=True)
+        else:
+            sib.unlink(missing_ok=True)
+        removed.append(sib)
+    return removed
+
+
 @contextlib.contextmanager
 def target_file(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` if the block succeeds."""
     final = Path(path)
     final.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(prefix=f".{final.name}.", suffix=".tmp", dir=final.parent)
+    remove_stale_temporaries(final)
+    fd, name = tempfile.mkstemp(prefix=_temp_prefix(final), suffix=".tmp", dir=final.parent)
     os.close(fd)
     tmp = Path(name)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file follows the umask
@@ -90,7 +140,8 @@ def target_directory(
     check_report_directory(final)
     check_outputs([final], inputs)
     final.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=final.parent))
+    remove_stale_temporaries(final)
+    tmp = Path(tempfile.mkdtemp(prefix=_temp_prefix(final), dir=final.parent))
     os.chmod(tmp, 0o777 & ~_umask())
     try:
         yield tmp
@@ -101,8 +152,8 @@ def target_directory(
             os.chmod(f, (0o777 if f.is_dir() else 0o666) & ~_umask())
         if final.exists():
             check_report_directory(final)  # still ours, also if it changed meanwhile
-            old = final.with_name(f".{final.name}.old")
-            shutil.rmtree(old, ignore_errors=True)
+            old = Path(tempfile.mkdtemp(prefix=_temp_prefix(final) + "old-", dir=final.parent))
+            os.rmdir(old)
             os.replace(final, old)
             os.replace(tmp, final)
             shutil.rmtree(old, ignore_errors=True)
