@@ -7,10 +7,12 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test lint bench clean
 
 $(STAMP): pyproject.toml
+	@echo "Setting up $(VENV) (first run only: installs numpy, scipy, ... about a minute)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --progress-bar off -e '.[test]'
 	touch $(STAMP)
+	@echo "$(VENV) ready"
 
 demo: $(STAMP)
 	$(BIN)/inertest demo
