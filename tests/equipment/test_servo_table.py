@@ -1,4 +1,4 @@
-"""Servo table: kinematics against independent constructions, the servo loop against closed forms."""
+"""Servo table: kinematics by independent construction, the servo loop against closed forms."""
 
 import numpy as np
 import pytest

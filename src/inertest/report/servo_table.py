@@ -13,8 +13,11 @@ from inertest.report.identification import fmt, identification_section
 
 
 def servo_table_figure(result: ServoTableResult):
-    """Per mounting: drift against table angle with the fitted harmonic curve (top) and the
-    drift-stability series with the harmonic model removed (bottom)."""
+    """Per mounting: drift against table angle with the fitted curve, and the stability series.
+
+    Top row: block drift from the encoder angle and the fitted B0..C2 curve; bottom row: the
+    drift-stability series with the harmonic model removed.
+    """
     ms = list(result.curves)
     fig, axes = plt.subplots(2, len(ms), figsize=(3.8 * len(ms), 5.6), squeeze=False)
     grid = np.linspace(0.0, 360.0, 361)
