@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from inertest.earth import OMEGA_IE, earth_rate_enu
+from inertest.earth import OMEGA_IE, Site, earth_rate_enu
 from inertest.equipment import centrifuge as cf
+from inertest.equipment.motion import Motion
 from inertest.errors import InputError
 
 R, G, LAT = 2.5, 9.8066, np.radians(45.0)
@@ -182,3 +183,35 @@ def test_wobble_with_y_phase_plus_90_deg_is_a_static_parallelism_about_x():
         # with -90 deg the tilt turns at 2 beta: rate error 2 w a about a horizontal axis
         _, w3, _ = cf.instrument_inputs(t, 8.85, pos, errors=turning, **KW)
         assert np.abs(w3 - w2).max() == pytest.approx(2 * 8.85 * a, rel=1e-3)
+
+
+def test_runs_as_a_motion_match_the_kinematics_and_the_seed004_closed_form():
+    """Segments are runs (position, signed rate); inputs are those of centrifuge_motion, and
+    without the Earth-rate acceleration the seed-004 closed form of the ideal machine."""
+    site = Site.at(45.0, G)
+    runs = ((1, 4.43), (8, -8.85))
+    m = cf.CentrifugeRuns(runs, radius_m=R, site=site, platform_heading_rad=0.3,
+                          errors=BIG, dgamma=PHASE)
+    assert isinstance(m, Motion) and m.segments == ("1@4.43", "8@-8.85")
+    t = np.linspace(0.0, 2.0, 201)
+    got = m.inputs("8@-8.85", t)
+    ref = cf.centrifuge_motion(t, -8.85, 8, platform_heading_rad=0.3, errors=BIG, dgamma=PHASE,
+                               **KW)
+    np.testing.assert_array_equal(got.f_i, ref.f_ios)
+    np.testing.assert_array_equal(got.omega_i, ref.omega_ios)
+    np.testing.assert_array_equal(got.C_ni, ref.attitude)
+    ideal = cf.CentrifugeRuns(runs, radius_m=R, site=site, earth_rotation_in_acceleration=False)
+    labels = cf.run_labels([8, 1, 8, 1], [-8.85, 4.43, -8.85, 4.43])
+    assert labels.tolist() == ["8@-8.85", "1@4.43", "8@-8.85", "1@4.43"]
+    tt = np.array([0.1, 0.2, 0.3, 0.4])
+    rows = ideal.inputs_of_rows(labels, tt)
+    for k, (p, w) in enumerate([(8, -8.85), (1, 4.43), (8, -8.85), (1, 4.43)]):
+        a = w * tt[k]  # f_P = -R w^2 (cos a, sin a, 0) + (0, 0, g), on the rows I, O, S
+        f_p = np.array([-R * w**2 * np.cos(a), -R * w**2 * np.sin(a), G])
+        np.testing.assert_allclose(rows.f_i[k], cf.position_axes(p) @ f_p, atol=1e-12)
+        # the platform counter-rotates: the instrument turns with the Earth only
+        np.testing.assert_allclose(np.linalg.norm(rows.omega_i[k]), OMEGA_IE, rtol=1e-9)
+    with pytest.raises(InputError, match="unknown centrifuge run"):
+        m.inputs("2@4.43", t)
+    with pytest.raises(InputError, match="not one of 1..9"):
+        cf.CentrifugeRuns(((10, 4.43),), radius_m=R, site=site)

@@ -400,12 +400,37 @@ def _inputs(plan, d):
 def test_plan_keys_validated():
     with pytest.raises(PlanError, match="needs radius_m"):
         cnp.SPEC.from_mapping({})
-    with pytest.raises(PlanError, match="unknown parameter"):
+    with pytest.raises(PlanError, match='unknown key.*radius .did you mean "radius_m"'):
         cnp.SPEC.from_mapping({"radius_m": 2.5, "radius": 2.5})
     with pytest.raises(PlanError, match="positions must be"):
         cnp.SPEC.from_mapping({"radius_m": 2.5, "positions": [0, 1]})
-    with pytest.raises(PlanError, match="radius_m must be a finite positive"):
+    with pytest.raises(PlanError, match=r"radius_m must be positive \[m\]"):
         cnp.SPEC.from_mapping({"radius_m": -1.0})
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"radius_m": True}, r"radius_m must be a number \[m\]"),
+    ({"platform_heading_deg": False}, "platform_heading_deg must be a number"),
+    ({"omegas_rad_s": [4.43, True]}, "omegas_rad_s must be a number"),
+    ({"omegas_rad_s": [4.43, 0.0]}, "omegas_rad_s must hold finite nonzero signed rates"),
+    ({"omegas_rad_s": [4.43, 4.43]}, "lists a rate twice"),
+    ({"revolutions": 2.0}, "revolutions must be a whole number"),
+    ({"sample_rate_hz": 0}, "sample_rate_hz must be positive"),
+    ({"positions": [1, True]}, "positions must be a number"),
+    ({"positions": [1, 2.5]}, "positions must be a non-empty list of numbers 1..9"),
+    ({"positions": [1, 1]}, "lists a position twice"),
+    ({"omega_rad_s": [4.43]}, 'did you mean "omegas_rad_s"'),
+])
+def test_plan_parameters_are_read_strictly(params, message):
+    with pytest.raises(PlanError, match=message):
+        cnp.SPEC.from_mapping({"kind": cnp.KIND, "radius_m": 2.5, **params})
+
+
+def test_plan_defaults():
+    spec = cnp.SPEC.from_mapping({"kind": cnp.KIND, "radius_m": 2})
+    assert spec.radius_m == 2.0 and spec.omegas_rad_s == (4.43, 8.85)
+    assert spec.positions == tuple(range(1, 10)) and spec.revolutions == 100
+    assert cnp.SPEC.from_mapping({"radius_m": 2, "positions": [3.0, 1]}).positions == (3, 1)
 
 
 def test_python_errors_for_bad_data():

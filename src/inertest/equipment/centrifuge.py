@@ -36,6 +36,9 @@ misalignment of the arm end, parallelism and first-harmonic wobble of the azimut
 eccentricity (:class:`CentrifugeErrors`) and the non-synchronisation ``beta = -alpha + dgamma(t)``
 (:class:`PhaseTracking`, :class:`RateTracking`, :class:`MeasuredDgamma`). With every error zero
 and the Earth-rate acceleration terms left out they reduce to :func:`ideal_inputs` (tested).
+
+:class:`CentrifugeRuns` is the machine as a :class:`~inertest.equipment.motion.Motion`: one
+segment per run (position, signed rate), inputs from :func:`centrifuge_motion`.
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import earth_rate_enu
+from inertest.earth import Site, earth_rate_enu
+from inertest.equipment.motion import Inputs
 from inertest.errors import InputError
 
 #: Position numbers of the nine-position method.
@@ -543,3 +547,96 @@ def instrument_inputs(
         dgamma=dgamma, earth_rotation_in_acceleration=earth_rotation_in_acceleration,
     )
     return m.f_ios, m.omega_ios, m.attitude
+
+
+def run_labels(position: ArrayLike, omega: ArrayLike) -> NDArray[np.str_]:
+    """Segment label of each (position, signed main-axis rate) row: ``"3@4.43"``.
+
+    The rate [rad/s] is written in the shortest form that reads back to the same float, so
+    runs told apart by their rate keep distinct labels.
+    """
+    p = np.atleast_1d(np.asarray(position))
+    w = np.broadcast_to(np.asarray(omega, dtype=float), p.shape)
+    keys, inverse = np.unique(np.column_stack([p.astype(float), w]), axis=0, return_inverse=True)
+    names = np.array([f"{int(k[0])}@{float(k[1])!r}" for k in keys], dtype=str)
+    return names[np.asarray(inverse).reshape(p.shape)]
+
+
+@dataclass(frozen=True)
+class CentrifugeRuns:
+    """Runs of a dual-axis centrifuge as a :class:`~inertest.equipment.motion.Motion`.
+
+    One segment per run: a position 1..9 at a signed main-axis rate [rad/s] (label
+    ``"3@4.43"``, :func:`run_labels`). ``inputs(segment, t)`` evaluates the exact kinematics of
+    :func:`centrifuge_motion` at times ``t`` since the arm passed ``x_P`` [s].
+
+    Attributes
+    ----------
+    runs : tuple of (int, float)
+        ``(position, omega)`` of each run, in plan order.
+    radius_m : float
+        Nominal arm radius [m].
+    site : Site
+        Latitude and local gravity.
+    platform_heading_rad : float
+        Azimuth of ``x_P`` [rad].
+    errors : CentrifugeErrors, optional
+        Machine errors (none: the ideal machine, Earth rotation included).
+    dgamma : PhaseTracking, RateTracking or MeasuredDgamma, optional
+        Azimuth non-synchronisation.
+    earth_rotation_in_acceleration : bool
+        Include the Earth-rate Coriolis and centripetal terms in the specific force.
+    """
+
+    runs: tuple[tuple[int, float], ...]
+    radius_m: float
+    site: Site
+    platform_heading_rad: float = 0.0
+    errors: CentrifugeErrors | None = None
+    dgamma: NonSynchronisation | None = None
+    earth_rotation_in_acceleration: bool = True
+
+    def __post_init__(self) -> None:
+        for p, w in self.runs:
+            _check_position(p)
+            if not np.isfinite(w):
+                raise InputError(f"main-axis rate of a run must be finite [rad/s], got {w!r}")
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """Run labels in plan order."""
+        return tuple(str(run_labels(p, w)[0]) for p, w in self.runs)
+
+    def inputs(self, segment: str, t: ArrayLike) -> Inputs:
+        """Exact inputs of run ``segment`` at times ``t`` [s], shape (n,)."""
+        try:
+            p, w = self.runs[self.segments.index(segment)]
+        except ValueError:
+            raise InputError(f"unknown centrifuge run {segment!r}; the plan has "
+                             f"{', '.join(self.segments)}") from None
+        m = centrifuge_motion(
+            t, w, p, radius_m=self.radius_m, gravity_m_s2=self.site.gravity_m_s2,
+            latitude_rad=self.site.latitude_rad, platform_heading_rad=self.platform_heading_rad,
+            errors=self.errors, dgamma=self.dgamma,
+            earth_rotation_in_acceleration=self.earth_rotation_in_acceleration)
+        return Inputs(m.attitude, m.omega_ios, m.f_ios)
+
+    def inputs_of_rows(self, labels: ArrayLike, t: ArrayLike) -> Inputs:
+        """Inputs of every data row, by its run label and time [s], shape (n,).
+
+        One evaluation of the kinematics per run, over that run's rows in their order.
+        """
+        lab = np.asarray(labels).astype(str)
+        tt = np.asarray(t, dtype=float)
+        if lab.shape != tt.shape or lab.ndim != 1:
+            raise InputError(f"labels and times need the same shape (n,), got {lab.shape} and "
+                             f"{tt.shape}")
+        C, w, f = np.empty((tt.size, 3, 3)), np.empty((tt.size, 3)), np.empty((tt.size, 3))
+        uniq, inverse = np.unique(lab, return_inverse=True)
+        order = np.argsort(inverse, kind="stable")
+        bounds = np.searchsorted(inverse[order], np.arange(uniq.size + 1))
+        for k, u in enumerate(uniq):
+            idx = order[bounds[k]:bounds[k + 1]]
+            part = self.inputs(str(u), tt[idx])
+            C[idx], w[idx], f[idx] = part.C_ni, part.omega_i, part.f_i
+        return Inputs(C, w, f)

@@ -53,13 +53,8 @@ from inertest.models.sdf_gyro import (
     coefficients_from_deg_h,
     drift_regressors,
 )
-from inertest.plan import Instrument, Plan
-from inertest.procedures.spec import (
-    check_no_unknown_keys,
-    known_sigma,
-    noise_samples,
-    require_columns,
-)
+from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 
@@ -155,64 +150,40 @@ class CentrifugeNinePositionSpec:
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> CentrifugeNinePositionSpec:
-        """Build from the ``[procedure]`` table of a plan file."""
-        known = ("radius_m", "platform_heading_deg", "omegas_rad_s", "revolutions",
-                 "sample_rate_hz", "positions")
-        check_no_unknown_keys(params, known, KIND)
-        if "radius_m" not in params:
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
+        v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        omegas = v["omegas_rad_s"]
+        if any(w == 0.0 for w in omegas):
             raise PlanError(
-                f"[procedure] of kind {KIND} needs radius_m, the arm radius to the instrument [m]"
-            )
-        radius = _positive_number(params["radius_m"], "radius_m", "m")
-        heading = params.get("platform_heading_deg", 0.0)
-        if isinstance(heading, bool) or not isinstance(heading, (int, float)) or not np.isfinite(
-            heading
-        ):
-            raise PlanError(f"platform_heading_deg must be a finite number [deg], got {heading!r}")
-        raw_w = params.get("omegas_rad_s", list(cls.omegas_rad_s))
-        if not isinstance(raw_w, list) or not raw_w:
-            raise PlanError(
-                "omegas_rad_s must be a non-empty list of rates [rad/s], e.g. [4.43, 8.85]"
-            )
-        omegas = tuple(_nonzero_number(w, "omegas_rad_s", "rad/s") for w in raw_w)
+                "omegas_rad_s must hold finite nonzero signed rates [rad/s] (positive "
+                f"counter-clockwise, negative clockwise seen from above), got {list(omegas)}")
         if len(set(omegas)) != len(omegas):
             raise PlanError(f"omegas_rad_s lists a rate twice: {list(omegas)}; give each once")
-        revs = params.get("revolutions", cls.revolutions)
-        if not isinstance(revs, int) or isinstance(revs, bool) or revs < 1:
-            raise PlanError(f"revolutions must be a positive integer, got {revs!r}")
-        rate = _positive_number(params.get("sample_rate_hz", cls.sample_rate_hz),
-                                "sample_rate_hz", "Hz")
-        raw_p = params.get("positions", list(machine.POSITIONS))
-        if (not isinstance(raw_p, list) or not raw_p
-                or any(isinstance(p, bool) or not isinstance(p, int) or not 1 <= p <= 9
-                       for p in raw_p)):
-            raise PlanError(f"positions must be a non-empty list of numbers 1..9, got {raw_p!r}")
-        if len(set(raw_p)) != len(raw_p):
-            raise PlanError(f"positions lists a position twice: {raw_p}; give each once")
-        return cls(radius_m=radius, platform_heading_deg=float(heading), omegas_rad_s=omegas,
-                   revolutions=revs, sample_rate_hz=rate, positions=tuple(raw_p))
+        raw_p = v["positions"]
+        if any(p != int(p) or not 1 <= p <= 9 for p in raw_p):
+            raise PlanError(f"positions must be a non-empty list of numbers 1..9, got "
+                            f"{list(raw_p)}")
+        positions = tuple(int(p) for p in raw_p)
+        if len(set(positions)) != len(positions):
+            raise PlanError(f"positions lists a position twice: {list(positions)}; give each once")
+        return cls(**{**v, "positions": positions})
 
+
+#: Parameters of the ``[procedure]`` table of a nine-position centrifuge plan.
+FIELDS = (
+    Field("radius_m", positive=True, unit="m", doc="the arm radius to the instrument [m]"),
+    Field("platform_heading_deg", default=0.0, unit="deg",
+          doc="azimuth of x_P, clockwise from north"),
+    Field("omegas_rad_s", "numbers", default=CentrifugeNinePositionSpec.omegas_rad_s,
+          unit="rad/s", doc="signed main-axis rates, positive counter-clockwise from above"),
+    Field("revolutions", "integer", default=CentrifugeNinePositionSpec.revolutions,
+          positive=True, doc="whole revolutions per run (simulation)"),
+    Field("sample_rate_hz", default=CentrifugeNinePositionSpec.sample_rate_hz, positive=True,
+          unit="Hz", doc="output sampling rate (simulation)"),
+    Field("positions", "numbers", default=machine.POSITIONS, doc="positions 1..9 run"),
+)
 
 SPEC = CentrifugeNinePositionSpec
-
-
-def _nonzero_number(value: object, key: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-        np.isfinite(value) and value != 0
-    ):
-        raise PlanError(
-            f"{key} must hold finite nonzero signed rates [{unit}] (positive counter-clockwise, "
-            f"negative clockwise seen from above), got {value!r}"
-        )
-    return float(value)
-
-
-def _positive_number(value: object, key: str, unit: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-        np.isfinite(value) and value > 0
-    ):
-        raise PlanError(f"{key} must be a finite positive number [{unit}], got {value!r}")
-    return float(value)
 
 
 @dataclass(frozen=True)
@@ -373,8 +344,9 @@ def machine_inputs(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Exact inputs of the error-free machine for every sample, Earth rotation included.
 
-    One call of :func:`inertest.equipment.centrifuge.instrument_inputs` per run (distinct
-    position and signed rate) with the plan's radius, platform heading, latitude and gravity.
+    The inputs of :func:`machine_motion` (one evaluation of
+    :func:`inertest.equipment.centrifuge.centrifuge_motion` per run: distinct position and
+    signed rate) with the plan's radius, platform heading, latitude and gravity.
 
     Parameters
     ----------
@@ -390,20 +362,35 @@ def machine_inputs(
         Specific force [m/s^2] (with the Earth-rate terms ``2 W x v + W x (W x p)``) and
         inertial angular rate [rad/s] on I, O, S.
     """
+    labels = machine.run_labels(position, omega)
+    inputs = machine_motion(plan, position, omega).inputs_of_rows(labels, t)
+    return inputs.f_i, inputs.omega_i
+
+
+def machine_motion(
+    plan: Plan, position: ArrayLike, omega: ArrayLike
+) -> machine.CentrifugeRuns:
+    """The error-free machine of the plan (radius, platform heading, site) as a motion.
+
+    Parameters
+    ----------
+    plan : Plan
+        Site and a :class:`CentrifugeNinePositionSpec`.
+    position, omega : array_like, shape (n,)
+        Position 1..9 and signed main-axis rate [rad/s] of every sample (or of every run).
+
+    Returns
+    -------
+    CentrifugeRuns
+        One segment per distinct (position, rate), labelled as by
+        :func:`inertest.equipment.centrifuge.run_labels`.
+    """
     spec: CentrifugeNinePositionSpec = plan.procedure
-    pos = np.asarray(position)
-    tt = np.asarray(t, dtype=float)
-    f = np.empty((tt.size, 3))
-    w_ios = np.empty((tt.size, 3))
-    groups = group_rows(pos, np.asarray(omega, dtype=float))
-    for r, (p, w) in enumerate(zip(*groups.keys, strict=True)):
-        idx = groups.rows(r)
-        f[idx], w_ios[idx], _ = machine.instrument_inputs(
-            tt[idx], float(w), int(p), radius_m=spec.radius_m,
-            gravity_m_s2=plan.site.gravity_m_s2, latitude_rad=plan.site.latitude_rad,
-            platform_heading_rad=float(np.radians(spec.platform_heading_deg)),
-        )
-    return f, w_ios
+    groups = group_rows(np.asarray(position), np.asarray(omega, dtype=float))
+    runs = tuple((int(p), float(w)) for p, w in zip(*groups.keys, strict=True))
+    return machine.CentrifugeRuns(
+        runs, radius_m=spec.radius_m, site=plan.site,
+        platform_heading_rad=float(np.radians(spec.platform_heading_deg)))
 
 
 def _coverage_messages(runs: RunMeans) -> list[str]:
@@ -728,10 +715,9 @@ def explain_null_space(
     if explained:
         q, _ = np.linalg.qr(np.column_stack(explained))
         rest = null - q @ (q.T @ null)
-    u, sv, _ = np.linalg.svd(rest, full_matrices=False)
-    left = u[:, sv > 1e-6]
-    if left.shape[1]:
-        names = [COEFFICIENTS[i] for i in range(A.shape[1]) if np.linalg.norm(left[i]) > 1e-7]
+    share = _share_of_span(rest)
+    if np.any(share > 1e-14):
+        names = [COEFFICIENTS[i] for i in range(A.shape[1]) if share[i] > 1e-14]
         missing = sorted(set(machine.POSITIONS) - {int(p) for p in runs.position})
         why = (
             f"positions {', '.join(map(str, missing))} were not measured" if missing
@@ -742,6 +728,23 @@ def explain_null_space(
             "are determined (measure all nine positions at two or more rates)"
         )
     return tuple(out)
+
+
+def _share_of_span(m: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Squared length of each coordinate axis projected on the column space of ``m`` (p, k).
+
+    ``P_ii`` of the orthogonal projector on span(m): 0 for a coefficient that the directions
+    ``m`` do not involve. The span is the orthogonal complement of the null space of ``m^T``,
+    found by the solver (:func:`~inertest.estimation.least_squares.weighted_least_squares`).
+    A coefficient whose row of ``m`` is shorter than 1e-7 is not involved (rounding and leakage
+    left by the projections above) and is dropped first: the solver scales every column of
+    ``m^T`` to unit norm and would blow it up into a direction of its own.
+    """
+    mt = np.where(np.linalg.norm(m, axis=1)[:, None] > 1e-7, m, 0.0).T
+    if not np.any(mt):
+        return np.zeros(m.shape[0])
+    complement = weighted_least_squares(mt, np.zeros(mt.shape[0]), sigma=1.0).null_space
+    return 1.0 - np.sum(complement**2, axis=1)
 
 
 def _positions(position: NDArray) -> NDArray[np.int64]:
