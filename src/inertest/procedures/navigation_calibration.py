@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import earth_rate_enu
+from inertest.earth import Site, earth_rate_enu, normal_gravity
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
@@ -469,12 +469,15 @@ def simulate_segment(
 ) -> RotationRecord:
     """Counts of a virtual triad ``raw = A w + b`` through one turn, sample by sample.
 
-    The body rate is the table rate plus the Earth rate; each sample's true increment is
-    integrated by 3-point Gauss-Legendre over the interval. ``noise``: white noise of each
+    The table's motion is :class:`~inertest.equipment.rate_table.Turns` (one turn after
+    ``rest_before_s``). The body rate is the table rate plus the Earth rate; the table part of
+    each sample's increment comes exactly from the profile's angle, the Earth part
+    ``C_ni(t)^T W_ie_n`` by 3-point Gauss-Legendre over the interval. ``noise``: white noise of each
     sample's count [raw SI], i.e. angle random walk.
     """
     C0 = np.asarray(C_nb0, dtype=float)
-    turn = table.TableTurn(C0, axis, direction, profile, latitude_rad, start_s=rest_before_s)
+    site = Site(latitude_rad, float(normal_gravity(latitude_rad)))
+    motion = table.Turns(site, {label: (C0, axis, direction)}, profile, rest_before_s)
     total = rest_before_s + profile.duration_s + rest_after_s
     fs = float(sample_rate_hz)
     n = int(np.ceil(total * fs - 1e-9))
@@ -487,7 +490,8 @@ def simulate_segment(
     w_n = earth_rate_enu(latitude_rad)
     x, wq = np.polynomial.legendre.leggauss(3)
     for xi, wi in zip(x, wq, strict=True):
-        inc += 0.5 * wi / fs * turn.attitude(t0 + 0.5 * (xi + 1) / fs).inv().apply(w_n)
+        C_ni = motion.inputs(label, t0 + 0.5 * (xi + 1) / fs).C_ni
+        inc += 0.5 * wi / fs * np.einsum("kji,j->ki", C_ni, w_n)  # C_ni^T W_ie_n
     A = np.asarray(forward, dtype=float)
     counts = inc @ A.T + np.outer(np.full(n, 1.0 / fs), np.asarray(offset, dtype=float))
     if noise:
