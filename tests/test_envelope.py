@@ -27,6 +27,7 @@ EXAMPLES = {
     "triad-multiposition": ("triad_multiposition", "truth.toml", 1e-4),
     "accelerometer-multipoint": ("accelerometer_multipoint", "truth.toml", 1e-6),
     "centrifuge-nine-position": ("centrifuge", "truth.toml", 1e-9),
+    "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
 }
 
 
