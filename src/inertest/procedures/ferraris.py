@@ -64,7 +64,7 @@ part's length). Divided by ``theta`` it is a spurious gyro misalignment in colum
     |M_.j| = W_ie cos L T_eff / |theta|     (column j's off-axis part, pointing north at the start)
 
 For the simulated turn (a raised-cosine rate over ``T = turn_duration_s`` with ``t_r = rest_s``
-at rest on either side, :func:`~inertest.equipment.ferraris_session.turn_rate_profile`)
+at rest on either side, :func:`~inertest.equipment.ferraris_session.turns_motion`)
 ``T_eff = 2 t_r + J_1(1) T`` (``J_1(1) = 0.4401``, Bessel): the example plan (T = 4 s,
 t_r = 1 s, 49.6 deg latitude) gives ``T_eff = 3.76 s`` and 28 urad (in ``Mg_zx``, ``Mg_xy``,
 ``Mg_yz`` for the simulation's faces at heading 0); any hand profile of a 6 s part gives at
@@ -93,8 +93,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import OMEGA_IE, earth_rate_enu
+from inertest.earth import Site, earth_rate_enu
 from inertest.equipment import ferraris_session as session
+from inertest.equipment.motion import Inputs, StaticPositions
+from inertest.equipment.rate_table import Turns
 from inertest.errors import DataError, IdentifiabilityError, PlanError
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
@@ -395,7 +397,7 @@ def _face_gyro_bias(gyr_mean: NDArray[np.float64]) -> NDArray[np.float64]:
 def _solve(
     acc_mean: NDArray[np.float64], gyr_mean: NDArray[np.float64],
     turn_gyr: NDArray[np.float64], turn_acc: NDArray[np.float64], turn_s: NDArray[np.float64],
-    gravity: float, theta_rad: float, with_g: bool, omega_up: float,
+    span: NDArray[np.float64], theta: NDArray[np.float64], with_g: bool, omega_up: float,
 ) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray]:
     """``A_a, b_a, A_g, b_g, G, E`` from the part statistics (see the module docstring).
 
@@ -405,11 +407,11 @@ def _solve(
     not modelled (the heading is unknown) and leaves a spurious gyro misalignment
     ``W_ie cos L T_eff / theta`` (module docstring: 28 urad for the example plan).
     """
-    A_a = (acc_mean[0::2] - acc_mean[1::2]).T / (2.0 * gravity)
+    A_a = (acc_mean[0::2] - acc_mean[1::2]).T / span
     b_a = np.array([(acc_mean[2 * i, i] + acc_mean[2 * i + 1, i]) / 2 for i in range(3)])
     b_g = _face_gyro_bias(gyr_mean)
     if with_g:
-        G = (gyr_mean[0::2] - gyr_mean[1::2]).T / (2.0 * gravity)
+        G = (gyr_mean[0::2] - gyr_mean[1::2]).T / span
     else:
         G = np.zeros((3, 3))
     cal_a = np.linalg.inv(A_a)
@@ -417,8 +419,8 @@ def _solve(
     W = turn_gyr - turn_s[:, None] * b_g - acc_int @ G.T
     up = acc_int / np.linalg.norm(acc_int, axis=1, keepdims=True)
     E = omega_up * turn_s[:, None] * up
-    # A_g Theta = W^T with Theta's column j the body angle of turn j: theta e_j + E_j.
-    A_g = np.linalg.solve((theta_rad * np.eye(3) + E.T).T, W).T
+    # A_g Theta = W^T with Theta's column j the body angle of turn j: theta_j e_j + E_j.
+    A_g = np.linalg.solve((np.diag(theta) + E.T).T, W).T
     return A_a, b_a, A_g, b_g, G, E
 
 
@@ -458,16 +460,22 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
     g = plan.site.gravity_m_s2
     stats = part_stats(data, spec)
     _check_labels(stats, spec)
-    theta = spec.rotation_deg * DEG_TO_RAD
     fs = spec.sample_rate_hz
     turn_s = stats.n_turn / fs
     with_g = spec.g_sensitivity
-
-    omega_up = OMEGA_IE * np.sin(plan.site.latitude_rad) if spec.earth_rate else 0.0
+    # Kinematics from the session's motions: the specific-force span of each face pair
+    # (f_j(j_p) - f_j(j_a) = 2 g), each turn's signed table angle, and the vertical Earth rate
+    # (on the up axis of a face). The vertical during a hand turn comes from the accelerometers.
+    faces, turns = _motions(plan.site, spec, spec.rest_s)
+    f_face = np.array([faces.inputs(label).f_i[0] for label in session.FACE_LABELS])
+    span = np.array([f_face[2 * j, j] - f_face[2 * j + 1, j] for j in range(3)])
+    theta = np.array([turns.starts[label][2] * turns.profile.angle_rad
+                      for label in session.TURN_LABELS])
+    omega_up = float(faces.inputs("z_p").omega_i[0, 2]) if spec.earth_rate else 0.0
 
     def solve(x: NDArray[np.float64]) -> tuple[NDArray, ...]:
         return _solve(x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:45].reshape(3, 3),
-                      x[45:54].reshape(3, 3), turn_s, g, theta, with_g, omega_up)
+                      x[45:54].reshape(3, 3), turn_s, span, theta, with_g, omega_up)
 
     x0 = _pack(stats)
     A_a, b_a, A_g, b_g, G, E = solve(x0)
@@ -641,6 +649,33 @@ def _model_from_truth(
     return out[0], out[1], out[2], out[3], out[4]
 
 
+def _turn_samples(spec: FerrarisSpec) -> tuple[int, int]:
+    """Samples of a turn and of each rest; the turn must be a whole number of samples.
+
+    Then the samples of the raised-cosine rate sum to exactly ``angle * rate``: the sampled
+    turn integrates to the turn angle (the fit's rectangle rule is exact for it).
+    """
+    fs = spec.sample_rate_hz
+    n_turn = int(round(spec.turn_duration_s * fs))
+    if n_turn < 2 or abs(n_turn - spec.turn_duration_s * fs) > 1e-9 * n_turn:
+        raise PlanError(
+            f"turn_duration_s = {spec.turn_duration_s:g} s times sample_rate_hz = {fs:g} Hz "
+            "must be a whole number of samples (>= 2)")
+    return n_turn, int(round(spec.rest_s * fs))
+
+
+def _motions(site: Site, spec: FerrarisSpec, rest_s: float
+             ) -> tuple[StaticPositions, Turns]:
+    """The session as motions: the six level faces and the three turns (faces at heading 0)."""
+    return session.faces_motion(site), session.turns_motion(
+        site, spec.rotation_deg * DEG_TO_RAD, spec.turn_duration_s, rest_s)
+
+
+def _without_earth(inp: Inputs, w_ie: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``omega_i`` of a motion less the Earth rate ``C_ni^T W_ie_n`` (``earth_rate = false``)."""
+    return inp.omega_i - np.einsum("kji,j->ki", inp.C_ni, w_ie)
+
+
 def simulate(
     plan: Plan,
     truth: Mapping[str, float],
@@ -664,7 +699,6 @@ def simulate(
     spec: FerrarisSpec = plan.procedure
     gen = np.random.default_rng(rng)
     A_a, b_a, A_g, b_g, G = _model_from_truth(truth, spec)
-    g = plan.site.gravity_m_s2
     fs = spec.sample_rate_hz
     tilt = float(truth.get("face_tilt_deg", 0.0)) * DEG_TO_RAD
     if noise and ("acc_noise" in truth or "gyr_noise" in truth):
@@ -677,28 +711,28 @@ def simulate(
     if min(s_a, s_g, tilt) < 0:
         raise PlanError("noise levels and face_tilt_deg must be >= 0")
     n_face = int(round(spec.face_duration_s * fs))
+    n_turn, n_rest = _turn_samples(spec)
+    faces, turns = _motions(plan.site, spec, n_rest / fs)
+    w_ie = earth_rate_enu(plan.site.latitude_rad)
     parts, f_all, w_all = [], [], []
-    w_ie = earth_rate_enu(plan.site.latitude_rad) if spec.earth_rate else np.zeros(3)
-    for label, axis, sign in session.FACES:
-        t = gen.normal(0.0, tilt, 3) if tilt > 0 else None
-        f = session.face_specific_force(axis, sign, g, t)
+    for label, axis, _ in session.FACES:
+        inp = faces.inputs(label, np.zeros(n_face))
+        f = inp.f_i
+        if tilt > 0:  # a hand-set face: tilted by a small random angle about horizontal axes
+            t = gen.normal(0.0, tilt, 3)
+            t[axis] = 0.0
+            f = Rotation.from_rotvec(t).apply(f)
         parts += [label] * n_face
-        f_all.append(np.tile(f, (n_face, 1)))
-        w_earth = session.face_attitude(axis, sign).T @ w_ie
-        w_all.append(np.tile(w_earth, (n_face, 1)))
-    for label, axis in session.TURNS:
-        w = session.turn_rate_profile(axis, spec.rotation_deg * DEG_TO_RAD,
-                                      spec.turn_duration_s, fs, spec.rest_s)
-        # Turn in the axis-up face about the vertical axis: the specific force stays on it;
-        # the Earth rate turns the other way in the body (C_bn(t) = R_axis(phi)^T C_bn(0)).
-        f = session.face_specific_force(axis, +1, g)
-        phi = np.cumsum(w[:, axis]) / fs
-        rotvec = np.zeros((len(w), 3))
-        rotvec[:, axis] = -phi
-        w_earth = Rotation.from_rotvec(rotvec).apply(session.face_attitude(axis, +1).T @ w_ie)
-        parts += [label] * len(w)
-        f_all.append(np.tile(f, (len(w), 1)))
-        w_all.append(w + w_earth)
+        f_all.append(f)
+        w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
+    t_turn = np.arange(n_turn + 2 * n_rest) / fs
+    for label in session.TURN_LABELS:
+        # The continuous motion sampled at the sample times: the raised-cosine rate about the
+        # vertical axis, the Earth rate turning the other way in the body (exact attitude).
+        inp = turns.inputs(label, t_turn)
+        parts += [label] * t_turn.size
+        f_all.append(inp.f_i)
+        w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
     f_b = np.vstack(f_all)
     w_b = np.vstack(w_all)
     n = len(parts)
