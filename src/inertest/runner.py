@@ -200,16 +200,23 @@ def file_run(
                                                 key=lambda r: r.tested_at))
             html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
                                 history)
-            with target_directory(report_dir, inputs=inputs) as tmp:
-                (tmp / "index.html").write_text(html, encoding="utf-8")
-                if pdf:
-                    from inertest.report.pdf import html_to_pdf
+            added = False
+            try:
+                with target_directory(report_dir, inputs=inputs) as tmp:
+                    (tmp / "index.html").write_text(html, encoding="utf-8")
+                    if pdf:
+                        from inertest.report.pdf import html_to_pdf
 
-                    html_to_pdf(tmp / "index.html", tmp / "report.pdf")
-                # Store last inside the block: a failed store leaves no report, and a failed
-                # report leaves no stored run.
-                if db is not None and record is not None:
-                    db.add(record)
+                        html_to_pdf(tmp / "index.html", tmp / "report.pdf")
+                    # Store last inside the block: a failed store leaves no report, and a
+                    # failed report leaves no stored run.
+                    if db is not None and record is not None:
+                        db.add(record)
+                        added = True
+            except BaseException:
+                if added:  # moving the report into place failed (full disk): withdraw the run
+                    db.discard(record.run_uuid)  # type: ignore[union-attr]
+                raise
             report_path = Path(report_dir) / "index.html"
         elif db is not None and record is not None:
             db.add(record)

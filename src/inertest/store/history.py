@@ -297,6 +297,25 @@ class HistoryStore:
         except BaseException:
             self._remove_new_file(created)
             raise
+        self._created = created
+
+    def discard(self, run_uuid: str) -> None:
+        """Undo :meth:`add` of ``run_uuid`` (a later step of the same transaction failed).
+
+        Removes the run and its estimates; a SQLite file created by that add is removed whole.
+        """
+        created = getattr(self, "_created", None)
+        try:
+            with Session(self.engine) as session, session.begin():
+                run = session.scalars(select(Run).where(Run.run_uuid == run_uuid)).first()
+                if run is not None:
+                    session.delete(run)
+        except SQLAlchemyError as exc:
+            raise StoreError(f"could not withdraw run {run_uuid} from {self._shown}: "
+                             f"{_reason(exc)}") from None
+        if created is not None:
+            self._remove_new_file(created)
+            self._created = None
 
     def _remove_new_file(self, path: Path | None) -> None:
         """Remove a SQLite file (and its WAL) that this store created for a failed first add."""
