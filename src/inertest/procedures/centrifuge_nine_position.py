@@ -12,12 +12,14 @@ arm's first and second harmonics average to exactly zero when a revolution does 
 integer number of samples). The averaged input rate on I is subtracted and the ten coefficients
 are found by least squares with their analytic covariance.
 
-Inputs: the regressors are built from the exact inputs of the error-free machine
-(:func:`inertest.equipment.centrifuge.instrument_inputs`), Earth rotation included: the specific
-force contains the Earth-rate Coriolis term ``2 W x v`` (up to ``2 W w R``, 2.3e-4 g at 8.85 rad/s
-and R = 2.5 m) and ``W x (W x p)``, and the rate on I is the Earth rate. Leaving them out (the
-closed form :func:`~inertest.equipment.centrifuge.ideal_inputs`) biases DII by about one standard
-uncertainty at the source's settings, and the bias does not shrink with more data.
+Inputs: the regressors are built from the exact inputs of the error-free machine, the motion
+:class:`inertest.equipment.centrifuge.CentrifugeRuns` (:func:`machine_motion`: one segment per
+run, kinematics of :func:`~inertest.equipment.centrifuge.centrifuge_motion`), Earth rotation
+included: the specific force contains the Earth-rate Coriolis term ``2 W x v`` (up to ``2 W w R``,
+2.3e-4 g at 8.85 rad/s and R = 2.5 m) and ``W x (W x p)``, and the rate on I is the Earth rate.
+Leaving them out (the closed form :func:`~inertest.equipment.centrifuge.ideal_inputs`) biases DII
+by about one standard uncertainty at the source's settings, and the bias does not shrink with
+more data.
 
 Sense of rotation: ``omega`` is the *signed* main-axis rate, right-handed about up, i.e. positive
 when the arm turns counter-clockwise seen from above and negative when it turns clockwise. The
@@ -248,8 +250,8 @@ def fit(
     """Identify the ten drift coefficients from nine-position centrifuge data.
 
     The inputs are the exact ones of the error-free machine with Earth rotation
-    (:func:`inertest.equipment.centrifuge.instrument_inputs` with the plan's radius, heading and
-    site, no machine error); machine errors are the business of the centrifuge study.
+    (:func:`machine_motion` with the plan's radius, heading and site, no machine error);
+    machine errors are the business of the centrifuge study.
 
     Parameters
     ----------
