@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
@@ -32,7 +32,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment import multiposition as mp
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
-from inertest.estimation.least_squares import weighted_least_squares
+from inertest.estimation.identify import NOISE_MODELS, NoiseFit, check_noise_model, solve
+from inertest.estimation.least_squares import LinearFit, weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import (
     AXES,
@@ -69,12 +70,18 @@ class TriadMultipositionSpec:
     nominal_scale_factor : float or None
         Nominal ``K`` [scale unit] for count outputs, to report ppm deviations (physical outputs
         have nominal 1).
+    noise_model : str
+        Noise of the readings behind the uncertainties (:data:`~inertest.estimation.identify.
+        NOISE_MODELS`): ``white``, ``position-offsets`` (the fixture re-settles: an offset per
+        position), ``random-walk``, ``flicker`` or ``auto`` (by AIC, the default). The unit of
+        independence is a position visit (consecutive readings with one label).
     """
 
     kind: ClassVar[str] = KIND
     positions: tuple[str, ...] = mp.TWELVE
     samples_per_position: int = 1
     nominal_scale_factor: float | None = None
+    noise_model: str = "auto"
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> TriadMultipositionSpec:
@@ -101,6 +108,8 @@ FIELDS = (
           doc="readings per position (simulation)"),
     Field("nominal_scale_factor", "number", default=None, positive=True, unit="scale unit",
           doc="nominal K of a count output, for the ppm deviations"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS,
+          doc="noise model behind the uncertainties"),
 )
 SPEC = TriadMultipositionSpec
 
@@ -403,8 +412,45 @@ def six_position_closed_form(
     return {"bias": b.tolist(), "S": S.tolist()}
 
 
+def position_visits(labels: ArrayLike) -> NDArray:
+    """The unit of independence of each reading: its position visit, shape (n,).
+
+    Consecutive readings with one label are one visit (``"UEN"``); a later return to the same
+    position is another (``"UEN (2)"``): the fixture re-settles each time it is set.
+    """
+    lab = np.asarray(labels).astype(str)
+    if lab.size == 0:
+        return lab
+    start = np.r_[True, lab[1:] != lab[:-1]]
+    seen: dict[str, int] = {}
+    names = []
+    for v in lab[start]:
+        seen[v] = seen.get(v, 0) + 1
+        names.append(v if seen[v] == 1 else f"{v} ({seen[v]})")
+    return np.asarray(names)[np.cumsum(start) - 1]
+
+
+def _solve_axes(A: NDArray[np.float64], y: NDArray[np.float64], sig: float | None,
+                groups: NDArray, model: str) -> list[tuple[LinearFit, NoiseFit]]:
+    """One fit per output under one noise model.
+
+    With ``auto`` the outputs are described alike: when AIC picks different models for them,
+    all are refitted with the correlated model picked most often.
+    """
+    fits = [solve(A, y[:, i], sigma_si=sig, groups=groups, noise_model=model)
+            for i in range(y.shape[1])]
+    chosen = [nf.model for _, nf in fits]
+    if model == "auto" and len(set(chosen)) > 1:
+        correlated = [m for m in chosen if m != "white"]
+        common = max(dict.fromkeys(correlated), key=correlated.count)
+        fits = [solve(A, y[:, i], sigma_si=sig, groups=groups, noise_model=common)
+                for i in range(y.shape[1])]
+    return fits
+
+
 def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> TriadMultipositionResult:
     """Bias, scale factors and misalignment of an accelerometer triad from static positions.
 
@@ -414,9 +460,21 @@ def fit(
         Site (local gravity), instrument (``accelerometer-triad``) and a
         :class:`TriadMultipositionSpec`.
     data : mapping
-        Columns ``position``, ``output_x``, ``output_y``, ``output_z`` [output unit].
+        Columns ``position``, ``output_x``, ``output_y``, ``output_z`` [output unit], rows in
+        time order.
     sigma : float, optional
-        Known noise per reading [output unit], same for each axis; else from the residuals.
+        Known white noise per reading [output unit], same for each axis; else from the
+        residuals (the scatter within positions when positions hold several readings).
+    noise_model : str, optional
+        Overrides the plan's ``noise_model``.
+
+    Notes
+    -----
+    Each output is fitted by :func:`inertest.estimation.identify.solve` with the position visit
+    as the unit of independence: white noise is ordinary least squares; the correlated models
+    estimate their variance component by REML from the position means and fit them by GLS, so
+    that the stated uncertainty holds when the fixture re-settles between positions or the
+    bias wanders during the test.
 
     Raises
     ------
@@ -427,6 +485,8 @@ def fit(
         An output responds mostly to another axis or with negative sign (mislabelled axes).
     """
     su = _scale(plan)
+    spec: TriadMultipositionSpec = plan.procedure
+    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
     cols = require_columns(data, OUTPUT_COLUMNS, ("position",), procedure=KIND)
     labels = np.char.strip(cols["position"])
     try:
@@ -448,8 +508,8 @@ def fit(
     resid = np.zeros_like(y)
     noise = {}
     dofs = []
-    for i, a in enumerate(AXES):
-        lf = weighted_least_squares(A, y[:, i], sigma=sig)
+    fits = _solve_axes(A, y, sig, position_visits(labels), model)
+    for i, (a, (lf, _)) in enumerate(zip(AXES, fits, strict=True)):
         S[i], b[i] = lf.x[:3], lf.x[3]
         idx = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
         cov[np.ix_(idx, idx)] = lf.covariance
@@ -464,6 +524,7 @@ def fit(
         noise_sigma=pooled if sig is None else float("nan"), noise_unit=plan.instrument.output_unit,
         sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
         residuals=(resid / su.raw_si_per_raw).ravel())
+    ident = _with_noise_model(ident, [nf for _, nf in fits], su.raw_si_per_raw)
     messages = _messages(est.misalignment)
     reversed_msg = triad.reversed_axes_message(p, "accelerometer", "output_{}")
     if reversed_msg is not None:
@@ -489,6 +550,28 @@ def fit(
         noise_per_axis=noise,
         six_position=six_position_closed_form(labels, out, plan.site.gravity_m_s2),
     )
+
+
+def _with_noise_model(ident: Identification, noises: list[NoiseFit], raw_si_per_raw: float
+                      ) -> Identification:
+    """The identification with the noise model used and its checks.
+
+    Components: RMS over the outputs [output unit]; checks: those of an output whose model
+    does not fit, else of the output with the smallest p-value.
+    """
+    comps: dict[str, list[float]] = {}
+    for nf in noises:
+        for k, v in nf.components.items():
+            comps.setdefault(k, []).append(v / raw_si_per_raw)
+    def smallest_p(nf: NoiseFit) -> float:
+        ps = [p for p in (nf.checks.p_value, nf.checks.serial_p_value) if p is not None]
+        return min(ps, default=1.0)
+
+    worst = min(noises, key=lambda nf: (nf.checks.fits, smallest_p(nf)))
+    return replace(ident, noise_model=noises[0].model,
+                   noise_components={k: float(np.sqrt(np.mean(np.square(v))))
+                                     for k, v in comps.items()},
+                   checks=worst.checks)
 
 
 def _messages(misalignment: Mapping[str, object]) -> list[str]:
