@@ -104,7 +104,7 @@ def test_outlying_position_is_named_and_warned():
 def test_bad_noise_model():
     with pytest.raises(InputError, match="unknown noise model"):
         idf.solve(np.ones((5, 1)), np.ones(5), noise_model="pink")
-    with pytest.raises(PlanError, match="noise_model must be one of"):
+    with pytest.raises(PlanError, match="noise_model = \"pink\" is not one of auto"):
         pt.PolarTumbleSpec.from_mapping({"noise_model": "pink"})
 
 

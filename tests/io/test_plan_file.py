@@ -46,8 +46,8 @@ def test_plan_defaults_and_truth(tmp_path):
         (("scale_factor = 10.0", ""), "needs \\[instrument\\] scale_factor"),
         (("latitude_deg = 45.0", "latitude_deg = 95.0"), "latitude"),
         (("[site]", "[sight]"), "sight.*did you mean \"site\""),
-        (("positions = 8", "positions = 0"), "positive integer"),
-        (("positions = 8", "mountings = ['O-Up']"), 'mounting "O-Up"'),
+        (("positions = 8", "positions = 0"), "positions must be positive"),
+        (("positions = 8", "mountings = ['O-Up']"), '"O-Up" is not one of O-Np, O-Sp'),
         (("kind = ", "kind == "), "not valid TOML"),
     ],
 )
