@@ -9,7 +9,13 @@ import pytest
 
 from inertest.errors import DataError
 from inertest.noise.deviations import mdev, oadev
-from inertest.noise.identification import basis, identify_noise, simulate_noise
+from inertest.noise.identification import (
+    allan_covariance_basis,
+    basis,
+    identify_noise,
+    simulate_noise,
+)
+from inertest.units import ARCSEC_TO_RAD, HOUR_TO_S
 from inertest.units import (
     DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S as K_UNIT,
 )
@@ -19,6 +25,8 @@ from inertest.units import (
 from inertest.units import (
     DEG_PER_SQRT_H_TO_RAD_PER_SQRT_S as N_UNIT,
 )
+
+R_UNIT = B_UNIT / HOUR_TO_S  # deg/h^2 -> rad/s^2
 
 
 def test_basis_is_ieee952_annex_c():
@@ -43,11 +51,15 @@ def test_recovers_n_b_k_within_stated_uncertainty():
     truth = {"N": 0.01, "B": 1.0, "K": 5.0}  # deg/sqrt(h), deg/h, deg/h/sqrt(h)
     y = simulate_noise(2**20, 20.0, n_rw=truth["N"] * N_UNIT, b=truth["B"] * B_UNIT,
                        k=truth["K"] * K_UNIT, rng=21)
-    model = identify_noise(oadev(y, 20.0), instrument="gyro", n_boot=20)
+    model = identify_noise(oadev(y, 20.0), instrument="gyro")
     for name, value in truth.items():
         t = model.terms[name]
         assert t.resolved, (name, t.note)
-        assert abs(t.value_eng - value) < 3.0 * t.std_eng, (name, t.value_eng, t.std_eng)
+        # 2 % floor: the simulated flicker is band-limited at Nyquist, so its Allan variance
+        # at tau = tau0 falls ~10 % below (2 ln2/pi) B^2 and shifts N by ~0.5 % (N's
+        # statistical std here is 0.1 %); B itself was not verified by Monte Carlo.
+        tol = max(3.0 * t.std_eng, 0.02 * value)
+        assert abs(t.value_eng - value) < tol, (name, t.value_eng, t.std_eng)
     assert model.terms["N"].unit == "deg/sqrt(h)"
     assert model.terms["B"].unit == "deg/h"
     assert model.terms["K"].unit == "deg/h/sqrt(h)"
@@ -59,7 +71,7 @@ def test_recovers_n_b_k_within_stated_uncertainty():
 
 def test_white_noise_only_gives_bounds_for_the_rest():
     y = simulate_noise(50_000, 100.0, n_rw=2e-4, rng=5)
-    model = identify_noise(oadev(y, 100.0), instrument="accelerometer", n_boot=10)
+    model = identify_noise(oadev(y, 100.0), instrument="accelerometer")
     assert model.terms["N"].resolved and model.terms["N"].unit == "m/s/sqrt(h)"
     assert model.terms["N"].value == pytest.approx(2e-4, rel=0.02)
     assert [k for k, t in model.terms.items() if t.resolved] == ["N"]
@@ -74,42 +86,90 @@ def test_rejects_other_statistics():
         identify_noise(mdev(y, 10.0))
 
 
-@pytest.mark.slow
-def test_monte_carlo_stated_std_matches_scatter():
-    """Reported std vs the scatter of the estimates over independent records.
-
-    With 24 records the scatter itself is known to ~15 %, so the band is 0.7 .. 1.45 (a 40-run,
-    30-bootstrap version gave 1.20 for N and 0.96 for K).
-    """
-    g = np.random.default_rng(8)
-    n_true, k_true = 0.1, 10.0
-    vals, stds = [], []
-    for _ in range(24):
-        y = simulate_noise(100_000, 10.0, n_rw=n_true * N_UNIT, k=k_true * K_UNIT, rng=g)
-        m = identify_noise(oadev(y, 10.0), n_boot=20, rng=g)
-        if not (m.terms["N"].resolved and m.terms["K"].resolved):
-            continue
-        vals.append([m.terms["N"].value_eng, m.terms["K"].value_eng])
-        stds.append([m.terms["N"].std_eng, m.terms["K"].std_eng])
-    vals, stds = np.asarray(vals), np.asarray(stds)
-    assert len(vals) >= 18
-    ratio = vals.std(axis=0, ddof=1) / stds.mean(axis=0)
-    assert np.all((ratio > 0.7) & (ratio < 1.45)), ratio
-    assert np.all(np.abs(vals.mean(axis=0) - [n_true, k_true]) < 3 * stds.mean(axis=0))
-
-
-def test_long_record_bootstrap_decimates_and_dense_grid_is_thinned(monkeypatch):
-    import inertest.noise.identification as ident
-
-    monkeypatch.setattr(ident, "_BOOT_MAX", 1 << 14)  # force the decimated bootstrap
+def test_dense_grid_is_thinned_to_octaves():
     y = simulate_noise(100_000, 10.0, n_rw=1e-3, rng=9)
     dense = oadev(y, 10.0, np.r_[np.arange(1, 65), 2 ** np.arange(7, 13)] / 10.0)
-    model = identify_noise(dense, instrument=None, n_boot=8)
+    model = identify_noise(dense, instrument=None)
     assert model.taus.size < dense.taus.size
     assert np.all(model.taus[1:] / model.taus[:-1] >= 1.9)
     n = model.terms["N"]
     assert n.resolved and abs(n.value - 1e-3) < 3 * n.std
     assert n.unit == "sqrt(s)"  # dimensionless input: no "u" placeholder
+
+
+def test_isserlis_allan_covariance_equals_direct_sum():
+    """Covariance of overlapping AVARs across taus vs a direct sum over all term pairs.
+
+    Independent route: the full phase generalised-covariance matrix G(a - b) of each noise
+    (white phase, white rate, flicker rate, rate random walk), second-difference matrices
+    D_m, C = D_m G D_n^T, Cov(S_m, S_n) = 2 sum(C_t C_u) / (4 m^2 n^2 tau0^4 M_m M_n)
+    (Isserlis) and the ramp cross term sum(C) / (M_m M_n).
+    """
+    nx, tau0 = 400, 0.1
+    ms = np.array([1, 2, 4, 8, 16, 32, 64, 128])
+    ns = nx - 2 * ms
+    g, h = allan_covariance_basis(ms, ns, tau0)
+    k = np.abs(np.arange(nx)[:, None] - np.arange(nx)[None, :]).astype(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gam = [(k == 0).astype(float), -0.5 * tau0 * k,
+               np.where(k > 0, tau0**2 * k**2 * np.log(k) / (2 * math.pi), 0.0),
+               tau0**3 * k**3 / 12]
+
+    def dmat(m):
+        d = np.zeros((nx - 2 * m, nx))
+        r = np.arange(nx - 2 * m)
+        d[r, r], d[r, r + m], d[r, r + 2 * m] = 1.0, -2.0, 1.0
+        return d
+
+    ds = [dmat(m) for m in ms]
+    for i in range(ms.size):
+        for j in range(ms.size):
+            c = [ds[i] @ gm @ ds[j].T for gm in gam]
+            norm = 4.0 * (ms[i] * ms[j]) ** 2 * tau0**4 * ns[i] * ns[j]
+            for t in range(4):
+                assert h[t, i, j] == pytest.approx(np.sum(c[t]) / (ns[i] * ns[j]),
+                                                   rel=0.03 if t == 2 else 1e-3)
+                for u in range(4):
+                    ref = 2.0 * np.sum(c[t] * c[u]) / norm
+                    size = math.sqrt(g[t, t, i, i] * g[u, u, j, j])
+                    assert abs(g[t, u, i, j] - ref) < 2e-3 * size, (t, u, i, j)
+
+
+_SCENARIOS = {
+    # name: (simulate_noise keywords, true terms), 1e5 samples at 10 Hz
+    "N+K": ({"n_rw": 0.1 * N_UNIT, "k": 10.0 * K_UNIT}, {"N": 0.1 * N_UNIT, "K": 10.0 * K_UNIT}),
+    "N+R": ({"n_rw": 0.1 * N_UNIT, "r": 6.0 * R_UNIT}, {"N": 0.1 * N_UNIT, "R": 6.0 * R_UNIT}),
+    "Q+N": ({"q": 5.0 * ARCSEC_TO_RAD, "n_rw": 0.1 * N_UNIT},
+            {"Q": 5.0 * ARCSEC_TO_RAD, "N": 0.1 * N_UNIT}),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", list(_SCENARIOS))
+def test_monte_carlo_stated_std_matches_scatter(scenario):
+    """Reported std vs the scatter of the estimates over 100 independent records.
+
+    With 100 records the scatter is known to ~7 %, so the band 0.8 .. 1.25 is about 3 sigma;
+    the mean must lie within 3 standard errors of the truth. Before the generalised least
+    squares (bootstrap, 60 records): scatter/std N+K 1.14, 1.32 with K 18 % low; N+R 1.21,
+    1.25 with R 11 % low; Q+N 0.98, 1.16. After: 1.06, 1.00; 0.94, 1.00; 1.02, 1.12, no bias.
+    """
+    sim, truth = _SCENARIOS[scenario]
+    g = np.random.default_rng(11)
+    vals, stds = [], []
+    for _ in range(100):
+        y = simulate_noise(100_000, 10.0, rng=g, **sim)
+        m = identify_noise(oadev(y, 10.0), instrument=None)
+        if all(m.terms[k].resolved for k in truth):
+            vals.append([m.terms[k].value for k in truth])
+            stds.append([m.terms[k].std for k in truth])
+    vals, stds = np.asarray(vals), np.asarray(stds)
+    assert len(vals) >= 95
+    scatter = vals.std(axis=0, ddof=1)
+    ratio = scatter / stds.mean(axis=0)
+    assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+    bias = vals.mean(axis=0) - np.asarray(list(truth.values()))
+    assert np.all(np.abs(bias) < 3.0 * scatter / math.sqrt(len(vals))), bias / scatter
 
 
 def _lasergyro_z(realdata_dir):
@@ -127,7 +187,7 @@ def test_psins_lasergyro_model_that_does_not_fit_resolves_nothing(realdata_dir):
     """
     res = oadev(_lasergyro_z(realdata_dir), 100.0)
     with pytest.warns(UserWarning, match="does not fit"):
-        model = identify_noise(res, instrument="gyro", n_boot=0)
+        model = identify_noise(res, instrument="gyro")
     assert not model.fits and model.chi2_per_dof > 100
     assert model.max_misfit > 2.0
     assert not any(t.resolved for t in model.terms.values())
@@ -143,7 +203,7 @@ def test_bias_instability_never_above_the_floor():
     """Flicker floor plus white noise: fitted B within the bound 0.664 B <= min dev_hi."""
     y = simulate_noise(200_000, 10.0, n_rw=1e-4, b=2e-4, rng=4)
     res = oadev(y, 10.0)
-    model = identify_noise(res, instrument=None, n_boot=0)
+    model = identify_noise(res, instrument=None)
     assert model.fits, model.verdict
     floor = np.min(res.dev_hi) / math.sqrt(2 * math.log(2) / math.pi)
     assert math.sqrt(model.coefficients_sq[2]) <= floor * (1 + 1e-9)
