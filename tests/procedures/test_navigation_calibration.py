@@ -173,7 +173,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     b = A @ np.array([0.5 * ARCSEC, 0.0, 0.0])
     recs = segments(prof, rate_hz=20.0, A=A, b=b)
     res = nc.iterate_calibration(recs, np.eye(3) * k, np.zeros(3), latitude_rad=LAT)
-    c = res.to_dict(scale_unit="count/deg", si_per_scale_unit=180 / np.pi)["coefficients"]
+    c = res.summary(scale_unit="count/deg", si_per_scale_unit=180 / np.pi)["coefficients"]
     assert c["M_xy"]["value"] == pytest.approx(50.0, abs=1e-3) and c["M_xy"]["unit"] == "urad"
     assert abs(c["M_yx"]["value"]) < 1e-3
     assert c["K_x"]["value"] == pytest.approx(7200.0, rel=1e-10)

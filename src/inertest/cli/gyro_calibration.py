@@ -133,7 +133,7 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
                                serial=p.instrument.serial)
         with target_directory(report_dir, inputs=[plan, data, initial]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
-    d = result.to_dict(scale_unit=k_unit, si_per_scale_unit=k_si)
+    d = result.summary(scale_unit=k_unit, si_per_scale_unit=k_si)
     if as_json:
         body = {k: v for k, v in d.items() if k != "coefficients"}
         body["calibration"] = ImuCalibration(gyroscope=final).to_dict()

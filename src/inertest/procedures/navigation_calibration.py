@@ -191,10 +191,12 @@ class NavigationCalibrationResult:
     noise_arcsec: float
     dof: int
 
-    def to_dict(self, *, scale_unit: str, si_per_scale_unit: float) -> dict[str, object]:
-        """JSON-ready summary in the units of :mod:`inertest.models.triad`.
+    def summary(self, *, scale_unit: str, si_per_scale_unit: float) -> dict[str, object]:
+        """JSON-ready block (``identification`` + ``result`` of ``nav-calibrate``'s envelope).
 
-        Scale factors in ``scale_unit``, misalignments urad, biases deg/h; attitude errors arcsec.
+        The scale-factor unit depends on the instrument's output, which this result does not
+        know, hence the arguments. Scale factors in ``scale_unit``, misalignments urad, biases
+        deg/h; attitude errors arcsec.
         """
         b_unit, b_si = triad.bias_unit("gyroscope")
         coef: dict[str, dict[str, object]] = {}

@@ -146,7 +146,7 @@ def navigation_sections(
     title: str = "Navigation-mode calibration",
 ) -> list[Section]:
     """Estimates after the iteration, the history of corrections and the convergence figure."""
-    d = result.to_dict(scale_unit=scale_unit, si_per_scale_unit=si_per_scale_unit)
+    d = result.summary(scale_unit=scale_unit, si_per_scale_unit=si_per_scale_unit)
     rows = [[k, fmt(v["value"], v["std"]), v["unit"]]  # type: ignore[index]
             for k, v in d["coefficients"].items()]  # type: ignore[union-attr]
     sec = Section(title, [table_html(["quantity", "estimate ± std", "unit"], rows)])
