@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -260,24 +261,41 @@ class Identification:
         return d
 
 
+@dataclass(frozen=True, kw_only=True)
 class LinearTestResult:
-    """Shared behaviour of procedure results built on an :class:`Identification`.
+    """The fields and behaviour every procedure result shares, built on an :class:`Identification`.
 
-    A result dataclass that inherits this provides the attributes ``procedure``,
-    ``site_latitude_deg``, ``site_gravity_m_s2``, ``identification``, ``residual_output``,
-    ``output_unit``, ``messages`` and ``instrument``; it gets :attr:`kind`, :attr:`coefficients`,
+    A procedure's frozen result dataclass inherits this and adds its own fields and a
+    ``procedure: str = KIND`` field; it gets :attr:`kind`, :attr:`coefficients`,
     :attr:`combinations` and ``to_dict()`` (the :func:`envelope`), and overrides
-    :meth:`details` for its own block.
+    :meth:`details` for its own block. The shared fields are keyword-only.
+
+    Attributes
+    ----------
+    site_latitude_deg, site_gravity_m_s2 : float
+        Where the test ran [deg], [m/s^2].
+    identification : Identification
+        What the data determine.
+    residual_output : ndarray
+        Residuals in the output unit.
+    output_unit : str
+        Unit of the recorded output (and of the residuals).
+    messages : tuple of str
+        Notes and warnings for the user.
+    instrument : Instrument or None
+        The instrument under test (set by :func:`inertest.fit`).
     """
 
-    procedure: str
+    if TYPE_CHECKING:
+        procedure: str
+
     site_latitude_deg: float
     site_gravity_m_s2: float
     identification: Identification
-    residual_output: NDArray[np.float64]
+    residual_output: NDArray[np.float64] = field(repr=False)
     output_unit: str
-    messages: tuple[str, ...]
-    instrument: Instrument | None
+    messages: tuple[str, ...] = ()
+    instrument: Instrument | None = None
 
     @property
     def kind(self) -> str:

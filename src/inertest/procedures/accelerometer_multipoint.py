@@ -47,7 +47,7 @@ from inertest.errors import (
 from inertest.estimation.identify import NOISE_MODELS, check_noise_model, identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models import pendulous_accelerometer as model
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Combination, Estimate, Identification, LinearTestResult
 from inertest.units import G0
@@ -136,20 +136,13 @@ class AccelerometerMultipointResult(LinearTestResult):
         (aI, aP, aO) [g0].
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     fourier: dict[str, dict[str, object]]
     mounting: NDArray = field(repr=False)
     angle_deg: NDArray[np.float64] = field(repr=False)
     output: NDArray[np.float64] = field(repr=False)
     fitted: NDArray[np.float64] = field(repr=False)
     specific_force_g: NDArray[np.float64] = field(repr=False)
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "V"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""

@@ -55,7 +55,7 @@ from inertest.models.sdf_gyro import (
     coefficients_from_deg_h,
     drift_regressors,
 )
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
@@ -210,9 +210,6 @@ class CentrifugeNinePositionResult(LinearTestResult):
         Run-mean residual [output unit].
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     radius_m: float
     platform_heading_deg: float
     run_position: NDArray[np.int64] = field(repr=False)
@@ -222,11 +219,7 @@ class CentrifugeNinePositionResult(LinearTestResult):
     drift_deg_h: NDArray[np.float64] = field(repr=False)
     fitted_deg_h: NDArray[np.float64] = field(repr=False)
     earth_rate_deg_h: NDArray[np.float64] = field(repr=False)
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "deg/h"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""

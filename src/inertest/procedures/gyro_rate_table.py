@@ -186,9 +186,6 @@ class GyroRateTableResult(LinearTestResult):
         Earth rate along the table axis that was removed [deg/h].
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     nonlinearity_ppm: float | None
     nonlinearity_noise_ppm: float | None
     pairs: tuple[dict[str, float], ...]
@@ -198,11 +195,7 @@ class GyroRateTableResult(LinearTestResult):
     fitted: NDArray[np.float64] = field(repr=False)
     line_deviation: NDArray[np.float64] = field(repr=False)
     earth_rate_deg_h: float
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "deg/h"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""

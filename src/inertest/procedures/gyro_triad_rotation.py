@@ -57,7 +57,7 @@ from inertest.errors import DataError, IdentifiabilityError, InputError, PlanErr
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.gyro_rate_table import check_gyro, raw_rate_per_si, raw_rate_unit
 from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
@@ -221,9 +221,6 @@ class GyroTriadRotationResult(LinearTestResult):
         ``K_j`` from the +-pairs about each axis [K unit] (constant-rate, equal-window formula).
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     calibration: ImuCalibration
     forward: NDArray[np.float64]
     offset: NDArray[np.float64]
@@ -237,11 +234,7 @@ class GyroTriadRotationResult(LinearTestResult):
     counts: NDArray[np.float64] = field(repr=False)
     fitted_counts: NDArray[np.float64] = field(repr=False)
     closed_form_scale: dict[str, float]
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "count"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""

@@ -23,10 +23,10 @@ from inertest.errors import InertestWarning, PlanError
 from inertest.estimation.identify import NOISE_MODELS, check_noise_model
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.sdf_drift import identify_drift, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
-from inertest.results import Identification, LinearTestResult
+from inertest.results import LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 KIND = "local-level-tumble"
@@ -106,18 +106,11 @@ class LocalLevelTumbleResult(LinearTestResult):
         Observed drift (Earth rate removed) and model value per row [deg/h].
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     position: NDArray = field(repr=False)
     drift_deg_h: NDArray[np.float64] = field(repr=False)
     fitted_deg_h: NDArray[np.float64] = field(repr=False)
     earth_rate_deg_h: NDArray[np.float64] = field(repr=False)
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "deg/h"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
 
 def fit(

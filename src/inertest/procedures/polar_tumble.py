@@ -41,10 +41,10 @@ from inertest.estimation.identify import (
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.sdf_drift import identify_drift, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
-from inertest.results import Combination, Estimate, Identification, LinearTestResult
+from inertest.results import Combination, Estimate, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
 KIND = "polar-tumble"
@@ -136,20 +136,13 @@ class PolarTumbleResult(LinearTestResult):
         Warnings about the plan (spacing, count of positions).
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     harmonics: dict[str, MountingHarmonics]
     closed_form: dict[str, tuple[Combination, ...]]
     mounting: NDArray = field(repr=False)
     angle_deg: NDArray[np.float64] = field(repr=False)
     drift_deg_h: NDArray[np.float64] = field(repr=False)
     fitted_deg_h: NDArray[np.float64] = field(repr=False)
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "deg/h"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""

@@ -55,9 +55,9 @@ from inertest.models.sdf_gyro import (
     drift_regressors,
 )
 from inertest.noise import oadev
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import require_columns
-from inertest.results import Estimate, Identification, LinearTestResult
+from inertest.results import Estimate, LinearTestResult
 from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, HOUR_TO_S
 
 KIND = "servo-table"
@@ -217,19 +217,12 @@ class ServoTableResult(LinearTestResult):
         Angle residual per reading [arcsec].
     """
 
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     table_axis: str
     earth_rate_along_axis_deg_h: float
     harmonics: dict[str, tuple[Estimate, ...]]
     curves: dict[str, DriftCurve] = field(repr=False)
     stability: dict[str, DriftStability] = field(repr=False)
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str = "arcsec"
-    messages: tuple[str, ...] = ()
     procedure: str = KIND
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""
@@ -434,6 +427,7 @@ def fit(
         curves=curves,
         stability=stability,
         residual_output=lsq.residuals / ARCSEC_TO_RAD,
+        output_unit="arcsec",
         messages=tuple(messages),
         instrument=plan.instrument,
     )

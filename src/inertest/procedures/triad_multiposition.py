@@ -45,7 +45,7 @@ from inertest.models.triad import (
     calibration_from_parameters,
     stack_parameters,
 )
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import MICRORAD_TO_RAD
@@ -258,15 +258,8 @@ class TriadResult(LinearTestResult):
     """
 
     procedure: str
-    site_latitude_deg: float
-    site_gravity_m_s2: float
-    identification: Identification
     calibration: ImuCalibration
     triads: tuple[TriadEstimates, ...]
-    residual_output: NDArray[np.float64] = field(repr=False)
-    output_unit: str
-    messages: tuple[str, ...] = ()
-    instrument: Instrument | None = None
 
     def details(self) -> dict[str, object]:
         """The procedure's own block of the result (``result`` in the JSON envelope)."""
