@@ -370,3 +370,31 @@ def test_convention_gyro_misalignment_by_name_from_the_triad_model():
     np.testing.assert_allclose(u[2:], [5e-6 * w * math.cos(lat) + 0.01 * DEG_H, 0.0, 0.0],
                                rtol=1e-12, atol=1e-24)
     assert imu.gyro_misalignment[0, 1] == pytest.approx(5e-6, rel=1e-15)
+
+
+def test_scheme_as_motion_closed_form():
+    """A rotation scheme is an equipment motion: at a dwell the IMU feels W and g on its axes;
+    in a turn about up the body rate adds the turn rate along the turn axis."""
+    from inertest.earth import Site
+    from inertest.equipment.motion import Motion
+
+    site = Site.at(39.0, 9.80)
+    scheme = rm.make_scheme("single-axis", 3600.0, rate_rad_s=np.radians(6.0), dwell_s=60.0)
+    m = scheme.motion(site)
+    assert isinstance(m, Motion)
+    labels = m.segments
+    assert len(labels) == scheme.start_s.size and any(s.startswith("turn") for s in labels)
+    w_n = 7.2921151467e-5 * np.array([0.0, np.cos(np.radians(39.0)), np.sin(np.radians(39.0))])
+    for label in labels[:4]:
+        k = labels.index(label)
+        tau = np.linspace(0.0, scheme.duration_s[k], 5)
+        inp = m.inputs(label, tau)
+        c = scheme.attitude(scheme.start_s[k] + tau)
+        np.testing.assert_allclose(inp.C_ni, c, atol=1e-12)
+        np.testing.assert_allclose(np.linalg.norm(inp.f_i, axis=1), 9.80, rtol=1e-12)
+        np.testing.assert_allclose(inp.f_i, np.einsum("nji,j->ni", c, [0, 0, 9.80]), atol=1e-12)
+        mount = scheme.mount_rate_body(scheme.start_s[k] + tau)
+        np.testing.assert_allclose(inp.omega_i - mount, np.einsum("nji,j->ni", c, w_n),
+                                   atol=1e-18)
+        if label.startswith("turn"):
+            assert np.allclose(np.linalg.norm(mount, axis=1), np.radians(6.0))

@@ -125,6 +125,8 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
+from inertest.earth import Site, earth_rate_enu, specific_force_enu
+from inertest.equipment.motion import Inputs
 from inertest.errors import InputError
 from inertest.ins.error_model import (
     INPUT_UNITS,
@@ -241,10 +243,50 @@ class RotationScheme:
         idx, tau = self._locate(np.atleast_1d(np.asarray(t, dtype=float)))
         return _segment_attitude(self, idx, tau)
 
+    def motion(self, site: Site) -> SchemeMotion:
+        """The schedule as an equipment motion at ``site`` (segments = dwells and turns)."""
+        return SchemeMotion(self, site)
+
     def mount_rate_body(self, t: ArrayLike) -> NDArray[np.float64]:
         """Mount rate ``w_nb^b`` [rad/s] at times ``t``, shape (n, 3)."""
         idx, tau = self._locate(np.atleast_1d(np.asarray(t, dtype=float)))
         return _segment_mount_rate(self, idx, tau)
+
+
+@dataclass(frozen=True)
+class SchemeMotion:
+    """A rotation scheme as an equipment motion (:class:`inertest.equipment.motion.Motion`).
+
+    Segments are the scheme's dwells and turns (``"dwell 0"``, ``"turn 1"``, ...); the
+    instrument (IMU body) axes are b, so ``C_ni = C_b^n``, ``omega_i = C_b^n^T W_n + w_nb^b``
+    and ``f_i = C_b^n^T (0, 0, g)`` at rest on the rotating mount.
+    """
+
+    scheme: RotationScheme
+    site: Site
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        """``"dwell k"`` or ``"turn k"`` for each segment of the schedule."""
+        return tuple(f"{'dwell' if w == 0 else 'turn'} {k}"
+                     for k, w in enumerate(self.scheme.rate_rad_s))
+
+    def inputs(self, segment: str, t: ArrayLike) -> Inputs:
+        """Inputs at times ``t`` [s] since the start of ``segment``."""
+        try:
+            k = self.segments.index(segment)
+        except ValueError:
+            raise InputError(f"unknown segment {segment!r} of the {self.scheme.name} scheme; "
+                             f"it has {len(self.segments)} segments") from None
+        tau = np.atleast_1d(np.asarray(t, dtype=float))
+        if np.any(tau < 0) or np.any(tau > self.scheme.duration_s[k] * (1 + 1e-12)):
+            raise InputError(f"times must lie within segment {segment!r} "
+                             f"[0, {self.scheme.duration_s[k]:g}] s")
+        idx = np.full(tau.shape, k)
+        c = _segment_attitude(self.scheme, idx, tau)
+        w_b = np.einsum("nji,j->ni", c, earth_rate_enu(self.site.latitude_rad))
+        f_b = np.einsum("nji,j->ni", c, specific_force_enu(self.site.gravity_m_s2))
+        return Inputs(c, w_b + _segment_mount_rate(self.scheme, idx, tau), f_b)
 
 
 def _rot(axis: NDArray[np.float64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
