@@ -10,6 +10,7 @@ write to the same target removes those whose process is gone.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import shutil
@@ -91,7 +92,9 @@ def target_file(path: str | os.PathLike[str]) -> Iterator[Path]:
         tmp.unlink(missing_ok=True)
 
 
-#: File that marks a folder as written by inertest (a report); only such folders are replaced.
+#: Manifest of a report folder written by inertest: JSON ``{"written_by": "inertest", "files":
+#: [...]}``. Only the files it lists are ever replaced or removed; anything else in the folder is
+#: the user's and is left alone.
 REPORT_MARKER = ".inertest-report"
 
 
@@ -110,8 +113,23 @@ def check_outputs(outputs: Iterable[str | os.PathLike[str]],
                     f"output {o} would overwrite the input {i}; choose another output path")
 
 
+def report_manifest(folder: str | os.PathLike[str]) -> list[str] | None:
+    """Files an earlier inertest report in ``folder`` wrote, or None when it has no manifest."""
+    marker = Path(folder) / REPORT_MARKER
+    try:
+        doc = json.loads(marker.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(doc, dict) or doc.get("written_by") != "inertest":
+        return None
+    files = doc.get("files")
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        return None
+    return [f for f in files if f and not Path(f).is_absolute() and ".." not in Path(f).parts]
+
+
 def check_report_directory(path: str | os.PathLike[str]) -> None:
-    """Refuse a report folder that exists, is not empty and was not written by inertest."""
+    """Refuse a report folder that exists, is not empty and holds no inertest report."""
     final = Path(path)
     if final.name in ("", ".", ".."):
         raise OutputPathError(
@@ -119,22 +137,25 @@ def check_report_directory(path: str | os.PathLike[str]) -> None:
             "./report")
     if final.exists() and not final.is_dir():
         raise OutputPathError(f"report folder {final} is an existing file; give a folder name")
-    if final.is_dir() and any(final.iterdir()) and not (final / REPORT_MARKER).is_file():
+    if final.is_dir() and any(final.iterdir()) and report_manifest(final) is None:
         raise OutputPathError(
             f"report folder {final} already holds files that inertest did not write (no "
-            f"{REPORT_MARKER} marker); give a new folder, or an earlier inertest report folder")
+            f"inertest {REPORT_MARKER} manifest); give a new folder, or an earlier inertest "
+            "report folder")
 
 
 @contextlib.contextmanager
 def target_directory(
     path: str | os.PathLike[str], *, inputs: Iterable[str | os.PathLike[str]] = ()
 ) -> Iterator[Path]:
-    """Yield a temporary directory beside ``path``; it replaces ``path`` if the block succeeds.
+    """Yield a temporary directory beside ``path``; its files go into ``path`` if the block works.
 
-    Only a new folder, an empty one, or an earlier inertest report (marked by
-    :data:`REPORT_MARKER`) is replaced, and never one that holds an input: anything else raises
-    :class:`~inertest.errors.OutputPathError` before the block runs. The replaced report is
-    replaced whole, so a report never mixes old and new files.
+    ``path`` may be a new folder, an empty one, or an earlier inertest report (its
+    :data:`REPORT_MARKER` manifest lists what inertest wrote); never one holding an input or
+    other files without a manifest: those raise :class:`~inertest.errors.OutputPathError`
+    before the block runs. Into an earlier report, the new files replace the old ones and the
+    old report's files that the new one does not write are removed; files the manifest does not
+    list (the user's notes, a history database kept there) are never touched.
     """
     final = Path(path)
     check_report_directory(final)
@@ -145,19 +166,28 @@ def target_directory(
     os.chmod(tmp, 0o777 & ~_umask())
     try:
         yield tmp
-        (tmp / REPORT_MARKER).write_text(
-            "This folder was written by inertest; inertest may replace it with a newer report.\n",
-            encoding="utf-8")
+        written = sorted(str(f.relative_to(tmp)) for f in tmp.rglob("*")
+                         if f.is_file() and f.name != REPORT_MARKER)
+        (tmp / REPORT_MARKER).write_text(json.dumps(
+            {"written_by": "inertest", "note": "inertest may replace the files listed here "
+             "with a newer report; it never touches other files in this folder",
+             "files": written}, indent=1), encoding="utf-8")
         for f in tmp.rglob("*"):
             os.chmod(f, (0o777 if f.is_dir() else 0o666) & ~_umask())
-        if final.exists():
-            check_report_directory(final)  # still ours, also if it changed meanwhile
-            old = Path(tempfile.mkdtemp(prefix=_temp_prefix(final) + "old-", dir=final.parent))
-            os.rmdir(old)
-            os.replace(final, old)
+        if not final.exists():
             os.replace(tmp, final)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, final)
+            return
+        check_report_directory(final)  # still a report of ours, also if it changed meanwhile
+        old = report_manifest(final) or []
+        for rel in written:
+            dest = final / rel
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(tmp / rel, dest)
+        for rel in sorted(set(old) - set(written)):
+            stale = final / rel
+            if stale.is_file() and not stale.is_symlink():
+                stale.unlink()
+        # The manifest last: until it is in place the folder still describes the old report.
+        os.replace(tmp / REPORT_MARKER, final / REPORT_MARKER)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
