@@ -38,7 +38,20 @@ Data columns: ``part`` (free label), ``attitude`` (x, y, z directions at the sta
 ``axis`` (``x``, ``y``, ``z`` or ``static``), ``direction`` (+1 right-handed about the axis, -1,
 0 for static), ``duration_s`` (counting window [s]), ``counts_x``, ``counts_y``, ``counts_z``
 (pulses counted in the window; for a rate output, the output integrated over the window
-[output unit x s]).
+[output unit x s]); optional ``start_s`` (start of each window [s] from the start of the
+session; default: the windows back to back in row order).
+
+Noise (issue 15): the unit of independence is the window -- the table is set anew for each
+turn or static position, so repeated windows of one rotation are replicates, and their scatter
+is what the noise model is fitted to. Two keys describe the count noise of a window of length
+``T``: ``window_noise`` the white part (``constant``: readout/quantisation, the same for every
+window [count]; ``sqrt-window``: angle random walk of the rate output, ``sigma sqrt(T)``
+[count/sqrt(s)]), and ``noise_model`` the drift of the rate bias (``white``: none;
+``position-offsets``: a rate offset per window, count ``d T``; ``random-walk``: a rate random
+walk over the session, count ``int_T W(t) dt``; ``flicker``: 1/f rate noise, a sum of
+Ornstein-Uhlenbeck processes with log-spaced times; ``auto``: the smallest AIC). The variance
+components are estimated per gyro by REML (Patterson & Thompson, Biometrika 58(3), 1971,
+doi:10.1093/biomet/58.3.545) and the coefficients by GLS with that covariance.
 """
 
 from __future__ import annotations
@@ -48,12 +61,14 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+import scipy.optimize
 from numpy.typing import NDArray
 
 from inertest.earth import Site
 from inertest.equipment import rate_table as table
 from inertest.equipment.motion import StaticPositions
 from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
@@ -69,8 +84,8 @@ NAMES = triad.parameter_names()
 #: Attitude with each axis up, used to suggest the missing rotation.
 _UP_ATTITUDE = {"x": "UEN", "y": "NUE", "z": "ENU"}
 _STATIC = "static"
-#: How a window's count noise depends on its length (see GyroTriadRotationSpec.noise_model).
-NOISE_MODELS = ("white", "random-walk")
+#: How a window's white count noise depends on its length (GyroTriadRotationSpec.window_noise).
+WINDOW_NOISES = ("constant", "sqrt-window")
 
 
 @dataclass(frozen=True)
@@ -104,10 +119,14 @@ class GyroTriadRotationSpec:
         Counting window at rest [s].
     repeats : int
         Times the whole sequence is run (for simulation).
+    window_noise : str
+        White count noise of a window: ``"constant"``, the same for every window (quantisation,
+        readout), given in count; ``"sqrt-window"``, growing as the square root of the window
+        (angle random walk of the gyro), given in count/sqrt(s). (Formerly the key ``noise_model``
+        with the values ``white`` and ``random-walk``.)
     noise_model : str
-        ``"white"``: every window's count has the same noise (quantisation, readout), given in
-        count; ``"random-walk"``: the count noise grows as the square root of the window
-        (angle random walk of the gyro), given in count/sqrt(s), and windows are weighted so.
+        Drift of the rate bias behind the uncertainties (module docstring):
+        :data:`~inertest.estimation.identify.NOISE_MODELS`; default ``white`` (none).
     """
 
     kind: ClassVar[str] = KIND
@@ -120,6 +139,7 @@ class GyroTriadRotationSpec:
     static_attitudes: tuple[str, ...] = ("UEN", "DWN", "NUE", "SDE", "ENU", "WND")
     static_window_s: float = 60.0
     repeats: int = 1
+    window_noise: str = "constant"
     noise_model: str = "white"
 
     @property
@@ -191,7 +211,10 @@ FIELDS = (
     Field("static_window_s", default=GyroTriadRotationSpec.static_window_s, positive=True,
           unit="s", doc="counting window at rest"),
     Field("repeats", "integer", default=1, positive=True, doc="runs of the whole sequence"),
-    Field("noise_model", "text", default="white", choices=NOISE_MODELS),
+    Field("window_noise", "text", default="constant", choices=WINDOW_NOISES,
+          doc="white count noise of a window: constant, or growing as sqrt(window)"),
+    Field("noise_model", "text", default="white", choices=NOISE_MODELS,
+          doc="drift of the rate bias behind the uncertainties"),
 )
 SPEC = GyroTriadRotationSpec
 
@@ -243,6 +266,11 @@ class GyroTriadRotationResult(LinearTestResult):
         d["closed_form_scale"] = {
             k: {"value": v, "unit": self.scale_unit} for k, v in self.closed_form_scale.items()
         }
+        count = self.output_unit
+        d["noise_components"] = {
+            k: {"value": v, "unit": self.identification.noise_unit if k == "white" else
+                count + next(u for lab, u in _COMPONENTS.values() if lab == k)}
+            for k, v in self.identification.noise_components.items()}
         return d
 
 
@@ -254,6 +282,7 @@ class _Rows:
     attitude: NDArray
     duration: NDArray[np.float64]
     counts: NDArray[np.float64]
+    start: NDArray[np.float64]
 
 
 def _read(data: Mapping[str, object]) -> _Rows:
@@ -279,8 +308,18 @@ def _read(data: Mapping[str, object]) -> _Rows:
         i = int(np.flatnonzero(cols["duration_s"] <= 0)[0])
         raise DataError(f"duration_s at data row {i + 1} must be positive")
     counts = np.column_stack([cols["counts_x"], cols["counts_y"], cols["counts_z"]])
+    dur = cols["duration_s"]
+    if "start_s" in data:
+        start = require_columns(data, ("start_s",), (), procedure=KIND)["start_s"]
+        over = np.flatnonzero(start[1:] < start[:-1] + dur[:-1] - 1e-9 * dur[:-1])
+        if over.size:
+            raise DataError(
+                f"start_s at data row {over[0] + 2} is before the end of the window of row "
+                f"{over[0] + 1}: the rows must be the windows in time order, not overlapping")
+    else:
+        start = np.r_[0.0, np.cumsum(dur[:-1])]  # back to back in row order
     return _Rows(cols["part"], axis, d, np.char.upper(np.char.strip(cols["attitude"])),
-                 cols["duration_s"], counts)
+                 dur, counts, start)
 
 
 def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.float64],
@@ -358,8 +397,8 @@ def _check_excitation(rows: _Rows) -> None:
             )
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
-        ) -> GyroTriadRotationResult:
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+        noise_model: str | None = None) -> GyroTriadRotationResult:
     """Scale factors, misalignment and bias of a gyro triad from 360-degree rotations.
 
     Parameters
@@ -370,8 +409,20 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     data : mapping
         Columns listed in the module docstring, one row per counting window.
     sigma : float, optional
-        Known noise of a window's count [output unit (x s)], per sqrt(s) with the random-walk
-        noise model; from the residuals when omitted (separately for each gyro).
+        Known white noise of a window's count [output unit (x s)], per sqrt(s) with
+        ``window_noise = "sqrt-window"``; from the residuals when omitted (separately for each
+        gyro).
+    noise_model : str, optional
+        Overrides the plan's ``noise_model`` (drift of the rate bias, module docstring).
+
+    Notes
+    -----
+    Each gyro is fitted on its own: the count covariance of the windows is ``s2 (W + theta K)``
+    with ``W`` the white shape (``window_noise``) and ``K`` the kernel of the bias drift in
+    session time (:func:`window_kernel`); ``theta`` (and ``s2`` unless ``sigma`` is given) by
+    REML, the coefficients by GLS. ``white`` is ordinary weighted least squares. With ``auto``
+    each gyro's model is chosen by AIC, and all are refitted with the correlated model picked
+    most often when they differ.
 
     Raises
     ------
@@ -383,6 +434,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     check_gyro(plan.instrument, KIND)
     spec: GyroTriadRotationSpec = plan.procedure
     inst = plan.instrument
+    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
     rows = _read(data)
     _check_labels(rows)
     _check_excitation(rows)
@@ -392,13 +444,9 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     X = np.column_stack([theta, rows.duration])
     Y = rows.counts / per_si  # raw SI: count, or rad for rate outputs
     n = X.shape[0]
-    # Relative noise of each window: 1, or sqrt(T) for an angle random walk.
-    rel = np.sqrt(rows.duration) if spec.noise_model == "random-walk" else np.ones(n)
-    Xw = X / rel[:, None]
-    # Each gyro's row of A and its bias from the same weighted design; unit weights here, the
-    # noise of each gyro is applied below.
-    fits = [weighted_least_squares(Xw, Y[:, i] / rel, sigma=1.0) for i in range(3)]
-    if fits[0].rank < 4:
+    white = rows.duration if spec.window_noise == "sqrt-window" else np.ones(n)  # variance shape
+    rel = np.sqrt(white)
+    if weighted_least_squares(X / rel[:, None], Y[:, 0] / rel, sigma=1.0).rank < 4:
         raise IdentifiabilityError(
             "the windows do not separate the scale factors, misalignments and biases (the design "
             "is singular); run every axis in both directions and add static positions"
@@ -408,18 +456,18 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             f"{n} windows leave no degree of freedom to estimate the noise (4 unknowns per gyro); "
             "add rotations or static windows, or give the noise level (--sigma)"
         )
+    if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
+        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+    sig_si = None if sigma is None else sigma / per_si
+    fits = _fit_gyros(X, Y, white, rows, model, sig_si)
     coef = np.column_stack([f.x for f in fits])  # (4, 3): column i = [A_ix, A_iy, A_iz, b_i]
     resid = Y - X @ coef
-    if sigma is None:
-        sig = np.sqrt(np.sum((resid / rel[:, None]) ** 2, axis=0) / (n - 4))
-    else:
-        if not np.isfinite(sigma) or sigma <= 0:
-            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-        sig = np.full(3, sigma / per_si)
-    cov_unit = fits[0].covariance  # (Xw^T Xw)^-1, the same for every gyro
-    # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k, all rows share the
-    # design); reorder to the triad model's p = [A.ravel(), b].
-    cov_i = np.kron(np.diag(sig**2), cov_unit)
+    sig = np.array([f.components["white"] for f in fits])
+    # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k); the gyros' noises are
+    # independent. Reorder to the triad model's p = [A.ravel(), b].
+    cov_i = np.zeros((12, 12))
+    for i, f in enumerate(fits):
+        cov_i[4 * i:4 * i + 4, 4 * i:4 * i + 4] = f.covariance
     order = [4 * i + j for i in range(3) for j in range(3)] + [4 * i + 3 for i in range(3)]
     A = coef[:3].T
     b = coef[3]
@@ -441,11 +489,14 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         names=NAMES,
         noise_sigma=float(np.sqrt(np.mean(sig**2)) * per_si),
         noise_unit=_count_unit(inst.output_unit) + (
-            "/sqrt(s)" if spec.noise_model == "random-walk" else ""),
+            "/sqrt(s)" if spec.window_noise == "sqrt-window" else ""),
         sigma_from_residuals=sigma is None,
         dof=int(n - 4),
         rank=4,
         residuals=resid.reshape(-1) * per_si,
+        noise_model=fits[0].model,
+        noise_components={k: float(np.sqrt(np.mean([f.components[k] ** 2 for f in fits])))
+                          * per_si for k in fits[0].components},
     )
     return GyroTriadRotationResult(
         site_latitude_deg=plan.site.latitude_deg,
@@ -468,6 +519,165 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         output_unit=_count_unit(inst.output_unit),
         messages=(),
     )
+
+
+#: Name of each drift component in the result, and its unit per count unit of the output.
+_COMPONENTS = {"position-offsets": ("position offset", "/s"),
+               "random-walk": ("random walk", "/s/sqrt(s)"), "flicker": ("flicker", "/s")}
+#: Ratio between the correlation times of the processes that make up flicker noise.
+_FLICKER_STEP = 4.0
+
+
+def window_kernel(model: str, start_s: NDArray[np.float64], duration_s: NDArray[np.float64]
+                  ) -> NDArray[np.float64]:
+    """Covariance of the window integrals of a unit rate-bias drift, shape (n, n) [s^2 or s^3].
+
+    Parameters
+    ----------
+    model : str
+        ``position-offsets``: a rate offset of unit variance per window, ``K = diag(T^2)``;
+        ``random-walk``: a rate random walk ``W`` of unit step variance per second from the
+        session start, ``Cov(W(s), W(t)) = min(s, t)``, so ``K_ik = T_k (b_i^2 - a_i^2) / 2``
+        for window i = [a_i, b_i] before window k and ``K_ii = a_i T_i^2 + T_i^3 / 3``;
+        ``flicker``: unit-variance 1/f noise as the mean of Ornstein-Uhlenbeck processes with
+        correlation times ``tau`` = shortest window x 4^m up to a quarter of the session
+        (Keshner, Proc. IEEE 70(3), 1982, doi:10.1109/PROC.1982.12282), each with
+        ``K_ii = 2 tau (T_i - tau (1 - e^(-T_i/tau)))`` and
+        ``K_ik = tau^2 (1 - e^(-T_i/tau)) (1 - e^(-T_k/tau)) e^(-(a_k - b_i)/tau)``.
+    start_s, duration_s : ndarray, shape (n,)
+        Window starts and lengths [s], not overlapping.
+    """
+    a, T = np.asarray(start_s, float), np.asarray(duration_s, float)
+    b = a + T
+    if model == "position-offsets":
+        return np.diag(T**2)
+    earlier = a[:, None] < a[None, :]
+    if model == "random-walk":
+        m = 0.5 * (b**2 - a**2)  # int_I s ds
+        K = np.where(earlier, m[:, None] * T[None, :], T[:, None] * m[None, :])
+        np.fill_diagonal(K, a * T**2 + T**3 / 3)
+        return K
+    if model != "flicker":
+        raise InputError(f"no window kernel for the noise model {model!r}")
+    span = float(b.max() - a.min())
+    taus = [float(T.min())]
+    while taus[-1] * _FLICKER_STEP <= span / _FLICKER_STEP:
+        taus.append(taus[-1] * _FLICKER_STEP)
+    gap = np.abs(np.where(earlier, a[None, :] - b[:, None], a[:, None] - b[None, :]))
+    K = np.zeros((a.size, a.size))
+    for tau in taus:
+        e = 1.0 - np.exp(-T / tau)
+        Kt = tau**2 * np.outer(e, e) * np.exp(-gap / tau)
+        np.fill_diagonal(Kt, 2 * tau * (T - tau * e))
+        K += Kt
+    return K / len(taus)
+
+
+@dataclass(frozen=True)
+class _GyroFit:
+    """One gyro's GLS solution under its noise model (raw SI)."""
+
+    x: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    model: str
+    components: dict[str, float]
+    nll: float
+    theta: float = 0.0
+
+
+def _gls(X: NDArray[np.float64], y: NDArray[np.float64], V: NDArray[np.float64]
+         ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float]:
+    """GLS with covariance ``V``: estimate, ``(X' V^-1 X)^-1``, ``r' V^-1 r``, log det terms."""
+    L = np.linalg.cholesky(V)
+    Xw = np.linalg.solve(L, X)
+    yw = np.linalg.solve(L, y)
+    q, r = np.linalg.qr(Xw)
+    x = np.linalg.solve(r, q.T @ yw)
+    res = yw - Xw @ x
+    ri = np.linalg.inv(r)
+    logdet = 2 * float(np.sum(np.log(np.diag(L)))) + 2 * float(
+        np.sum(np.log(np.abs(np.diag(r)))))
+    return x, ri @ ri.T, float(res @ res), logdet
+
+
+def _reml_fit(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
+              K: NDArray[np.float64] | None, sigma2: float | None) -> _GyroFit:
+    """REML of ``V = s2 (diag(W) + theta K)`` (``s2 = sigma2`` when known), then GLS.
+
+    Negative restricted log-likelihood (Patterson & Thompson 1971), ``s2`` profiled out when
+    unknown: ``(log det V0 + log det X'V0^-1 X + dof log(r'V0^-1 r / dof) + dof) / 2``.
+    """
+    n, p = X.shape
+    dof = n - p
+
+    def nll(theta: float) -> tuple[float, float]:
+        V0 = np.diag(W) + (theta * K if K is not None else 0.0)
+        if sigma2 is not None:
+            _, _, rss, logdet = _gls(X, y, sigma2 * V0)
+            return 0.5 * (logdet + rss), sigma2
+        _, _, rss, logdet = _gls(X, y, V0)
+        s2 = max(rss / dof, 1e-300)
+        return 0.5 * (logdet + dof * np.log(s2) + dof), s2
+
+    theta = 0.0
+    if K is not None:
+        ref = float(np.mean(W) / np.mean(np.diag(K)))
+        grid = ref * np.logspace(-4, 4, 17)
+        vals = [nll(float(t))[0] for t in grid]
+        i = int(np.argmin(vals))
+        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
+        opt = scipy.optimize.minimize_scalar(lambda lt: nll(float(np.exp(lt)))[0],
+                                             bounds=(lo, hi), method="bounded",
+                                             options={"xatol": 1e-3})
+        theta, best = (float(np.exp(opt.x)), float(opt.fun)) if opt.fun < vals[i] else (
+            float(grid[i]), float(vals[i]))
+        if nll(0.0)[0] <= best:
+            theta = 0.0
+    value, s2 = nll(theta)
+    V = s2 * (np.diag(W) + (theta * K if K is not None else 0.0))
+    x, cov, _, _ = _gls(X, y, V)
+    return _GyroFit(x=x, covariance=cov, model="white",
+                    components={"white": float(np.sqrt(s2))}, nll=value, theta=theta)
+
+
+def _fit_gyro(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
+              kernels: Mapping[str, NDArray[np.float64]], model: str, sigma: float | None
+              ) -> _GyroFit:
+    """One gyro under ``model`` (``auto``: the smallest AIC of the restricted likelihood)."""
+    s2 = None if sigma is None else sigma**2
+    best = _reml_fit(X, y, W, None, s2)
+    aic = 2 * best.nll if model == "auto" else np.inf
+    for name, K in kernels.items():
+        if model not in ("auto", name):
+            continue
+        f = _reml_fit(X, y, W, K, s2)
+        if 2 * f.nll + 2 < aic:
+            aic = 2 * f.nll + 2
+            label = _COMPONENTS[name][0]
+            best = _GyroFit(f.x, f.covariance, name,
+                            {"white": f.components["white"],
+                             label: float(np.sqrt(f.theta) * f.components["white"])}, f.nll,
+                            f.theta)
+    return best
+
+
+def _fit_gyros(X: NDArray[np.float64], Y: NDArray[np.float64], W: NDArray[np.float64],
+               rows: _Rows, model: str, sigma: float | None) -> list[_GyroFit]:
+    """Each gyro's fit under one noise model (``auto``: the outputs are described alike)."""
+    names = [m for m in _COMPONENTS if model in ("auto", m)]
+    if names and X.shape[0] - 4 < 4:
+        raise IdentifiabilityError(
+            f"{X.shape[0]} windows for 4 unknowns per gyro: too few to estimate the "
+            f'"{model}" noise; add windows (repeats), or use noise_model = "white"')
+    kernels = {m: window_kernel(m, rows.start, rows.duration) for m in names}
+    fits = [_fit_gyro(X, Y[:, i], W, kernels, model, sigma) for i in range(3)]
+    chosen = [f.model for f in fits]
+    if model == "auto" and len(set(chosen)) > 1:
+        correlated = [m for m in chosen if m != "white"]
+        common = max(dict.fromkeys(correlated), key=correlated.count)
+        fits = [_fit_gyro(X, Y[:, i], W, {common: kernels[common]}, common, sigma)
+                for i in range(3)]
+    return fits
 
 
 def _count_unit(output_unit: str) -> str:
@@ -534,8 +744,9 @@ def simulate(
     """Counts of a virtual gyro triad over the plan's rotations and static windows.
 
     ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [urad], ``B_i``
-    [deg/h]. ``noise``: noise of each window's count [count], or [count/sqrt(s)] times the
-    square root of the window with the random-walk noise model.
+    [deg/h]. ``noise``: white noise of each window's count [count], or [count/sqrt(s)] times
+    the square root of the window with ``window_noise = "sqrt-window"``. The windows run back
+    to back (column ``start_s``).
     """
     check_gyro(plan.instrument, KIND)
     spec: GyroTriadRotationSpec = plan.procedure
@@ -546,9 +757,10 @@ def simulate(
                         spec, plan.site)
     counts = (theta @ A.T + np.outer(cols["duration_s"], b)) * per_si
     gen = np.random.default_rng(rng)
-    rel = np.sqrt(cols["duration_s"]) if spec.noise_model == "random-walk" else 1.0
+    rel = np.sqrt(cols["duration_s"]) if spec.window_noise == "sqrt-window" else 1.0
     counts = counts + noise_samples(counts.size, noise, gen).reshape(counts.shape) * np.reshape(
         rel, (-1, 1))
     for j, a in enumerate(AXES):
         cols[f"counts_{a}"] = counts[:, j]
+    cols["start_s"] = np.r_[0.0, np.cumsum(cols["duration_s"][:-1])]
     return cols
