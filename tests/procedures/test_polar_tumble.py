@@ -252,3 +252,15 @@ def test_position_offsets_give_the_std_of_position_means():
     cov = s2 * np.linalg.pinv(A.T @ A) / np.radians(1 / 3600) ** 2
     di = COEFFICIENTS.index("DI")
     assert res.coefficients["DI"].std == pytest.approx(np.sqrt(cov[di, di]), rel=0.05)
+
+
+def test_absurdly_large_readings_are_refused(examples_dir):
+    import inertest
+    from inertest.errors import DataError
+
+    plan = examples_dir / "polar_tumble" / "plan.toml"
+    data = inertest.simulate(plan, examples_dir / "polar_tumble" / "truth.toml", noise=0.002,
+                             rng=1)
+    data["output"][3] = 1e308
+    with pytest.raises(DataError, match="beyond 1e"):
+        inertest.fit(plan, data)

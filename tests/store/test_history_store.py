@@ -110,3 +110,41 @@ def test_concurrent_writers_lose_nothing(db_url):
     assert len(runs) == 45 and len({r.run_uuid for r in runs}) == 45
     assert all(len(r.estimates) == 2 for r in runs)
     store.close()
+
+
+def test_a_user_file_is_never_turned_into_a_database(tmp_path):
+    empty = tmp_path / "notes.txt"
+    empty.write_bytes(b"")
+    with pytest.raises(StoreError, match="not a SQLite database"):
+        HistoryStore(str(empty))
+    assert empty.read_bytes() == b""
+
+
+def test_missing_driver_and_garbled_urls_are_clean_errors():
+    with pytest.raises(StoreError, match="no database driver"):
+        HistoryStore("mysql://carol:secret@127.0.0.1:1/x")
+    with pytest.raises(StoreError) as exc:
+        HistoryStore("postgresql://dave:Pa:ss@w@rd@host:notaport/x")
+    assert "ss@w" not in str(exc.value)
+
+
+def test_a_new_database_appears_whole(tmp_path, monkeypatch):
+    """Created in a temporary file and linked into place: a crash never leaves a table-less file."""
+    import inertest.store.history as h
+
+    path = tmp_path / "new.db"
+    store = HistoryStore(str(path))
+    assert not path.exists()
+
+    def crash(engine, shown):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(h, "_migrate_engine", crash)
+    with pytest.raises(KeyboardInterrupt):
+        store.add(record())
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    monkeypatch.undo()
+    store = HistoryStore(str(path))
+    store.add(record())
+    assert len(store.runs("FG-1")) == 1
+    store.close()

@@ -10,6 +10,10 @@ from numpy.typing import NDArray
 from inertest.errors import DataError, PlanError
 from inertest.plan import did_you_mean
 
+#: Largest magnitude accepted as a reading: beyond it, squares and sums overflow double
+#: precision, and no instrument output (counts included) comes near it.
+MAX_READING = 1e100
+
 
 def require_columns(
     data: Mapping[str, object], numeric: Sequence[str], text: Sequence[str], *, procedure: str
@@ -33,6 +37,12 @@ def require_columns(
             raise DataError(
                 f'column "{c}" has {bad.size} NaN/inf value(s) (first at data row {bad[0] + 1}); '
                 "remove or repair those rows"
+            )
+        huge = np.flatnonzero(np.abs(a) > MAX_READING)
+        if huge.size:
+            raise DataError(
+                f'column "{c}" has {huge.size} value(s) beyond {MAX_READING:g} (first at data '
+                f"row {huge[0] + 1}: {a[huge[0]]:g}); no instrument reads that: repair those rows"
             )
         out[c] = a
     for c in text:

@@ -207,7 +207,7 @@ class HistoryStore:
         self.url = resolve_database_url(url)
         try:
             parsed = make_url(self.url)
-        except ArgumentError:
+        except (ArgumentError, ValueError):
             raise StoreError("not a database URL or path: "
                              f"{_mask(self.url)!r}") from None
         self._shown = parsed.render_as_string(hide_password=True)
@@ -221,8 +221,9 @@ class HistoryStore:
             default_database_url())
         try:
             self.engine = _create_engine(self.url, backend)
-        except NoSuchModuleError as exc:
-            raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}") from None
+        except (NoSuchModuleError, ModuleNotFoundError) as exc:
+            raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}; install "
+                             "it, or use a sqlite:/// path or postgresql+psycopg:// URL") from None
         except (ArgumentError, TypeError, ValueError) as exc:
             raise StoreError(f"unusable database URL {self._shown}: {_reason(exc)}") from None
         self._ready = False
@@ -231,12 +232,16 @@ class HistoryStore:
             raise StoreError(f"cannot open the history database {self._shown}: its folder "
                              f"{self.path.parent} does not exist; check --db or ${ENV_VAR}, or "
                              "use --no-store")
+        if self.path is not None and self.path.exists():
+            _check_sqlite_file(self.path, self._shown)
         if create or self.path is None or self.path.exists():
             self._open()
 
     def _open(self) -> None:
         if self.path is not None and self._is_default:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+        if self.path is not None and not self.path.exists():
+            self._create_sqlite_file(self.path)
         try:
             self._migrate()
         except SQLAlchemyError as exc:
@@ -249,6 +254,26 @@ class HistoryStore:
             self.engine.dispose()
             raise
         self._ready = True
+
+    def _create_sqlite_file(self, path: Path) -> None:
+        """Create a new SQLite database whole: migrated in a temporary file, then renamed.
+
+        A kill at any point leaves either no database or a complete one, never a file
+        without tables.
+        """
+        tmp = path.with_name(f".{path.name}.inertest-tmp-{os.getpid()}.db")
+        engine = _create_engine("sqlite:///" + str(tmp), "sqlite")
+        try:
+            _migrate_engine(engine, self._shown)
+            engine.dispose()  # closing the last connection checkpoints the WAL into the file
+            try:
+                os.link(tmp, path)  # never replaces a database another writer just created
+            except FileExistsError:
+                pass
+        finally:
+            engine.dispose()
+            for suffix in ("", "-wal", "-shm", "-journal"):
+                Path(str(tmp) + suffix).unlink(missing_ok=True)
 
     def _readable(self) -> bool:
         """Open the database for reading if it exists; False if there is none yet."""
@@ -264,22 +289,7 @@ class HistoryStore:
         return self._shown
 
     def _migrate(self) -> None:
-        cfg = Config()
-        cfg.set_main_option("script_location", str(_MIGRATIONS))
-        script = ScriptDirectory.from_config(cfg)
-        known = {rev.revision for rev in script.walk_revisions()}
-        with self.engine.begin() as conn:
-            if conn.dialect.name == "postgresql":
-                # Serialise concurrent first-time migrations.
-                conn.execute(sa.text("SELECT pg_advisory_xact_lock(4242001)"))
-            current = MigrationContext.configure(conn).get_current_revision()
-            if current is not None and current not in known:
-                raise StoreError(
-                    f"the history database {self._shown} has schema revision {current}, newer "
-                    f"than this inertest knows ({', '.join(sorted(known))}); upgrade inertest"
-                )
-            cfg.attributes["connection"] = conn
-            command.upgrade(cfg, "head")
+        _migrate_engine(self.engine, self._shown)
 
     def add(self, record: RunRecord) -> None:
         """Store one run and its estimates in a single transaction (creating a new database)."""
@@ -402,6 +412,38 @@ class HistoryStore:
             raise StoreError(f"the history database {self._shown} holds a damaged run record "
                              f"({type(exc).__name__}: {str(exc)[:100]}); restore it from a "
                              "backup") from None
+
+
+def _migrate_engine(engine: Engine, shown: str) -> None:
+    """Bring the schema to the newest revision; refuse a database written by a newer inertest."""
+    cfg = Config()
+    cfg.set_main_option("script_location", str(_MIGRATIONS))
+    script = ScriptDirectory.from_config(cfg)
+    known = {rev.revision for rev in script.walk_revisions()}
+    with engine.begin() as conn:
+        if conn.dialect.name == "postgresql":
+            # Serialise concurrent first-time migrations.
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(4242001)"))
+        current = MigrationContext.configure(conn).get_current_revision()
+        if current is not None and current not in known:
+            raise StoreError(
+                f"the history database {shown} has schema revision {current}, newer "
+                f"than this inertest knows ({', '.join(sorted(known))}); upgrade inertest"
+            )
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "head")
+
+
+def _check_sqlite_file(path: Path, shown: str) -> None:
+    """Refuse to turn a user's file that is not a SQLite database into one."""
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(16)
+    except OSError as exc:
+        raise StoreError(f"cannot read the history database {shown}: {exc.strerror}") from None
+    if head != b"SQLite format 3\0":
+        raise StoreError(f"{path} is not a SQLite database (an empty or other file); give a new "
+                         "path with --db, or use --no-store")
 
 
 def _create_engine(url: str, backend: str) -> Engine:
