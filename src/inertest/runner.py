@@ -20,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import os
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
@@ -344,9 +344,12 @@ def run_batch(
     tasks: PathLike | Iterable[BatchTask | tuple[PathLike, PathLike]],
     *,
     executor: Any = None,
+    workers: int = 1,
     store: bool | str | HistoryStore = False,
     allow_duplicate: bool = False,
     tested_at: datetime | None = None,
+    progress: Callable[[BatchItem], None] | None = None,
+    max_pending: int | None = None,
 ) -> list[BatchItem]:
     """Run many tests: fits on ``executor``, then each filed here as its own transaction.
 
@@ -356,49 +359,133 @@ def run_batch(
         What to run (:func:`read_manifest` for the manifest layout).
     executor : optional
         Anything with ``submit(fn, *args)`` returning futures with ``result()``:
-        :class:`concurrent.futures.ProcessPoolExecutor`, ``dask.distributed.Client``. None runs
-        the fits here, one after the other.
+        :class:`concurrent.futures.ProcessPoolExecutor`, ``dask.distributed.Client``. The fits
+        (read plan and data, identify) run there; the returned results are filed here.
+    workers : int
+        Used when no ``executor`` is given: 1 runs the fits here, one after the other; more
+        starts a local process pool of ``min(workers, cpu count)`` processes for this batch.
     store, allow_duplicate, tested_at
-        As in :func:`run`; the database is written only by this process.
+        As in :func:`run`; the database is written only by this process, one transaction per
+        run, in task order.
+    progress : callable, optional
+        Called with each :class:`BatchItem` as soon as it is filed (for a progress bar).
+    max_pending : int, optional
+        Fits submitted ahead of the one being filed (memory stays bounded by this many results
+        however long the manifest); default twice the executor's worker count, at least 4.
 
     Returns
     -------
     list of BatchItem
         In task order; a task that failed carries its one-line error and stored nothing.
+
+    Notes
+    -----
+    The results do not depend on where the fits ran: the same manifest gives bit-identical
+    results serially, on a process pool and on a Dask cluster (``tests/test_dask_batch.py``).
     """
     if isinstance(tasks, str | os.PathLike):
         todo = read_manifest(tasks)
     else:
         todo = [t if isinstance(t, BatchTask) else BatchTask(Path(t[0]), Path(t[1]))
                 for t in tasks]
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise PlanError(f"workers must be a whole number >= 1, got {workers!r}")
+    if max_pending is not None and (isinstance(max_pending, bool)
+                                    or not isinstance(max_pending, int) or max_pending < 1):
+        raise PlanError(f"max_pending must be a whole number >= 1, got {max_pending!r}")
     for t in todo:
         if t.report_dir is not None:
             check_outputs([t.report_dir], [t.plan, t.data])
-    if executor is None:
-        pending: list[Any] = [_Immediate(_compute, t) for t in todo]
-    else:
-        pending = [executor.submit(_compute, t) for t in todo]
+    if executor is not None or workers == 1 or len(todo) < 2:
+        return _file_all(todo, executor, store=store, allow_duplicate=allow_duplicate,
+                         tested_at=tested_at, progress=progress, max_pending=max_pending)
+    pool = local_pool(min(workers, len(todo)))
+    try:
+        return _file_all(todo, pool, store=store, allow_duplicate=allow_duplicate,
+                         tested_at=tested_at, progress=progress, max_pending=max_pending)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def local_pool(workers: int) -> Any:
+    """A process pool of ``min(workers, cpu count)`` processes, safe in a threaded program.
+
+    Workers start from a fork server (a clean single-threaded process that has imported
+    inertest) where the platform has one, so a caller running threads (a Dask client, a GUI, a
+    database driver) cannot deadlock them; elsewhere the platform's default start method.
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    n = max(1, min(workers, os.cpu_count() or 1))
+    if "forkserver" in multiprocessing.get_all_start_methods():
+        ctx = multiprocessing.get_context("forkserver")
+        ctx.set_forkserver_preload(["inertest.runner"])
+        return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+    return ProcessPoolExecutor(max_workers=n)
+
+
+def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
+              allow_duplicate: bool, tested_at: datetime | None,
+              progress: Callable[[BatchItem], None] | None,
+              max_pending: int | None) -> list[BatchItem]:
+    """Submit the fits through a sliding window and file each result in task order."""
     from inertest.store import HistoryStore
+
+    window = max_pending or max(4, 2 * _slots(executor))
+    pending: dict[int, Any] = {}
+    submitted = 0
+
+    def submit_up_to(k: int) -> None:
+        nonlocal submitted
+        while submitted < min(k, len(todo)):
+            task = todo[submitted]
+            pending[submitted] = (_Immediate(_compute, task) if executor is None
+                                  else executor.submit(_compute, task))
+            submitted += 1
 
     own = store is True or isinstance(store, str)
     db = HistoryStore(None if store is True else str(store)) if own else store
     when = _utc(tested_at) if tested_at is not None else datetime.now(UTC)
     out: list[BatchItem] = []
     try:
-        for t, fut in zip(todo, pending, strict=True):
+        for k, t in enumerate(todo):
+            submit_up_to(k + window)
+            fut = pending.pop(k)
             try:
                 result, p, plan_text, digest, msgs, summary = fut.result()
                 outcome = file_run(
                     result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
                     tested_at=when, store=db if db else False, report_dir=t.report_dir,
                     allow_duplicate=allow_duplicate, warnings_=msgs, inputs=[t.plan, t.data])
-                out.append(BatchItem(t, outcome, None))
+                item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
-                out.append(BatchItem(t, None, str(exc)))
+                item = BatchItem(t, None, str(exc))
+            del fut
+            out.append(item)
+            if progress is not None:
+                progress(item)
     finally:
+        for fut in pending.values():
+            cancel = getattr(fut, "cancel", None)
+            if cancel is not None:
+                cancel()
         if own and db:
             db.close()  # type: ignore[union-attr]
     return out
+
+
+def _slots(executor: Any) -> int:
+    """Worker slots of a process pool or a Dask client (1 when unknown or serial)."""
+    if executor is None:
+        return 1
+    n = getattr(executor, "_max_workers", None)
+    if isinstance(n, int) and n > 0:
+        return n
+    nthreads = getattr(executor, "nthreads", None)
+    if callable(nthreads):  # dask.distributed.Client: {worker address: threads}
+        return max(1, sum(nthreads().values()))
+    return 4
 
 
 class _Immediate:

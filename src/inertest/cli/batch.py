@@ -2,42 +2,47 @@
 
 from __future__ import annotations
 
-import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import click
 
 from inertest.cli._common import echo_json, print_table
-from inertest.runner import run_batch
+from inertest.errors import InputError
+from inertest.runner import BatchItem, read_manifest, run_batch
 
 
 @click.command()
 @click.argument("manifest", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
-              help="Worker processes for the fits (the database is written by this process).")
+              help="Local worker processes for the fits (the database is written by this "
+                   "process).")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="Run the fits on a Dask cluster instead (scheduler address, e.g. "
+                   "tcp://10.0.0.5:8786; needs dask[distributed]).")
 @click.option("--no-store", is_flag=True, help="Do not store the runs in the history database.")
 @click.option("--db", default=None, help="History database URL or SQLite path (default: "
               "$INERTEST_DB or ~/.local/share/inertest/history.db).")
 @click.option("--allow-duplicate", is_flag=True,
               help="File data files that are already stored for their instrument and procedure.")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress bar on stderr (default: when stderr is a terminal).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: the result envelope of every run, or its error.")
-def batch(manifest: Path, workers: int, no_store: bool, db: str | None, allow_duplicate: bool,
-          as_json: bool) -> None:
+def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, db: str | None,
+          allow_duplicate: bool, progress: bool | None, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
 
     Each run is its own transaction: a run that fails stores nothing and does not stop the
     others. The exit status is 1 when any run failed.
     """
     store: bool | str = False if no_store else (db or True)
-    if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(max_workers=min(workers, os.cpu_count() or 1)) as pool:
-            items = run_batch(manifest, executor=pool, store=store,
-                              allow_duplicate=allow_duplicate)
-    else:
-        items = run_batch(manifest, store=store, allow_duplicate=allow_duplicate)
+    tasks = read_manifest(manifest)
+    with _progress_bar(len(tasks), progress) as advance, _dask_client(scheduler) as client:
+        items = run_batch(tasks, executor=client, workers=workers, store=store,
+                          allow_duplicate=allow_duplicate, progress=advance)
     failed = [i for i in items if i.error is not None]
     if as_json:
         echo_json({"kind": "batch", "runs": [
@@ -57,3 +62,49 @@ def batch(manifest: Path, workers: int, no_store: bool, db: str | None, allow_du
         print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome"], rows)
     if failed:
         raise SystemExit(1)
+
+
+@contextmanager
+def _progress_bar(total: int, show: bool | None) -> Iterator[Any]:
+    """A rich progress bar on stderr (runs filed / total); yields the per-item callback."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    enabled = console.is_terminal if show is None else show
+    bar = Progress("[progress.description]{task.description}", BarColumn(),
+                   MofNCompleteColumn(), TimeElapsedColumn(), console=console,
+                   disable=not enabled, transient=False)
+    task = bar.add_task("filed", total=total)
+    failed = 0
+
+    def advance(item: BatchItem) -> None:
+        nonlocal failed
+        failed += item.error is not None
+        bar.update(task, advance=1,
+                   description=f"filed ({failed} failed)" if failed else "filed")
+
+    with bar:
+        yield advance
+
+
+@contextmanager
+def _dask_client(address: str | None) -> Iterator[Any]:
+    """A ``dask.distributed.Client`` connected to ``address`` (None: no client)."""
+    if address is None:
+        yield None
+        return
+    try:
+        from distributed import Client
+    except ImportError:
+        raise InputError("--scheduler needs Dask: pip install 'dask[distributed]', or use "
+                         "--workers N for local processes") from None
+    try:
+        client = Client(address)  # timeout: distributed.comm.timeouts.connect
+    except (OSError, TimeoutError) as exc:
+        raise InputError(f"cannot reach the Dask scheduler at {address} ({exc}); check the "
+                         "address, or use --workers N for local processes") from None
+    try:
+        yield client
+    finally:
+        client.close()

@@ -345,20 +345,65 @@ def closed_form_inputs(plan: StudyPlan, runs: Runs) -> tuple[NDArray[np.float64]
 
 
 def monte_carlo_std(plan: StudyPlan, fit: FitFunction, runs: Runs, n: int,
-                    rng: np.random.Generator) -> NDArray[np.float64]:
-    """Scatter [rad/s per g^k] of the estimates over ``n`` noisy repetitions (ideal machine)."""
+                    seed: int | np.random.SeedSequence, *, executor: Any = None,
+                    chunks: int | None = None) -> NDArray[np.float64]:
+    """Scatter [rad/s per g^k] of the estimates over ``n`` noisy repetitions (ideal machine).
+
+    Parameters
+    ----------
+    plan, fit, runs
+        The study plan, the nine-position fit and the error-free runs (:func:`simulate_runs`).
+    n : int
+        Repetitions (at least 2).
+    seed : int or numpy.random.SeedSequence
+        Repetition ``i`` draws its white output noise (sigma ``plan.noise_sigma_rad_s``
+        [rad/s]) from ``default_rng(SeedSequence(seed).spawn(n)[i])``, so the result does not
+        depend on where or in which order the repetitions run.
+    executor : optional
+        Anything with ``submit(fn, *args)`` returning futures with ``result()``
+        (:class:`concurrent.futures.ProcessPoolExecutor`, ``dask.distributed.Client``); None
+        runs here. Serial, pool and Dask results are identical bit for bit.
+    chunks : int, optional
+        Number of tasks the repetitions are split into (each carries the runs once); default
+        ``min(n, 16)`` on an executor.
+
+    Returns
+    -------
+    ndarray, shape (10,)
+        Sample standard deviation (ddof 1) of each coefficient estimate [rad/s per g^k].
+    """
     if n < 2:
         raise InputError("Monte Carlo needs at least 2 runs; give --monte-carlo N >= 2")
-    clean = gyro_output(runs, plan.truth)
-    est = np.empty((n, len(COEFFICIENTS)))
-    for i in range(n):
-        noisy = clean + rng.normal(0.0, plan.noise_sigma_rad_s, clean.size)
-        est[i] = _fit(fit, runs, noisy, "true", plan.noise_sigma_rad_s)[0]
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    children = ss.spawn(n)
+    inputs = (runs.position, runs.omega, runs.t, runs.f_true, runs.omega_true,
+              gyro_output(runs, plan.truth))
+    if executor is None:
+        est = _monte_carlo_chunk(fit, inputs, plan.noise_sigma_rad_s, children)
+    else:
+        k = min(n, 16) if chunks is None else max(1, min(int(chunks), n))
+        bounds = np.linspace(0, n, k + 1).astype(int)
+        futures = [executor.submit(_monte_carlo_chunk, fit, inputs, plan.noise_sigma_rad_s,
+                                   children[a:b])
+                   for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+        est = np.concatenate([f.result() for f in futures])
     return est.std(axis=0, ddof=1)
 
 
-def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None = None
-              ) -> StudyResult:
+def _monte_carlo_chunk(fit: FitFunction, inputs: tuple[NDArray[Any], ...], sigma: float,
+                       seeds: list[np.random.SeedSequence]) -> NDArray[np.float64]:
+    """Estimates, shape (len(seeds), 10), of the repetitions with these noise seeds."""
+    position, omega, t, f, w, clean = inputs
+    est = np.empty((len(seeds), len(COEFFICIENTS)))
+    for i, s in enumerate(seeds):
+        noisy = clean + np.random.default_rng(s).normal(0.0, sigma, clean.size)
+        lin, _ = fit(position, omega, t, noisy, f, w, sigma_rad_s=sigma)
+        est[i] = np.asarray(lin.x, dtype=float)
+    return est
+
+
+def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None = None,
+              executor: Any = None) -> StudyResult:
     """Run the three parts of the study (module docstring).
 
     Parameters
@@ -368,6 +413,8 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
         ``fit_inputs`` of the nine-position procedure.
     monte_carlo_runs : int, optional
         Overrides ``plan.monte_carlo_runs`` (0 = no Monte Carlo).
+    executor : optional
+        Where the Monte Carlo repetitions run (see :func:`monte_carlo_std`); None: here.
     """
     sigma = plan.noise_sigma_rad_s if plan.noise_sigma_rad_s > 0 else None
     base = simulate_runs(plan)
@@ -377,7 +424,7 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
                     sigma_rad_s=None)
     closed_form_error = np.asarray(lin_cf.x) - plan.truth
     mc_n = plan.monte_carlo_runs if monte_carlo_runs is None else monte_carlo_runs
-    mc = (monte_carlo_std(plan, fit, base, mc_n, np.random.default_rng(plan.seed))
+    mc = (monte_carlo_std(plan, fit, base, mc_n, plan.seed, executor=executor)
           if mc_n and sigma is not None else None)
     results = []
     for case in plan.cases:
