@@ -120,3 +120,15 @@ def test_fit_json_with_given_sigma_reports_it(example, tmp_path, examples_dir, c
     assert noise["sigma"] == pytest.approx(0.01 * 12.5) and noise["unit"] == "deg/h"
     (check,) = [c for c in out["checks"] if c["name"] == "noise model fit"]
     assert check["verdict"] == "consistent"
+
+
+def test_an_existing_output_file_is_replaced_only_with_overwrite(examples_dir, tmp_path, capsys):
+    plan = examples_dir / "polar_tumble" / "plan.toml"
+    truth = examples_dir / "polar_tumble" / "truth.toml"
+    out = tmp_path / "data.csv"
+    out.write_text("the user's own file\n")
+    assert main(["simulate", str(plan), "--truth", str(truth), "-o", str(out)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert out.read_text() == "the user's own file\n"
+    assert main(["simulate", str(plan), "--truth", str(truth), "-o", str(out), "--overwrite"]) == 0
+    assert out.read_text().startswith("mounting") or "output" in out.read_text().splitlines()[0]

@@ -150,6 +150,9 @@ class _LazyGroup(click.Group):
             return None
         module, attr, _ = entry
         command = getattr(importlib.import_module(module), attr)
+        from inertest.cli._common import add_overwrite_option  # after this package is ready
+
+        add_overwrite_option(command)
         if "matplotlib" in sys.modules:  # the command draws figures: no math text from labels
             sys.modules["matplotlib"].rcParams["text.parse_math"] = False
         return command  # type: ignore[no-any-return]

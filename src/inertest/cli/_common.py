@@ -95,13 +95,41 @@ def plain_text_figures() -> None:
     matplotlib.rcParams["text.parse_math"] = False
 
 
+_OVERWRITE = "inertest.overwrite"
+
+
+def _remember_overwrite(ctx: click.Context, _param: click.Parameter, value: bool) -> None:
+    ctx.meta[_OVERWRITE] = bool(value)
+
+
+def add_overwrite_option(command: click.Command) -> None:
+    """Give ``command`` (and a group's sub-commands) the ``--overwrite`` flag, once."""
+    if isinstance(command, click.Group):
+        for sub in command.commands.values():
+            add_overwrite_option(sub)
+        return
+    if any(p.name == "overwrite" for p in command.params):
+        return
+    command.params.append(click.Option(
+        ["--overwrite"], is_flag=True, expose_value=False, callback=_remember_overwrite,
+        help="Replace output files that already exist (refused otherwise)."))
+
+
 def check_paths(outputs: Iterable[Path | None], inputs: Iterable[Path | None]) -> None:
     """Refuse, before any work, an output that is an input (or holds one), or two equal outputs.
 
-    Symlinks are resolved (:func:`inertest.io.atomic.check_outputs`).
+    Symlinks are resolved (:func:`inertest.io.atomic.check_outputs`). An output FILE that
+    already exists is the user's until proven otherwise: it is replaced only with
+    ``--overwrite``. (Report folders are checked by their manifest instead.)
     """
     outs = [o for o in outputs if o is not None]
     check_outputs(outs, [i for i in inputs if i is not None])
+    ctx = click.get_current_context(silent=True)
+    overwrite = bool(ctx is not None and ctx.meta.get(_OVERWRITE))
+    for o in outs:
+        if (o.is_symlink() or o.is_file()) and not overwrite:
+            raise OutputPathError(f"output {o} already exists; give a new path, or --overwrite "
+                                  "to replace it")
     seen: dict[Path, Path] = {}
     for o in outs:
         key = o.resolve()

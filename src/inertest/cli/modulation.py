@@ -79,6 +79,7 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
               house_rate_deg_s: str, house_sine_deg_s: float, house_sine_hz: float, seed: int,
               as_json: bool, plot: Path | None) -> None:
     """Stator rotation of a suspended gyro (seed 001): residual drift with and without it."""
+    check_paths([plot], [])
     figure_format(plot)
     k = DEG_PER_H_TO_RAD_PER_S
     if not (np.isfinite(sample_hz) and sample_hz > 0):

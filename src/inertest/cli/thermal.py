@@ -36,6 +36,7 @@ def thermal() -> None:
 def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_per_min: float,
              lag_s: float, noise_ppm: float, noise_deg_h: float, seed: int | None) -> None:
     """Simulate temperature cycles of a FOG whose coil lags its temperature sensor."""
+    check_paths([output], [])
     data = simulate_thermal(cycles=cycles, t_min_c=t_min_c, t_max_c=t_max_c,
                             ramp_c_per_min=ramp_c_per_min, lag_s=lag_s, noise_ppm=noise_ppm,
                             noise_deg_h=noise_deg_h, rng=seed)
