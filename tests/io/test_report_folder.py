@@ -70,3 +70,20 @@ def test_a_failed_report_changes_nothing(tmp_path):
         raise RuntimeError("simulated failure while rendering")
     assert (rep / "index.html").read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
+
+
+def test_temporaries_of_killed_runs_are_cleared_whatever_their_name(tmp_path):
+    import socket
+    import subprocess
+    import sys
+
+    from inertest.io.atomic import _host
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    stale = tmp_path / f".rep2.inertest-tmp-{_host()}-{dead}-abc"
+    stale.mkdir()
+    (stale / "index.html").write_text("half")
+    assert socket.gethostname()  # the host part is this machine's
+    _write(tmp_path / "rep7", {"index.html": "new"})
+    assert not stale.exists()

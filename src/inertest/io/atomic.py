@@ -55,9 +55,13 @@ def _alive(pid: int) -> bool:
 
 
 def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
-    """Remove temporaries of ``final`` left by killed inertest processes on this host."""
+    """Remove temporaries left beside ``final`` by killed inertest processes on this host.
+
+    Any inertest temporary in the folder counts (not only ``final``'s): a report killed
+    half-way is not necessarily written again under the same name.
+    """
     target = Path(final)
-    pattern = re.compile(re.escape(f".{target.name}.inertest-tmp-{_host()}-") + r"(\d+)-")
+    pattern = re.compile(r"^\..+\.inertest-tmp-" + re.escape(_host()) + r"-(\d+)-")
     removed = []
     try:
         siblings = list(target.parent.iterdir())
