@@ -373,7 +373,7 @@ def test_monte_carlo_reported_std_matches_scatter():
         with warnings.catch_warnings():  # rare random misfits are part of a Monte Carlo
             warnings.simplefilter("ignore", InertestWarning)
             lsq, ident = cnp.fit_inputs(*_inputs(plan, d), sigma_rad_s=sigma)
-            lsq2, _ = cnp.fit_inputs(*_inputs(plan, d))
+            lsq2, _ = cnp.fit_inputs(*_inputs(plan, d), noise_model="white")
         vals.append(lsq.x)
         std_known.append(lsq.std)
         std_resid.append(lsq2.std)
@@ -395,6 +395,156 @@ def _inputs(plan, d):
         _CACHE[key] = (f, w)
     f, w = _CACHE[key]
     return d["position"], d["omega"], d["t"], d["output"], f, w
+
+
+# --- Noise models (issue 15) -------------------------------------------------------------------
+# The run (one position at one rate) is the unit of independence. Noise generated here,
+# independently of the library, over the samples in time order: white; white + an offset per run
+# as large as the sample noise (the drift moves between runs); white + a random walk that wanders
+# ~3 sigma over the test; flicker (1/f) by FFT shaping of white noise (power 1/f from 1/(2n) up),
+# scaled to the sample noise. A small test for speed: 9 positions x 4 rates (both senses),
+# 3 revolutions at 10 Hz (7 and 14 samples per revolution), 1206 samples.
+
+
+def _flicker(rng, shape):
+    reps, n = shape
+    f = np.fft.rfftfreq(2 * n)
+    X = rng.normal(size=(reps, f.size)) + 1j * rng.normal(size=(reps, f.size))
+    X[:, 1:] /= np.sqrt(f[1:])
+    X[:, 0] = 0.0
+    x = np.fft.irfft(X, 2 * n, axis=1)[:, :n]
+    return x / x.std(axis=1, keepdims=True)
+
+
+def _noise(kind, rng, reps, run_of_row, s):
+    n = run_of_row.size
+    w = rng.normal(0.0, s, (reps, n))
+    if kind == "white":
+        return w
+    if kind == "position-offsets":
+        return w + rng.normal(0.0, s, (reps, run_of_row.max() + 1))[:, run_of_row]
+    if kind == "random-walk":
+        return w + np.cumsum(rng.normal(0.0, 3 * s / np.sqrt(n), (reps, n)), axis=1)
+    return s * _flicker(rng, (reps, n))
+
+
+def _small_test(**params):
+    plan = make_plan(omegas_rad_s=[4.43, 8.85, -4.43, -8.85], revolutions=3,
+                     sample_rate_hz=10.0, **params)
+    clean = cnp.simulate(plan, TRUTH)
+    key = clean["position"] * 100 + clean["omega"]
+    run_of_row = np.r_[0, np.cumsum(key[1:] != key[:-1])]  # simulate runs one after the other
+    return plan, clean, run_of_row
+
+
+def mc_ratio(kind, noise_model, reps=120, seed=11, s=1e-7):
+    """RMS reported std / scatter of the estimates over ``reps`` tests, per coefficient."""
+    plan, clean, run_of_row = _small_test()
+    f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
+    noise = _noise(kind, np.random.default_rng(seed), reps, run_of_row, s)
+    vals, stds, used = [], [], set()
+    for k in range(reps):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InertestWarning)  # rare false alarms at alpha
+            lsq, ident = cnp.fit_inputs(clean["position"], clean["omega"], clean["t"],
+                                        clean["output"] + noise[k], f, w,
+                                        noise_model=noise_model)
+        vals.append(lsq.x)
+        stds.append(lsq.std)
+        used.add(ident.noise_model)
+    ratio = np.sqrt(np.mean(np.square(stds), axis=0)) / np.std(vals, axis=0, ddof=1)
+    return dict(zip(NAMES, ratio, strict=True)), used
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["white", "position-offsets", "random-walk", "flicker"])
+def test_monte_carlo_reported_std_matches_scatter_under_each_noise(kind):
+    """36 runs, the matching noise model named: reported std / scatter within 0.8-1.25 for all
+    ten coefficients, and the result names the model. (Before issue 15, with the white noise
+    estimated from the run means' residuals: 0.92-1.11 white, 0.84-1.21 under run offsets,
+    0.19-2.1 under a random walk, 0.72-1.36 under flicker; after: 0.93-1.11, 0.95-1.06,
+    0.95-1.14, 0.97-1.21.)"""
+    ratio, used = mc_ratio(kind, kind)
+    assert used == {kind}
+    for name, r in ratio.items():
+        assert 0.8 < r < 1.25, (name, r)
+
+
+def test_within_run_residuals_are_the_noise_only():
+    # Noise-free data: the run model (constant + first and second arm harmonics) holds the
+    # whole signal, Earth-rate terms included, so nothing is left within the runs.
+    plan, clean, _ = _small_test()
+    f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
+    runs = cnp.run_means(clean["position"], clean["omega"], clean["t"], clean["output"], f, w)
+    assert np.max(np.abs(runs.within_residuals_rad_s)) < 1e-12 * np.max(np.abs(runs.drift_rad_s))
+    assert runs.within_residuals_rad_s.size == runs.n_samples.sum()
+    np.testing.assert_array_equal(runs.within_dof, runs.n_samples - 5)
+    # runs in time order of their first data row (simulate: position, then rate)
+    assert list(runs.position[np.argsort(runs.first_row)][:4]) == [1, 1, 1, 1]
+
+
+def _with_run_offsets(b, seed=3, s=1e-7):
+    plan, clean, run_of_row = _small_test()
+    rng = np.random.default_rng(seed)
+    out = (clean["output"] + rng.normal(0, s, run_of_row.size)
+           + rng.normal(0, b, run_of_row.max() + 1)[run_of_row])
+    return plan, dict(clean, output=out)
+
+
+def test_run_offsets_are_found_and_named_in_the_result():
+    """Offsets per run 3x the sample noise (17x a run mean's white noise): auto picks
+    position-offsets, the white noise per sample comes out of the scatter within runs, the
+    offset level by REML from the run means; DF's std is then ~ the offset over sqrt(36 runs)
+    while the white model counts 1206 independent samples; the JSON names the model and its
+    components, and the runs are the units of the checks."""
+    s, b = 1e-7, 3e-7
+    plan, data = _with_run_offsets(b, s=s)
+    auto = cnp.fit(plan, data)
+    with pytest.warns(InertestWarning, match='"white" noise does not fit'):
+        white = cnp.fit(plan, data, noise_model="white")
+    ident = auto.identification
+    assert ident.noise_model == "position-offsets" and white.identification.noise_model == "white"
+    assert ident.noise_components["white"] == pytest.approx(s / K, rel=0.1)
+    assert ident.noise_components["position offset"] == pytest.approx(b / K, rel=0.4)
+    # white: sqrt(s^2 + b^2) / sqrt(1206) ~ 1e-8 rad/s; offsets: ~ b / sqrt(36) = 5e-8 rad/s
+    assert auto.coefficients["DF"].std > 3 * white.coefficients["DF"].std
+    d = auto.to_dict()
+    assert d["identification"]["noise"]["model"] == "position-offsets"
+    assert set(d["identification"]["noise"]["components"]) == {"white", "position offset"}
+    checks = [c for c in d["checks"] if c["name"] == "noise model fit"]
+    assert checks[0]["n_units"] == 36
+    # With the white noise given, the chi-square test against it sees the offsets too.
+    with pytest.warns(InertestWarning, match="residuals too large"):
+        known = cnp.fit(plan, data, noise_model="white", sigma=s)
+    assert known.identification.noise_model == "white"
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "identify.solve searches the offset variance only up to 1e3 x the white variance of a "
+    "unit mean: with long runs (here 33 samples, offsets 10x the sample noise = 3300x) the "
+    "REML estimate sticks at that bound and the std is too small"))
+def test_run_offsets_much_larger_than_a_run_means_white_noise():
+    b = 1e-6
+    plan, data = _with_run_offsets(b)
+    res = cnp.fit(plan, data, noise_model="position-offsets")
+    assert res.identification.noise_components["position offset"] == pytest.approx(
+        b / K, rel=0.4)
+
+
+def test_noise_model_plan_key():
+    assert cnp.SPEC.from_mapping({"radius_m": 2}).noise_model == "auto"
+    spec = cnp.SPEC.from_mapping({"radius_m": 2, "noise_model": "random-walk"})
+    assert spec.noise_model == "random-walk"
+    with pytest.raises(PlanError, match="noise_model"):
+        cnp.SPEC.from_mapping({"radius_m": 2, "noise_model": "pink"})
+    plan, clean, _ = _small_test(noise_model="flicker")
+    rng = np.random.default_rng(8)
+    data = dict(clean, output=clean["output"] + rng.normal(0, 1e-7, clean["output"].size))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InertestWarning)
+        res = cnp.fit(plan, data)
+    assert res.identification.noise_model == "flicker"
+    assert set(res.identification.noise_components) == {"white", "flicker"}
 
 
 def test_plan_keys_validated():
@@ -472,8 +622,12 @@ def test_cli_simulate_then_fit_round_trip(examples_dir, tmp_path, capsys):
     for k, v in truth.items():
         e = out["identification"]["coefficients"][k]
         assert abs(e["value"] - v) < 5 * e["std"], k
-    assert ident["noise"]["source"] == "residuals" and ident["dof"] == 8
-    assert out["identification"]["noise"]["sigma"] == pytest.approx(3.3e-8 / K, rel=0.6)
+    # White noise: the plan's noise_model = "auto" keeps the white model, whose noise level
+    # comes from every kept sample (the scatter within runs and the run means' lack of fit).
+    kept = sum(r["samples"] for r in out["result"]["runs"])
+    assert ident["noise"]["source"] == "residuals" and ident["noise"]["model"] == "white"
+    assert ident["dof"] == kept - 10
+    assert ident["noise"]["sigma"] == pytest.approx(3.3e-8 / K, rel=0.02)
 
 
 def _fit_modified(examples_dir, tmp_path, capsys, change):

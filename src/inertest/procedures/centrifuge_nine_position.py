@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as machine
 from inertest.errors import DataError, InertestWarning, InputError, PlanError
-from inertest.estimation.identify import identify
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model, identify
 from inertest.estimation.least_squares import LinearFit, weighted_least_squares
 from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
 from inertest.models.sdf_gyro import (
@@ -99,6 +99,17 @@ class RunMeans:
         ``mean f_i f_j = c_i c_j + (a_i a_j + b_i b_j) / 2``). Used only to decide which
         coefficients the test can determine, so that the O(1/samples) leakage of a sampled
         average (non-integer samples per revolution) does not pass for information.
+    first_row : ndarray of int, shape (m,)
+        First data row of each run: the runs in time order for the noise models that wander
+        over the test (random walk, flicker).
+    within_residuals_rad_s : ndarray, shape (sum(n_samples),)
+        Each run's kept samples of the drift (output minus input rate on I) [rad/s] minus the
+        run model: a constant plus the arm's first and second harmonics, fitted by least squares
+        to the run's samples. The drift model is quadratic in a force that is a constant plus a
+        first harmonic of the arm, so this run model holds the whole signal and the residuals
+        are the noise within the run. Runs one after the other in the order of ``position``.
+    within_dof : ndarray of int, shape (m,)
+        Degrees of freedom of each run's residuals (samples kept minus 5).
     """
 
     position: NDArray[np.int64]
@@ -112,6 +123,9 @@ class RunMeans:
     regressors: NDArray[np.float64]
     f_mean_g: NDArray[np.float64]
     structural_regressors: NDArray[np.float64]
+    first_row: NDArray[np.int64]
+    within_residuals_rad_s: NDArray[np.float64]
+    within_dof: NDArray[np.int64]
 
     @property
     def drift_rad_s(self) -> NDArray[np.float64]:
@@ -140,6 +154,11 @@ class CentrifugeNinePositionSpec:
         Output sampling rate (for simulation) [Hz].
     positions : tuple of int
         Positions 1..9 run (for simulation).
+    noise_model : str
+        Noise of the gyro behind the uncertainties, with the run as the unit of independence
+        (:func:`inertest.estimation.identify.solve`): ``auto`` (default: chosen by AIC),
+        ``white``, ``position-offsets`` (an offset per run: the drift moves between runs, the
+        machine re-settles), ``random-walk`` or ``flicker`` (a drift wandering over the test).
     """
 
     kind: ClassVar[str] = KIND
@@ -149,6 +168,7 @@ class CentrifugeNinePositionSpec:
     revolutions: int = 100
     sample_rate_hz: float = 50.0
     positions: tuple[int, ...] = machine.POSITIONS
+    noise_model: str = "auto"
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> CentrifugeNinePositionSpec:
@@ -183,6 +203,8 @@ FIELDS = (
     Field("sample_rate_hz", default=CentrifugeNinePositionSpec.sample_rate_hz, positive=True,
           unit="Hz", doc="output sampling rate (simulation)"),
     Field("positions", "numbers", default=machine.POSITIONS, doc="positions 1..9 run"),
+    Field("noise_model", "text", default="auto", choices=NOISE_MODELS,
+          doc="noise model behind the uncertainties (the run is the unit of independence)"),
 )
 
 SPEC = CentrifugeNinePositionSpec
@@ -238,7 +260,8 @@ class CentrifugeNinePositionResult(LinearTestResult):
 
 
 def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> CentrifugeNinePositionResult:
     """Identify the ten drift coefficients from nine-position centrifuge data.
 
@@ -257,7 +280,12 @@ def fit(
         the arm passed ``x_P``, s; each run may have its own clock) and ``output`` [instrument
         output unit], one row per sample.
     sigma : float, optional
-        Known white noise per sample [output unit]; estimated from the run residuals otherwise.
+        Known white noise per sample [output unit]; estimated from the scatter of the samples
+        within the runs otherwise.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model`` (``auto``, ``white``, ``position-offsets``,
+        ``random-walk``, ``flicker``), see :func:`fit_inputs`. The result names the model used
+        (``identification.noise_model``), its components and its checks.
     """
     cols = require_columns(data, ("position", "omega", "t", "output"), (), procedure=KIND)
     spec: CentrifugeNinePositionSpec = plan.procedure
@@ -267,7 +295,8 @@ def fit(
     f, w_ios = machine_inputs(plan, pos, omega, cols["t"])
     runs = run_means(pos, omega, cols["t"], inst.output_to_rate(cols["output"]), f, w_ios)
     messages = _coverage_messages(runs)
-    lsq, ident = _identify_runs(runs, known_sigma(sigma, inst.rad_s_per_output_unit))
+    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
+    lsq, ident = _identify_runs(runs, known_sigma(sigma, inst.rad_s_per_output_unit), model)
     lost = [n for n in COEFFICIENTS if n not in ident.coefficients]
     missing = sorted(set(machine.POSITIONS) - {int(p) for p in runs.position})
     if missing:
@@ -477,7 +506,10 @@ def run_means(
         "phi": np.zeros((m, len(COEFFICIENTS))),
         "f": np.zeros((m, 3)),
         "structural": np.zeros((m, len(COEFFICIENTS))),
+        "first": np.zeros(m, dtype=np.int64),
+        "dof": np.zeros(m, dtype=np.int64),
     }
+    within: list[NDArray[np.float64]] = []
     for r in range(m):
         idx = groups.rows(r)
         mask, n_rev = whole_cycle_mask(tt[idx], run_w[r])
@@ -504,6 +536,9 @@ def run_means(
         out["phi"][r] = wts @ drift_regressors(f_g)  # per run: no (n, 10) temporary
         out["f"][r] = wts @ f_g
         out["structural"][r] = _structural_row(tt[keep], run_w[r], f_g)
+        out["first"][r] = idx.min()
+        e, out["dof"][r] = _within_run_residuals(tt[keep], run_w[r], y[keep] - wi[keep, 0])
+        within.append(e)
     return RunMeans(
         position=run_pos.astype(np.int64),
         omega=run_w.astype(float),
@@ -516,7 +551,24 @@ def run_means(
         regressors=out["phi"],
         f_mean_g=out["f"],
         structural_regressors=out["structural"],
+        first_row=out["first"],
+        within_residuals_rad_s=np.concatenate(within),
+        within_dof=out["dof"],
     )
+
+
+def _within_run_residuals(
+    t: NDArray[np.float64], omega: float, drift: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], int]:
+    """Samples of one run minus a constant and the arm's first two harmonics (least squares).
+
+    Returns the residuals [rad/s] and their degrees of freedom (samples minus the rank).
+    """
+    a = omega * (t - t.min())
+    basis = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a), np.cos(2 * a),
+                             np.sin(2 * a)])
+    c, _, rank, _ = np.linalg.lstsq(basis, drift, rcond=None)
+    return drift - basis @ c, int(t.size - rank)
 
 
 def _structural_row(
@@ -578,22 +630,30 @@ def fit_inputs(
     omega_ios_rad_s: ArrayLike,
     *,
     sigma_rad_s: float | None = None,
+    noise_model: str = "auto",
 ) -> tuple[LinearFit, Identification]:
     """Whole-cycle identification of the ten drift coefficients from per-sample inputs.
 
     Groups the samples into runs, takes whole-revolution means (:func:`run_means`), subtracts the
-    mean input rate on I and solves ``mean drift = mean(Phi) @ D`` by least squares (seed 004,
-    eqs. 22-24), one observation per run.
+    mean input rate on I and solves ``mean drift = mean(Phi) @ D`` (seed 004, eqs. 22-24), one
+    observation per run, under a noise model with the run as the unit of independence
+    (:func:`inertest.estimation.identify.solve`).
 
     Parameters
     ----------
     position, omega, t, output_rate_rad_s, f_ios_m_s2, omega_ios_rad_s
         As in :func:`run_means` (inputs from any kinematic model, ideal or erroneous).
     sigma_rad_s : float, optional
-        White noise per sample [rad/s]. Each run mean then has ``sigma * noise_factor``
-        (``sigma / sqrt(n_kept)`` for equal weights). When omitted, the noise per sample is
-        estimated from the residuals of the run means (same relative weights), which needs
-        more runs than identifiable quantities.
+        White noise per sample [rad/s]. Each run mean then has ``sigma / sqrt(n_kept)``.
+        When omitted, the white noise per sample is estimated from the scatter of the samples
+        within the runs about their run model (``within_residuals_rad_s`` of
+        :func:`run_means`); the runs must outnumber the identifiable quantities.
+    noise_model : str
+        ``auto`` (chosen by AIC; ``white`` when ``sigma_rad_s`` is given), ``white``,
+        ``position-offsets`` (an offset per run, variance by REML from the run means),
+        ``random-walk`` or ``flicker`` (over the samples of the runs in time order, i.e. the
+        order of their first data row); the run means are then fitted by generalised least
+        squares with the fitted covariance.
 
     Returns
     -------
@@ -602,23 +662,20 @@ def fit_inputs(
         are per run [rad/s].
     identification : Identification
         Coefficients with standard uncertainties [deg/h, deg/h/g, deg/h/g^2], combinations and
-        statements of what the runs cannot separate. With ``sigma_rad_s`` omitted,
-        ``noise_sigma`` is the estimated noise per sample [deg/h].
+        statements of what the runs cannot separate, the noise model used, its components
+        (``white`` per sample, ``position offset`` per run, ``random walk`` step per sample,
+        ``flicker`` per sample) [deg/h] and its checks. With ``sigma_rad_s`` omitted,
+        ``noise_sigma`` is the estimated white noise per sample [deg/h].
     """
     runs = run_means(position, omega, t, output_rate_rad_s, f_ios_m_s2, omega_ios_rad_s)
-    return _identify_runs(runs, sigma_rad_s)
+    return _identify_runs(runs, sigma_rad_s, check_noise_model(noise_model))
 
 
 def _identify_runs(
-    runs: RunMeans, sigma_rad_s: float | None
+    runs: RunMeans, sigma_rad_s: float | None, noise_model: str
 ) -> tuple[LinearFit, Identification]:
     if sigma_rad_s is not None and (not np.isfinite(sigma_rad_s) or sigma_rad_s <= 0):
         raise InputError(f"noise sigma must be finite and positive, got {sigma_rad_s}")
-    # A run mean of n white samples has sigma / sqrt(n) (sigma * noise_factor for the weights
-    # used). With sigma known the weights are exact; otherwise the rows are scaled by sqrt(n) so
-    # that the unit-weight sigma estimated from the residuals is the noise per sample, and the
-    # residuals are restored to per-run rad/s.
-    root_n = 1.0 / runs.noise_factor  # sqrt(n) for equal weights
     A, y = runs.regressors, runs.drift_rad_s
     # Directions that the runs cannot determine in principle (e.g. a cross term whose whole-cycle
     # mean is zero at every position measured) are removed from the sampled design: otherwise
@@ -633,14 +690,15 @@ def _identify_runs(
             f"{runs.position.size} runs leave no degree of freedom to estimate the noise from the "
             "residuals; give the noise per sample (--sigma) or add runs (positions or rates)"
         )
-    # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown): rows scaled by
-    # sqrt(n) then have unit (or common unknown) noise, and the weighted design stays O(1).
+    A_rows, y_rows, labels = _sample_rows(runs, A, y)
+    # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown), so that the
+    # observations are O(1) when the noise is known.
     known = sigma_rad_s is not None
     s = float(sigma_rad_s) if known else 1.0
     k = DEG_PER_H_TO_RAD_PER_S / s
     fit, ident = identify(
-        A * root_n[:, None],
-        y * root_n / s,
+        A_rows,
+        y_rows / s,
         names=COEFFICIENTS,
         units=ENGINEERING_UNIT,
         si_per_unit={n: k for n in COEFFICIENTS},
@@ -650,13 +708,43 @@ def _identify_runs(
         pivot_order=("DF", "DII", "DOO", "DSS", "DI", "DO", "DS", "DIO", "DOS", "DSI"),
         normalize_to="DF",
         explain=lambda f, a: explain_null_space(f, a, runs),
+        groups=labels,
+        noise_model=noise_model,
     )
     x = fit.x * s
     residuals = y - A @ x  # per run [rad/s]
     fit = replace(fit, x=x, covariance=fit.covariance * s * s, residuals=residuals,
-                  sigma=fit.sigma * s if not known else fit.sigma)
+                  sigma=fit.sigma * s)
     ident = replace(ident, residuals=residuals / DEG_PER_H_TO_RAD_PER_S)
     return fit, ident
+
+
+def _sample_rows(
+    runs: RunMeans, A: NDArray[np.float64], y: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.str_]]:
+    """Rows for :func:`~inertest.estimation.identify.solve`: one per kept sample, runs as groups.
+
+    Each run contributes ``n_kept`` rows in time order (runs ordered by their first data row),
+    all with the run's averaged regressors ``A[r]``, whose plain mean is the run's whole-cycle
+    mean ``y[r]`` and whose scatter about it is the run's samples about its run model
+    (``within_residuals_rad_s``), scaled by ``sqrt((n - 1) / (n - 5))`` so that the pooled
+    within-group variance that the solver takes (``n - 1`` degrees of freedom per group) is
+    unbiased for the 5 parameters of the run model. So the solver sees the run means, their
+    count of samples and the white noise within runs: its unit of independence is the run.
+    A run of 5 samples has no scatter left and contributes none.
+    """
+    n = runs.n_samples
+    order = np.argsort(runs.first_row, kind="stable")
+    run_of_row = np.repeat(order, n[order])
+    starts = np.r_[0, np.cumsum(n)[:-1]]
+    rows = np.concatenate([starts[r] + np.arange(n[r]) for r in order])
+    dof = runs.within_dof
+    scale = np.sqrt(np.where(dof > 0, (n - 1) / np.maximum(dof, 1), 0.0))
+    e = runs.within_residuals_rad_s[rows] * scale[run_of_row]
+    e_mean = np.bincount(run_of_row, e, minlength=n.size) / n
+    labels = np.array([f"run at position {int(p)}, omega {w:g} rad/s"
+                       for p, w in zip(runs.position, runs.omega, strict=True)])
+    return A[run_of_row], y[run_of_row] + e - e_mean[run_of_row], labels[run_of_row]
 
 
 def explain_null_space(
