@@ -412,7 +412,9 @@ def local_pool(workers: int) -> Any:
 
     Workers start from a fork server (a clean single-threaded process that has imported
     inertest) where the platform has one, so a caller running threads (a Dask client, a GUI, a
-    database driver) cannot deadlock them; elsewhere the platform's default start method.
+    database driver) cannot deadlock them; elsewhere the platform's default start method. Each
+    worker runs its BLAS single-threaded, as Dask's workers do: the parallelism is across fits,
+    and n workers x n BLAS threads would oversubscribe the cores (about 2x slower on 2 cores).
     """
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -421,8 +423,18 @@ def local_pool(workers: int) -> Any:
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(["inertest.runner"])
-        return ProcessPoolExecutor(max_workers=n, mp_context=ctx)
-    return ProcessPoolExecutor(max_workers=n)
+        return ProcessPoolExecutor(max_workers=n, mp_context=ctx,
+                                   initializer=_single_threaded_blas)
+    return ProcessPoolExecutor(max_workers=n, initializer=_single_threaded_blas)
+
+
+def _single_threaded_blas() -> None:
+    """Pool-worker initialiser: one BLAS/OpenMP thread (threadpoolctl, via scikit-learn)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # pragma: no cover - scikit-learn brings it
+        return
+    threadpool_limits(1)
 
 
 def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
