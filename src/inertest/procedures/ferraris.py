@@ -43,10 +43,26 @@ of the design (they are the fit's residuals). Their size gives the tilt scatter 
 the misalignments are defined only as well as the faces were set.
 
 Uncertainty: first-order propagation (numerical Jacobian of the closed form) of the covariance
-of the face means (within-face sample variance / n), of the face tilt scatter (above) and of the
-turn integrals (static noise of each gyro axis times sqrt(n) / rate). The white-noise model
-underestimates the uncertainty if the noise is strongly correlated in time; the Monte Carlo test
-confirms it for white noise and random tilts.
+of the inputs -- face means, turn integrals -- under the plan's ``noise_model`` of each raw
+channel (channels independent), plus the face tilt scatter (above):
+
+* ``white`` (default): face means with their within-face sample variance / n, turn integrals
+  with the pooled static noise times sqrt(n) / rate. The tilt scatter is counted only when the
+  six pair sums exceed their noise (chi-square at :data:`TILT_ALPHA`).
+* ``position-offsets``: the IMU re-settles on every face and turn: an offset per part and
+  channel (turn integral: offset x duration), its variance from the six redundant pair sums of
+  each sensor less their white part (within-face variance from the samples); horizontal face
+  tilts are indistinguishable from offsets there and are counted in them.
+* ``random-walk``, ``flicker``: a drift of each channel's bias over the session. Its level and
+  the white level are estimated from the samples within the faces
+  (:func:`inertest.estimation.identify.solve`, REML, with blocks of each face as units and the
+  face means as the model) and propagated to every face mean and turn integral with the
+  drift's kernel over the data row index (so faces and turns far apart in time are correlated
+  as the drift says); rows must be in time order at ``sample_rate_hz``.
+
+Monte Carlo (tests): reported std / scatter 0.9-1.2 for each case with its model (the white
+model gave 0.02-0.2 under offsets, a random walk or flicker). The horizontal Earth rate, unknown
+in heading, enters the gyro pair sums used for the offsets (< ``W_ie cos L``).
 
 Identifiability: the design is exactly the one above -- each axis up and down determines its
 accelerometer column, bias and gyro bias (and G column); each turn its gyro column. A missing
@@ -85,11 +101,14 @@ ignored), ``acc_x``, ``acc_y``, ``acc_z`` [acc_unit], ``gyr_x``, ``gyr_y``, ``gy
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import warnings
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+import scipy.signal
+import scipy.stats
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
@@ -97,7 +116,8 @@ from inertest.earth import Site, earth_rate_enu
 from inertest.equipment import ferraris_session as session
 from inertest.equipment.motion import Inputs, StaticPositions
 from inertest.equipment.rate_table import Turns
-from inertest.errors import DataError, IdentifiabilityError, PlanError
+from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
+from inertest.estimation.identify import solve as identify_solve
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
 from inertest.plan import Field, Plan, read_fields
@@ -130,6 +150,15 @@ G_NAMES = _prefixed(triad.G_SENSITIVITY_NAMES, "g")
 #: Tolerance of the calibrated face gravity check [m/s^2] (10 mg): a face whose |a| misses g by
 #: more moved during the recording or is mislabelled (tilt and MEMS noise give < 1 mg).
 FACE_GRAVITY_TOLERANCE_M_S2 = 10e-3 * G0
+#: Significance level at which the face-pair disagreement is taken as face tilt.
+TILT_ALPHA = 0.01
+#: Noise models of a raw channel (module docstring, "Noise models").
+NOISE_MODELS = ("white", "position-offsets", "random-walk", "flicker")
+#: Blocks each face's samples are cut into to estimate a drift from the scatter of block means.
+_BLOCKS_PER_FACE = 8
+#: Ratio between the correlation times of the AR(1) processes that make up flicker noise (the
+#: rule of :func:`inertest.estimation.identify.solve`, so that its level means the same here).
+_FLICKER_STEP = 4.0
 
 
 @dataclass(frozen=True)
@@ -150,6 +179,9 @@ class FerrarisSpec:
         Remove the vertical Earth rate ``W_ie sin L`` integrated over each turn (default true;
         the vertical is found from the accelerometers during the turn, the latitude from the
         plan's site). Simulation: include the Earth rate.
+    noise_model : str
+        Noise of each raw channel behind the uncertainties (:data:`NOISE_MODELS`, module
+        docstring): ``white`` (default), ``position-offsets``, ``random-walk``, ``flicker``.
     face_duration_s, turn_duration_s, rest_s : float
         Simulation only: time on each face, duration of each turn and rest before and after it.
     """
@@ -161,6 +193,7 @@ class FerrarisSpec:
     gyr_unit: str = "count"
     g_sensitivity: bool = False
     earth_rate: bool = True
+    noise_model: str = "white"
     face_duration_s: float = 5.0
     turn_duration_s: float = 4.0
     rest_s: float = 1.0
@@ -197,6 +230,9 @@ FIELDS = (
     Field("gyr_unit", "text", default="count", choices=(*COUNT_UNITS, *RATE_UNITS)),
     Field("g_sensitivity", "bool", default=False, doc="estimate the gyro g-sensitivity"),
     Field("earth_rate", "bool", default=True, doc="remove the vertical Earth rate"),
+    Field("noise_model", "text", default="white", choices=(
+        "white", "position-offsets", "random-walk", "flicker"),
+          doc="noise of each raw channel behind the uncertainties"),
     Field("face_duration_s", default=5.0, positive=True, unit="s", doc="time on each face"),
     Field("turn_duration_s", default=4.0, positive=True, unit="s", doc="duration of a turn"),
     Field("rest_s", default=1.0, minimum=0.0, unit="s", doc="rest before and after a turn"),
@@ -220,6 +256,8 @@ class FaceStats:
         Row j: sum of the raw samples of turn j divided by the sample rate [raw unit x s].
     n_turn : ndarray, shape (3,)
         Samples per turn.
+    rows : tuple of ndarray
+        Data rows (time order) of each face and turn (order of ``session.PARTS``).
     """
 
     acc_mean: NDArray[np.float64]
@@ -230,6 +268,7 @@ class FaceStats:
     turn_gyr_integral: NDArray[np.float64]
     turn_acc_integral: NDArray[np.float64]
     n_turn: NDArray[np.float64]
+    rows: tuple[NDArray[np.intp], ...] = field(default=(), repr=False)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -256,6 +295,10 @@ class FerrarisResult(TriadResult):
         Estimated standard deviation of the face tilts from the pair disagreement [deg].
     rotation_deg : float
         The plan's turn angle [deg].
+    noise_components : dict
+        Per sensor (``accelerometer``, ``gyroscope``): standard deviation of each component of
+        the noise model, RMS over its channels [raw unit]: ``white`` and ``random walk`` (step)
+        and ``flicker`` per sample, ``position offset`` per part.
     """
 
     stats: FaceStats = field(repr=False)
@@ -263,6 +306,8 @@ class FerrarisResult(TriadResult):
     turn_angle_deg: NDArray[np.float64] = field(repr=False)
     tilt_scatter_deg: float
     rotation_deg: float
+    noise_components: dict[str, dict[str, float]] = field(default_factory=dict)
+    stats_units: tuple[str, str] = ("count", "count")
     procedure: str = KIND
 
     def details(self) -> dict[str, object]:
@@ -285,6 +330,10 @@ class FerrarisResult(TriadResult):
             },
             "face_tilt_scatter": {"value": self.tilt_scatter_deg, "unit": "deg"},
         }
+        units = {"accelerometer": self.stats_units[0], "gyroscope": self.stats_units[1]}
+        d["noise"] = {"model": self.identification.noise_model, **{
+            sensor: {k: {"value": v, "unit": units[sensor]} for k, v in comps.items()}
+            for sensor, comps in self.noise_components.items()}}
         return d
 
 
@@ -319,8 +368,9 @@ def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
         tg.append(gyr[sel].sum(axis=0) / fs)
         ta.append(acc[sel].sum(axis=0) / fs)
         nt.append(int(sel.sum()))
+    rows = tuple(np.flatnonzero(part == label) for label in session.PARTS)
     return FaceStats(np.array(am), np.array(gm), np.array(asd), np.array(gsd),
-                     np.array(nf, float), np.array(tg), np.array(ta), np.array(nt, float))
+                     np.array(nf, float), np.array(tg), np.array(ta), np.array(nt, float), rows)
 
 
 def _check_parts_present(part: NDArray, spec: FerrarisSpec) -> None:
@@ -440,7 +490,8 @@ def _pack(s: FaceStats) -> NDArray[np.float64]:
                            s.turn_gyr_integral.ravel(), s.turn_acc_integral.ravel()])
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -> FerrarisResult:
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
+        noise_model: str | None = None) -> FerrarisResult:
     """Calibrate the accelerometer and gyro triads from a Ferraris session.
 
     Parameters
@@ -451,12 +502,17 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
         Columns ``part``, ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit].
     sigma : None
         Not used: the noise of every axis is estimated from the static faces.
+    noise_model : str, optional
+        Overrides the plan's ``noise_model`` (:data:`NOISE_MODELS`).
     """
     if sigma is not None:
         raise PlanError(
             "ferraris estimates the noise of every axis from the static faces; do not give sigma"
         )
     spec: FerrarisSpec = plan.procedure
+    model = noise_model if noise_model is not None else spec.noise_model
+    if model not in NOISE_MODELS:
+        raise PlanError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, got {model!r}")
     g = plan.site.gravity_m_s2
     stats = part_stats(data, spec)
     _check_labels(stats, spec)
@@ -481,37 +537,46 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
     A_a, b_a, A_g, b_g, G, E = solve(x0)
     cal_a = np.linalg.inv(A_a)
 
-    # Redundancy: off-axis pair sums in specific force (face tilt disagreement) [m/s^2].
+    # Input covariance of the noise (face means, turn integrals) under the noise model.
+    cov, components, notes = _noise_covariance(data, stats, spec, model)
+    # Redundancy: the six off-axis pair sums of each sensor (face tilt disagreement, and under
+    # position-offsets the offsets of the faces), linear in the face means.
+    L_a, L_g = _pair_sums(0), _pair_sums(18)
+    resid_raw = L_a @ x0
+    var_d = np.einsum("ij,jk,ik->i", L_a, cov, L_a)  # their variance under the noise model
     half_sum = ((stats.acc_mean[0::2] + stats.acc_mean[1::2]) / 2 - b_a) @ cal_a.T
-    resid_raw = np.array([(stats.acc_mean[2 * i, k] + stats.acc_mean[2 * i + 1, k]) / 2 - b_a[k]
-                          for i, k in _OFF])
-    d_off = np.array([half_sum[i, k] for i, k in _OFF])
-    noise_var = np.array([
-        (stats.acc_std[2 * i, k] ** 2 / stats.n_face[2 * i]
-         + stats.acc_std[2 * i + 1, k] ** 2 / stats.n_face[2 * i + 1]) / 4 / A_a[k, k] ** 2
-        for i, k in _OFF])
-    tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - noise_var)) / g**2)
-
-    # Input covariance: face means (noise), face tilts (on the acc means), turn integrals.
-    n = x0.size
-    cov = np.zeros((n, n))
-    var_a = (stats.acc_std**2 / stats.n_face[:, None]).ravel()
-    var_g = (stats.gyr_std**2 / stats.n_face[:, None]).ravel()
-    cov[np.arange(18), np.arange(18)] = var_a
-    cov[np.arange(18, 36), np.arange(18, 36)] = var_g
+    d_off = np.array([half_sum[i, k] for i, k in _OFF])  # [m/s^2]
+    if model == "position-offsets":
+        # E[d^2] = sigma_o^2 + noise: an offset of each part (IMU re-set) in every channel;
+        # horizontal face tilts act like offsets, so they are counted in it (tau = 0).
+        tau2 = 0.0
+        d_g = L_g @ x0
+        var_dg = np.einsum("ij,jk,ik->i", L_g, cov, L_g)
+        s2o = (max(0.0, float(np.mean(resid_raw**2 - var_d))),
+               max(0.0, float(np.mean(d_g**2 - var_dg))))
+        for (means, turns), s2 in (((0, 45), s2o[0]), ((18, 36), s2o[1])):  # acc, gyro
+            i_face = means + np.arange(18)
+            i_turn = turns + np.arange(9)
+            cov[i_face, i_face] += s2  # a mean offset per face and channel
+            cov[i_turn, i_turn] += s2 * np.repeat(turn_s, 3) ** 2  # an offset x T per turn
+        components["accelerometer"]["position offset"] = float(np.sqrt(s2o[0]))
+        components["gyroscope"]["position offset"] = float(np.sqrt(s2o[1]))
+    else:
+        # Tilts only where the pair sums exceed the noise (chi-square of the six against their
+        # covariance under the noise model, level TILT_ALPHA): a variance from six values,
+        # clipped at zero, would otherwise add a spurious tilt to the misalignments' std.
+        kk = np.array([A_a[k, k] for _, k in _OFF])
+        C_d = L_a @ cov @ L_a.T
+        chi2 = float(resid_raw @ np.linalg.lstsq(C_d, resid_raw, rcond=1e-12)[0])
+        tau2 = 0.0
+        if scipy.stats.chi2.sf(chi2, len(_OFF)) < TILT_ALPHA:
+            tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - var_d / kk**2)) / g**2)
+    # Face tilts (on the acc means, first order on the horizontal axes).
     for f, (_, axis, _) in enumerate(session.FACES):
         P = np.eye(3)
         P[axis, axis] = 0.0
         sl = slice(3 * f, 3 * f + 3)
         cov[sl, sl] += g**2 * tau2 * A_a @ P @ A_a.T
-    # Static noise per sample (pooled over the faces) integrated over each turn's samples.
-    pooled_g = np.sqrt(np.mean(stats.gyr_std**2, axis=0))
-    pooled_a = np.sqrt(np.mean(stats.acc_std**2, axis=0))
-    for j in range(3):
-        idx = 36 + 3 * j + np.arange(3)
-        cov[idx, idx] = stats.n_turn[j] * pooled_g**2 / fs**2
-        idx = 45 + 3 * j + np.arange(3)
-        cov[idx, idx] = stats.n_turn[j] * pooled_a**2 / fs**2
 
     def params(x: NDArray[np.float64]) -> NDArray[np.float64]:
         return np.concatenate(_parameters(*solve(x)[:5], with_g, spec))
@@ -560,6 +625,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
         coefficients=coefficients, combinations=(), not_separable=not_sep,
         covariance=cov_out, names=names, noise_sigma=resid_rms, noise_unit=spec.acc_unit,
         sigma_from_residuals=True, dof=6, rank=len(names), residuals=resid_raw,
+        noise_model=model, noise_components=dict(components["accelerometer"]),
     )
 
     calibration = ImuCalibration(
@@ -572,7 +638,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
     acc_int = (stats.turn_acc_integral - turn_s[:, None] * b_a) @ cal_a.T
     W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T
     turn_angle = (W @ np.linalg.inv(A_g).T - E) / DEG_TO_RAD  # the turn without Earth rate
-    messages = []
+    messages = list(notes)
     for m, sensor, col in ((p0[:n_a], "accelerometer", "acc_{}"),
                            (p0[n_a:], "gyroscope", "gyr_{}")):
         msg = triad.reversed_axes_message(m, sensor, col)
@@ -596,11 +662,132 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None) -
         face_gravity_error_m_s2=face_err,
         turn_angle_deg=turn_angle,
         tilt_scatter_deg=float(np.sqrt(tau2) / DEG_TO_RAD),
+        noise_components=components,
+        stats_units=(spec.acc_unit, spec.gyr_unit),
         rotation_deg=spec.rotation_deg,
         residual_output=resid_raw,
         output_unit=spec.acc_unit,
         messages=tuple(messages),
     )
+
+
+def _pair_sums(first: int) -> NDArray[np.float64]:
+    """The six off-axis pair sums as rows over the packed inputs, shape (6, 54).
+
+    Row (i, k): ``(u_k(i_p) + u_k(i_a))/2 - (u_k(k_p) + u_k(k_a))/2`` of the face means
+    starting at ``first`` (0: acc, 18: gyro).
+    """
+    L = np.zeros((len(_OFF), 54))
+    for r, (i, k) in enumerate(_OFF):
+        for f, w in ((2 * i, 0.5), (2 * i + 1, 0.5), (2 * k, -0.5), (2 * k + 1, -0.5)):
+            L[r, first + 3 * f + k] += w
+    return L
+
+
+def _drift_kernel(model: str, n_fit_rows: int, n_rows: int
+                  ) -> tuple[str, Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
+    """Label of the drift component and ``v -> K v`` for unit variance per sample.
+
+    ``random-walk``: ``K[i, k] = min(i, k) + 1`` over the data row index (steps of unit
+    variance per sample from the first row); ``flicker``: the mean of AR(1) correlations
+    ``rho^|i - k|`` with times 1, 4, 16, ... samples, each of variance ``1/m`` with ``m`` the
+    number of times up to a quarter of the ``n_fit_rows`` face samples the level was estimated
+    from (the rule of :func:`inertest.estimation.identify.solve`, so that the fitted level is
+    the same quantity), continued with equal variance per time up to the ``n_rows`` of the
+    session (1/f over the whole session: faces far apart in time and the turns see the slow
+    part too; checked by Monte Carlo against FFT-shaped 1/f noise from 1/(2 session) up).
+    """
+    if model == "random-walk":
+        return "random walk", lambda v: np.cumsum(np.cumsum(v[::-1], axis=0)[::-1], axis=0)
+    taus = [1.0]
+    while taus[-1] * _FLICKER_STEP <= n_fit_rows / _FLICKER_STEP:
+        taus.append(taus[-1] * _FLICKER_STEP)
+    m = len(taus)
+    while taus[-1] * _FLICKER_STEP <= n_rows:
+        taus.append(taus[-1] * _FLICKER_STEP)
+
+    def apply(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.zeros_like(v)
+        for t in taus:
+            rho = float(np.exp(-1.0 / t))
+            fwd = scipy.signal.lfilter([1.0], [1.0, -rho], v, axis=0)
+            bwd = scipy.signal.lfilter([1.0], [1.0, -rho], v[::-1], axis=0)[::-1]
+            out += fwd + bwd - v
+        return out / m
+
+    return "flicker", apply
+
+
+def _noise_covariance(
+    data: Mapping[str, object], stats: FaceStats, spec: FerrarisSpec, model: str,
+) -> tuple[NDArray[np.float64], dict[str, dict[str, float]], list[str]]:
+    """Covariance of the packed inputs (face means, turn integrals) under the noise model.
+
+    ``white`` (and the white part of ``position-offsets``): face means with their own sample
+    variance / n, turn integrals with the pooled static noise x n_turn / fs^2 (channels and
+    parts independent). ``random-walk``, ``flicker``: each channel's white level and drift
+    level are estimated by :func:`inertest.estimation.identify.solve` from the face samples
+    (blocks of each face as units, the face means as the model, so only the within-face
+    wander is used), and propagated to every face mean and turn integral, correlated across
+    the parts through the drift's kernel over the data row index (rows in time order at
+    ``sample_rate_hz``). Returns the covariance (54, 54), the components per sensor (RMS over
+    its channels, raw unit per sample) and notes on channels whose noise model does not fit.
+    """
+    fs = spec.sample_rate_hz
+    n = 54
+    cov = np.zeros((n, n))
+    comps: dict[str, dict[str, float]] = {}
+    notes: list[str] = []
+    n_face, n_turn = stats.n_face, stats.n_turn
+    if model in ("white", "position-offsets"):
+        var_a = (stats.acc_std**2 / n_face[:, None]).ravel()
+        var_g = (stats.gyr_std**2 / n_face[:, None]).ravel()
+        cov[np.arange(18), np.arange(18)] = var_a
+        cov[np.arange(18, 36), np.arange(18, 36)] = var_g
+        pooled_g = np.sqrt(np.mean(stats.gyr_std**2, axis=0))
+        pooled_a = np.sqrt(np.mean(stats.acc_std**2, axis=0))
+        for j in range(3):
+            idx = 36 + 3 * j + np.arange(3)
+            cov[idx, idx] = n_turn[j] * pooled_g**2 / fs**2
+            idx = 45 + 3 * j + np.arange(3)
+            cov[idx, idx] = n_turn[j] * pooled_a**2 / fs**2
+        comps["accelerometer"] = {"white": float(np.sqrt(np.mean(pooled_a**2)))}
+        comps["gyroscope"] = {"white": float(np.sqrt(np.mean(pooled_g**2)))}
+        return cov, comps, notes
+    cols = {c: np.asarray(data[c], dtype=float) for c in ACC_COLUMNS + GYR_COLUMNS}
+    face_rows = np.concatenate(stats.rows[:6])
+    face_of = np.repeat(np.arange(6), [r.size for r in stats.rows[:6]])
+    block = np.concatenate([np.arange(r.size) * _BLOCKS_PER_FACE // r.size
+                            for r in stats.rows[:6]])
+    order = np.argsort(face_rows, kind="stable")
+    face_rows, face_of, block = face_rows[order], face_of[order], block[order]
+    groups = np.char.add(np.char.add(face_of.astype(str), "#"), block.astype(str))
+    A = (face_of[:, None] == np.arange(6)[None, :]).astype(float)
+    n_rows = max(int(r.max()) for r in stats.rows) + 1
+    label, apply = _drift_kernel(model, face_rows.size, n_rows)
+    Mt = np.zeros((n_rows, 9))
+    for u, r in enumerate(stats.rows):
+        Mt[r, u] = 1.0 / r.size if u < 6 else 1.0 / fs
+    unit_k = Mt.T @ apply(Mt)  # (9, 9): unit drift variance per sample
+    unit_w = np.r_[1.0 / n_face, n_turn / fs**2]
+    for sensor, names, means, turns in (("accelerometer", ACC_COLUMNS, 0, 45),
+                                        ("gyroscope", GYR_COLUMNS, 18, 36)):
+        levels: dict[str, list[float]] = {"white": [], label: []}
+        for c, name in enumerate(names):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", InertestWarning)
+                _, nf = identify_solve(A, cols[name][face_rows], groups=groups,
+                                       noise_model=model)
+            if not nf.checks.fits:
+                notes.append(f"{name}: the {model} noise model does not fit the face samples "
+                             f"({nf.checks.verdict}); its uncertainties are not reliable")
+            w, d = nf.components["white"], nf.components.get(label, 0.0)
+            idx = np.r_[means + c + 3 * np.arange(6), turns + c + 3 * np.arange(3)]
+            cov[np.ix_(idx, idx)] = w**2 * np.diag(unit_w) + d**2 * unit_k
+            levels["white"].append(w)
+            levels[label].append(d)
+        comps[sensor] = {k: float(np.sqrt(np.mean(np.square(v)))) for k, v in levels.items()}
+    return cov, comps, notes
 
 
 def _jacobian(func, x0: NDArray[np.float64], scale: NDArray[np.float64]) -> NDArray[np.float64]:
