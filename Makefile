@@ -23,6 +23,8 @@ lint: $(STAMP)
 	$(BIN)/mypy
 
 test: lint
+	# One BLAS thread: the tests' matrices are small, and threads fight over the two cores.
+	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	PYTHONWARNINGS=error MPLBACKEND=Agg $(BIN)/python -m pytest -q
 
 bench: $(STAMP)
