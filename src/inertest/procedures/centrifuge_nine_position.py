@@ -280,8 +280,8 @@ def fit(
         the arm passed ``x_P``, s; each run may have its own clock) and ``output`` [instrument
         output unit], one row per sample.
     sigma : float, optional
-        Known white noise per sample [output unit]; estimated from the scatter of the samples
-        within the runs otherwise.
+        Known white noise per sample [output unit]; estimated otherwise (see ``noise_model``
+        of :func:`fit_inputs`).
     noise_model : str, optional
         Overrides the plan's ``noise_model`` (``auto``, ``white``, ``position-offsets``,
         ``random-walk``, ``flicker``), see :func:`fit_inputs`. The result names the model used
@@ -630,7 +630,7 @@ def fit_inputs(
     omega_ios_rad_s: ArrayLike,
     *,
     sigma_rad_s: float | None = None,
-    noise_model: str = "auto",
+    noise_model: str = "white",
 ) -> tuple[LinearFit, Identification]:
     """Whole-cycle identification of the ten drift coefficients from per-sample inputs.
 
@@ -645,15 +645,20 @@ def fit_inputs(
         As in :func:`run_means` (inputs from any kinematic model, ideal or erroneous).
     sigma_rad_s : float, optional
         White noise per sample [rad/s]. Each run mean then has ``sigma / sqrt(n_kept)``.
-        When omitted, the white noise per sample is estimated from the scatter of the samples
-        within the runs about their run model (``within_residuals_rad_s`` of
-        :func:`run_means`); the runs must outnumber the identifiable quantities.
+        When omitted it is estimated (see ``noise_model``); the runs must outnumber the
+        identifiable quantities.
     noise_model : str
-        ``auto`` (chosen by AIC; ``white`` when ``sigma_rad_s`` is given), ``white``,
-        ``position-offsets`` (an offset per run, variance by REML from the run means),
-        ``random-walk`` or ``flicker`` (over the samples of the runs in time order, i.e. the
-        order of their first data row); the run means are then fitted by generalised least
-        squares with the fitted covariance.
+        ``white`` (default here, as the centrifuge study uses it; :func:`fit` takes the
+        plan's, default ``auto``): the classical weighted least squares of the run means, the
+        noise per sample (when not given) from their residuals. The others treat the samples
+        with the run as the unit of independence (:func:`_sample_rows`): the white noise per
+        sample from the scatter within runs about the run model, and a component between runs
+        by REML from the run means: ``position-offsets`` (an offset per run), ``random-walk``
+        or ``flicker`` (over the samples of the runs in time order, i.e. the order of their
+        first data row); the run means are then fitted by generalised least squares. ``auto``
+        picks one of these or white noise by AIC (``white`` when ``sigma_rad_s`` is given);
+        when white noise wins it is pooled from every kept sample, with the lack-of-fit F test
+        of the run means against the scatter within runs as its check.
 
     Returns
     -------
@@ -690,7 +695,14 @@ def _identify_runs(
             f"{runs.position.size} runs leave no degree of freedom to estimate the noise from the "
             "residuals; give the noise per sample (--sigma) or add runs (positions or rates)"
         )
-    A_rows, y_rows, labels = _sample_rows(runs, A, y)
+    if noise_model == "white":
+        # The classical solution: one reading per run, rows scaled by sqrt(n) (1/noise_factor)
+        # so that the unit-weight sigma is the noise per sample, estimated from the run means'
+        # residuals (robust to offsets between runs, which it counts as noise).
+        root_n = 1.0 / runs.noise_factor
+        A_rows, y_rows, labels = A * root_n[:, None], y * root_n, None
+    else:
+        A_rows, y_rows, labels = _sample_rows(runs, A, y)
     # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown), so that the
     # observations are O(1) when the noise is known.
     known = sigma_rad_s is not None
