@@ -61,6 +61,9 @@ def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, d
                              "stored" if o.stored_run else "fitted (not stored)"])
         print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome"], rows)
     if failed:
+        first = failed[0]
+        click.echo(f"error: {len(failed)} of {len(items)} runs failed (nothing stored for them); "
+                   f"first: {first.task.data}: {first.error}", err=True)
         raise SystemExit(1)
 
 
