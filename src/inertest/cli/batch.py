@@ -62,8 +62,10 @@ def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, d
         print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome"], rows)
     if failed:
         first = failed[0]
-        click.echo(f"error: {len(failed)} of {len(items)} runs failed (nothing stored for them); "
-                   f"first: {first.task.data}: {first.error}", err=True)
+        from inertest.cli import safe_line
+
+        click.echo(safe_line(f"error: {len(failed)} of {len(items)} runs failed (nothing stored "
+                             f"for them); first: {first.task.data}: {first.error}"), err=True)
         raise SystemExit(1)
 
 
