@@ -519,10 +519,6 @@ def test_run_offsets_are_found_and_named_in_the_result():
     assert free.coefficients["DF"].std == pytest.approx(auto.coefficients["DF"].std, rel=0.5)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "identify.solve searches the offset variance only up to 1e3 x the white variance of a "
-    "unit mean: with long runs (here 33 samples, offsets 10x the sample noise = 3300x) the "
-    "REML estimate sticks at that bound and the std is too small"))
 def test_run_offsets_much_larger_than_a_run_means_white_noise():
     b = 1e-6
     plan, data = _with_run_offsets(b)

@@ -458,7 +458,9 @@ class _Reml:
     def fit(self, K: NDArray[np.float64], ref: float) -> tuple[float, float]:
         """``theta >= 0`` minimising the criterion (grid, then Brent), and the minimum."""
         nll = self.criterion(K)
-        grid = ref * np.logspace(-4, 3, 15)
+        # Up to 1e8 x the white variance of a unit mean: long units (a centrifuge run of
+        # thousands of samples) make even modest offsets that many times larger.
+        grid = ref * np.logspace(-4, 8, 25)
         vals = [nll(t)[0] for t in grid]
         i = int(np.argmin(vals))
         best_t, best = float(grid[i]), float(vals[i])
