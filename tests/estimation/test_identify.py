@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+import scipy.integrate
 
 from inertest.earth import Site
 from inertest.errors import InertestWarning, InputError, PlanError
@@ -74,6 +75,21 @@ def test_unit_kernels_equal_the_dense_averages(contiguous):
     K_ar = 0.8 ** np.abs(np.subtract.outer(i, i))
     np.testing.assert_allclose(idf._ar1_unit_kernel(u, 0.8),
                                _dense_unit_kernel(u.index, u.counts, K_ar), rtol=1e-10)
+
+
+@pytest.mark.parametrize("contiguous", [True, False])
+def test_flicker_kernel_equals_the_dense_average_of_the_integrated_spectrum(contiguous):
+    """Flicker unit kernel vs dense M C M' with C[i, k] = c(|i - k|) / c(0), c(L) the integral
+    of cos(2 pi f L) / f over 1/(4 n) .. 1/2 cycles per row, by quadrature (scipy.integrate)."""
+    n = 60
+    labels = np.repeat(np.arange(12), 5) if contiguous else np.tile(np.arange(12), 5)
+    u = idf._units(np.ones((n, 1)), np.zeros(n), labels.astype(str))
+    c = np.array([scipy.integrate.quad(lambda f, L=L: np.cos(2 * np.pi * f * L) / f,
+                                       0.25 / n, 0.5, limit=400)[0] for L in range(n)])
+    i = np.arange(n)
+    C = c[np.abs(np.subtract.outer(i, i))] / c[0]
+    np.testing.assert_allclose(idf._flicker_unit_kernel(u),
+                               _dense_unit_kernel(u.index, u.counts, C), atol=1e-9)
 
 
 def test_given_sigma_is_reported_and_serialises_without_nan():
