@@ -1,11 +1,13 @@
 """360-degree rotation test of a gyro triad (seed 003): closed forms, exact recovery,
 identifiability and bad input, Monte Carlo of the stated uncertainties."""
 
+import warnings
+
 import numpy as np
 import pytest
 
 from inertest.earth import OMEGA_IE, Site
-from inertest.errors import DataError, IdentifiabilityError, PlanError
+from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.models.triad import TriadCalibration
 from inertest.plan import Instrument, Plan
 from inertest.procedures import gyro_triad_rotation as gtr
@@ -139,7 +141,9 @@ def test_monte_carlo_stated_uncertainties(model, noise):
     est = np.empty((n, 12))
     std = np.empty((n, 12))
     for r in range(n):
-        res = gtr.fit(plan, gtr.simulate(plan, TRUTH, noise=noise, rng=rng))
+        with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
+            warnings.simplefilter("ignore", InertestWarning)
+            res = gtr.fit(plan, gtr.simulate(plan, TRUTH, noise=noise, rng=rng))
         est[r] = [res.coefficients[k].value for k in gtr.NAMES]
         std[r] = [res.coefficients[k].std for k in gtr.NAMES]
     ratio = std.mean(axis=0) / est.std(axis=0, ddof=1)
@@ -262,7 +266,9 @@ def test_monte_carlo_noise_model_matrix(case):
     for r in range(reps):
         data = {**base, **{f"counts_{a}": base[f"counts_{a}"] + noise[r, i]
                            for i, a in enumerate("xyz")}}
-        res = gtr.fit(plan, data, noise_model=case)
+        with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
+            warnings.simplefilter("ignore", InertestWarning)
+            res = gtr.fit(plan, data, noise_model=case)
         assert res.identification.noise_model == case
         est[r] = [res.coefficients[k].value for k in gtr.NAMES]
         std[r] = [res.coefficients[k].std for k in gtr.NAMES]
@@ -302,3 +308,41 @@ def test_noise_model_named_in_the_result_and_bad_start_times():
         gtr.fit(plan, bad)
     with pytest.raises(PlanError, match="window_noise"):
         make_plan(window_noise="white")
+
+
+def test_checks_a_static_window_with_a_wrong_attitude_label_is_an_outlier():
+    """Issue 15 checks under the white model, noise level fitted: consistent on simulated data;
+    one static window logged "DWN" (x down) but run in "UEN" (x up) is the one outlier, on gyro
+    x, whose misfit is the vertical Earth rate counted the other way, K_x 2 W_ie sin L T (by hand
+    below). With the level fitted a window's standardised residual cannot exceed about
+    sqrt(dof): two windows' labels swapped (two opposite outliers) are not seen then; with the
+    level given the chi-square and both windows show."""
+    plan = make_plan(repeats=3)
+    data = gtr.simulate(plan, TRUTH, noise=2.0, rng=3)
+    r = gtr.fit(plan, data, noise_model="white")
+    checks = r.to_dict()["checks"]
+    assert checks[0]["verdict"] == "consistent" and checks[0]["unit"] == "window"
+    k = int(np.flatnonzero(data["attitude"] == "UEN")[2])  # the first static UEN window
+    assert data["axis"][k] == "static"
+    bad = {c: np.array(v, copy=True) for c, v in data.items()}
+    bad["attitude"][k] = "DWN"
+    with pytest.warns(InertestWarning, match="does not fit.*gyro x, window 7"):
+        r = gtr.fit(plan, bad, noise_model="white")
+    c = r.identification.checks
+    assert c.verdict == "model does not fit"
+    assert [o.label for o in c.outliers] == [f"gyro x, window {k + 1} (UEN static)"]
+    assert abs(c.outliers[0].z) > c.outlier_threshold
+    # By hand: the rate along x is W_ie sin L with x up, -W_ie sin L with x down; the misfit of
+    # gyro x in window k is K_x 2 W_ie sin L T [count], far above the 2-count noise.
+    T = data["duration_s"][k]
+    miss = TRUTH["K_x"] * np.degrees(2 * OMEGA_IE * np.sin(L)) * T
+    assert abs(r.counts[k, 0] - r.fitted_counts[k, 0]) == pytest.approx(miss, rel=0.3)
+    # Two static windows' labels swapped: seen with the noise level given.
+    bad = {c: np.array(v, copy=True) for c, v in data.items()}
+    bad["attitude"][k], bad["attitude"][k + 1] = data["attitude"][k + 1], data["attitude"][k]
+    with pytest.warns(InertestWarning, match="chi-square"):
+        r = gtr.fit(plan, bad, noise_model="white", sigma=2.0)
+    c = r.identification.checks
+    assert c.p_value < 1e-6
+    assert {f"gyro x, window {k + 1} (UEN static)",
+            f"gyro x, window {k + 2} (DWN static)"} <= {o.label for o in c.outliers}

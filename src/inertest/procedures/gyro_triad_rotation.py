@@ -56,6 +56,7 @@ doi:10.1093/biomet/58.3.545) and the coefficients by GLS with that covariance.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import ClassVar
@@ -67,15 +68,21 @@ from numpy.typing import NDArray
 from inertest.earth import Site
 from inertest.equipment import rate_table as table
 from inertest.equipment.motion import StaticPositions
-from inertest.errors import DataError, IdentifiabilityError, InputError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model
+from inertest.errors import (
+    DataError,
+    IdentifiabilityError,
+    InertestWarning,
+    InputError,
+    PlanError,
+)
+from inertest.estimation.identify import NOISE_MODELS, check_noise_model, model_checks
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.gyro_rate_table import check_gyro, raw_rate_per_si, raw_rate_unit
 from inertest.procedures.spec import noise_samples, require_columns
-from inertest.results import Estimate, Identification, LinearTestResult
+from inertest.results import Estimate, Identification, LinearTestResult, ModelChecks
 from inertest.units import DEG_TO_RAD
 
 KIND = "gyro-triad-rotation"
@@ -497,6 +504,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         noise_model=fits[0].model,
         noise_components={k: float(np.sqrt(np.mean([f.components[k] ** 2 for f in fits])))
                           * per_si for k in fits[0].components},
+        checks=_checks(X, resid, fits, rows, sigma is not None),
     )
     return GyroTriadRotationResult(
         site_latitude_deg=plan.site.latitude_deg,
@@ -583,6 +591,7 @@ class _GyroFit:
     components: dict[str, float]
     nll: float
     theta: float = 0.0
+    V: NDArray[np.float64] | None = None  # covariance of the windows under the noise model
 
 
 def _gls(X: NDArray[np.float64], y: NDArray[np.float64], V: NDArray[np.float64]
@@ -637,7 +646,7 @@ def _reml_fit(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.floa
     V = s2 * (np.diag(W) + (theta * K if K is not None else 0.0))
     x, cov, _, _ = _gls(X, y, V)
     return _GyroFit(x=x, covariance=cov, model="white",
-                    components={"white": float(np.sqrt(s2))}, nll=value, theta=theta)
+                    components={"white": float(np.sqrt(s2))}, nll=value, theta=theta, V=V)
 
 
 def _fit_gyro(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
@@ -657,8 +666,50 @@ def _fit_gyro(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.floa
             best = _GyroFit(f.x, f.covariance, name,
                             {"white": f.components["white"],
                              label: float(np.sqrt(f.theta) * f.components["white"])}, f.nll,
-                            f.theta)
+                            f.theta, f.V)
     return best
+
+
+def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_GyroFit],
+            rows: _Rows, given: bool) -> ModelChecks:
+    """Model checks of the three gyros' windows together (issue 15).
+
+    The windows of gyro x, then y, then z, each gyro's block with its own fitted covariance
+    (the gyros' noises are independent, so the covariance is block-diagonal) and design.
+    Standardised residuals, Ljung-Box test and Bonferroni outliers as in
+    :func:`inertest.estimation.identify.model_checks`; the chi-square is a test only with the
+    noise level given. With the level fitted, a window's standardised residual cannot exceed
+    about ``sqrt(n - 4)`` (n windows): few windows, or two windows wrong together (two labels
+    swapped), stay unseen unless the noise level is given. Warns (InertestWarning) on a misfit.
+    """
+    n = X.shape[0]
+    design = np.zeros((3 * n, 12))
+    V = np.zeros((3 * n, 3 * n))
+    for i, f in enumerate(fits):
+        design[i * n:(i + 1) * n, 4 * i:4 * i + 4] = X
+        assert f.V is not None
+        V[i * n:(i + 1) * n, i * n:(i + 1) * n] = f.V
+    labels = [f"gyro {a}, window {k + 1} ({rows.part[k]})" for a in AXES for k in range(n)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        checks = model_checks(resid.T.reshape(-1), design, V, noise_model=fits[0].model,
+                              sigma_given=given, labels=labels, unit="window")
+    if not checks.fits:
+        why = []
+        if checks.p_value is not None and checks.p_value < checks.alpha:
+            why.append(f"chi-square {checks.chi_square:.4g} for {checks.dof} dof, "
+                       f"p = {checks.p_value:.2g}")
+        if checks.serial_p_value is not None and checks.serial_p_value < checks.alpha:
+            why.append(f"neighbouring windows alike (Ljung-Box p = {checks.serial_p_value:.2g})")
+        if checks.outliers:
+            why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})"
+                                               for o in checks.outliers[:4]))
+        warnings.warn(
+            f'gyro-triad-rotation: the model with "{fits[0].model}" noise does not fit the '
+            f"windows: {'; '.join(why)}; check the attitude, axis, direction and part labels "
+            "and the noise model; the uncertainties are not reliable",
+            InertestWarning, stacklevel=3)
+    return checks
 
 
 def _fit_gyros(X: NDArray[np.float64], Y: NDArray[np.float64], W: NDArray[np.float64],
