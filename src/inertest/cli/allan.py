@@ -24,9 +24,6 @@ from inertest.errors import InputError
 from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
-from inertest.noise.identification import identify_noise
-from inertest.report.html import Section, page, table_html
-from inertest.report.noise import allan_figure, allan_sections, deviation_rows, noise_rows
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
 
@@ -106,6 +103,11 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     Fits the IEEE Std 952-1997 noise terms (quantization, random walk, bias instability, rate
     random walk, rate ramp) to the overlapping Allan variance unless --no-noise-id.
     """
+    # Here rather than at import: `inertest allan --help` should not load scipy.stats/matplotlib.
+    from inertest.noise.identification import identify_noise
+    from inertest.report.html import Section, page, table_html
+    from inertest.report.noise import allan_figure, allan_sections, deviation_rows, noise_rows
+
     table = _ANGLE_UNITS if data_type == "angle" else _UNITS
     unit = unit or ("rad" if data_type == "angle" else "rad/s")
     if unit not in table:

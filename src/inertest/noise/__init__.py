@@ -20,7 +20,18 @@ from inertest.noise.deviations import (
     tdev,
     totdev,
 )
-from inertest.noise.identification import NoiseModel, NoiseTerm, identify_noise, simulate_noise
+
+#: Names from the noise-identification module, imported on first use (it needs scipy.stats and
+#: scipy.optimize, ~1 s: `inertest allan --help` and the deviations alone do not).
+_LAZY = ("NoiseModel", "NoiseTerm", "identify_noise", "simulate_noise")
+
+
+def __getattr__(name: str) -> object:
+    if name in _LAZY:
+        from inertest.noise import identification
+
+        return getattr(identification, name)
+    raise AttributeError(f"module 'inertest.noise' has no attribute {name!r}")
 
 __all__ = [
     "STATISTICS",

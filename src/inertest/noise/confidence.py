@@ -25,7 +25,6 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import stats as _stats
 
 #: Default confidence level: the 1-sigma interval, as Stable32 and SP 1065 print it.
 ONE_SIGMA = 0.682689492137086
@@ -364,6 +363,8 @@ def b1_alpha(ybar: NDArray, *, alpha_min: int = -2, rn: float | None = None,
 
 def chi2_interval(var: NDArray, edf: NDArray, confidence: float) -> tuple[NDArray, NDArray]:
     """Two-sided chi-squared interval of variances ``var`` with ``edf`` degrees of freedom."""
+    from scipy import stats as _stats  # here, not at import: scipy.stats costs ~1 s
+
     lo_q = _stats.chi2.ppf(0.5 + confidence / 2.0, edf)
     hi_q = _stats.chi2.ppf(0.5 - confidence / 2.0, edf)
     return var * edf / lo_q, var * edf / hi_q
