@@ -8,10 +8,7 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
-from inertest.report.history import history_figure, history_rows
 from inertest.results import envelope
-from inertest.store import HistoryStore, check_label
-from inertest.store.summary import summarize_runs
 
 
 @click.command()
@@ -29,6 +26,11 @@ from inertest.store.summary import summarize_runs
 def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str | None,
             k: float, as_json: bool, plot: Path | None) -> None:
     """Runs of instrument SERIAL in time order: mean, repeatability, trend, outliers."""
+    # The database and plotting libraries load only when the command runs.
+    from inertest.report.history import history_figure, history_rows
+    from inertest.store import HistoryStore, check_label
+    from inertest.store.summary import summarize_runs
+
     serial = check_label(serial, "serial")
     figure_format(plot)
     store = HistoryStore(db)

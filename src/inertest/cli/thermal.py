@@ -10,8 +10,6 @@ from inertest.cli._common import check_paths, echo_json, figure_format, print_ta
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
 from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
-from inertest.report.html import page
-from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -65,6 +63,9 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
         hidden: int, max_iter: int, as_json: bool, plot: Path | None,
         report_dir: Path | None) -> None:
     """Fit the compensation models to the temperature cycles in DATA."""
+    from inertest.report.html import page  # plotting loads only when the command runs
+    from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
+
     figure_format(plot)
     check_paths([plot, report_dir], [data])
     result = fit_thermal(read_table(data), quantity=quantity,

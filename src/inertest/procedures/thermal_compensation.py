@@ -30,20 +30,16 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
-from sklearn.compose import TransformedTargetRegressor
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.linear_model import LinearRegression
-from sklearn.model_selection import LeaveOneGroupOut, cross_val_score
-from sklearn.neural_network import MLPRegressor
-from sklearn.pipeline import Pipeline
-from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.results import envelope
+
+if TYPE_CHECKING:
+    from sklearn.pipeline import Pipeline
 
 #: Quantities that can be compensated: data column and unit of the residuals.
 QUANTITIES: dict[str, tuple[str, str]] = {
@@ -295,6 +291,14 @@ def fit_thermal(
     random_state : int
         Seed of the network's initial weights (fixed: results are reproducible).
     """
+    # scikit-learn (~1.5 s to import) loads only when a thermal model is fitted.
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.model_selection import LeaveOneGroupOut, cross_val_score
+    from sklearn.neural_network import MLPRegressor
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import StandardScaler
+
     if quantity not in QUANTITIES:
         raise InputError(f"quantity {quantity!r} unknown; use one of {', '.join(QUANTITIES)}")
     column, unit = QUANTITIES[quantity]
@@ -410,6 +414,10 @@ def fit_thermal(
 
 
 def _polynomial(degree: int) -> Pipeline:
+    from sklearn.linear_model import LinearRegression
+    from sklearn.pipeline import Pipeline
+    from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
     return Pipeline([
         ("scale", StandardScaler()),
         ("poly", PolynomialFeatures(degree, include_bias=False)),
