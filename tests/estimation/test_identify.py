@@ -15,6 +15,7 @@ from inertest.procedures import accelerometer_multipoint as amp
 from inertest.procedures import gyro_rate_table as grt
 from inertest.procedures import local_level_tumble as ll
 from inertest.procedures import polar_tumble as pt
+from noise_generators import noise as noise_for
 
 
 def _balanced(rng, G=20, m=8, sb=1.0, sw=1.0):
@@ -125,30 +126,9 @@ def test_bad_noise_model():
 
 
 # --- Monte Carlo: reported std against the scatter over repeated tests ----------------------
-# Noise generated here, independently of the library: white; white + an offset per position
+# Noise from tests/noise_generators.py, independent of the library: white; white + an offset per position
 # as large as the sample noise; white + a random walk that wanders ~3 sigma over the test;
 # flicker (1/f) noise by FFT shaping of white noise (power 1/f from 1/(2n) up).
-
-
-def _flicker(rng, reps, n):
-    m = 2 * n
-    f = np.fft.rfftfreq(m)
-    X = rng.normal(size=(reps, f.size)) + 1j * rng.normal(size=(reps, f.size))
-    X[:, 1:] /= np.sqrt(f[1:])
-    X[:, 0] = 0.0
-    x = np.fft.irfft(X, m, axis=1)[:, :n]
-    return x / x.std(axis=1, keepdims=True)
-
-
-def _noise(kind, rng, reps, n, spp, s):
-    w = rng.normal(0.0, s, (reps, n))
-    if kind == "white":
-        return w
-    if kind == "position-offsets":
-        return w + np.repeat(rng.normal(0.0, s, (reps, n // spp)), spp, axis=1)
-    if kind == "random-walk":
-        return w + np.cumsum(rng.normal(0.0, 3 * s / np.sqrt(n), (reps, n)), axis=1)
-    return s * _flicker(rng, reps, n)
 
 
 SITE = Site.at(34.246)
@@ -179,7 +159,7 @@ def mc_ratio(procedure, noise_kind, noise_model, reps=200, seed=11):
     plan = make(noise_model)
     clean = mod.simulate(plan, truth)
     n = clean["output"].size
-    noise = _noise(noise_kind, np.random.default_rng(seed), reps, n, spp, s)
+    noise = noise_for(noise_kind, np.random.default_rng(seed), reps, np.arange(n) // spp, s)
     vals, stds = [], []
     for k in range(reps):
         data = dict(clean, output=clean["output"] + noise[k])

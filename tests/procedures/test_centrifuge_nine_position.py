@@ -14,6 +14,7 @@ from inertest.io.data_file import read_table, write_table
 from inertest.plan import Instrument, Plan
 from inertest.procedures import centrifuge_nine_position as cnp
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
+from noise_generators import noise as noise_for
 
 K = DEG_PER_H_TO_RAD_PER_S
 NAMES = ("DF", "DI", "DO", "DS", "DIO", "DOS", "DSI", "DII", "DOO", "DSS")
@@ -398,34 +399,12 @@ def _inputs(plan, d):
 
 
 # --- Noise models (issue 15) -------------------------------------------------------------------
-# The run (one position at one rate) is the unit of independence. Noise generated here,
+# The run (one position at one rate) is the unit of independence. Noise (tests/noise_generators.py),
 # independently of the library, over the samples in time order: white; white + an offset per run
 # as large as the sample noise (the drift moves between runs); white + a random walk that wanders
 # ~3 sigma over the test; flicker (1/f) by FFT shaping of white noise (power 1/f from 1/(2n) up),
 # scaled to the sample noise. A small test for speed: 9 positions x 4 rates (both senses),
 # 3 revolutions at 10 Hz (7 and 14 samples per revolution), 1206 samples.
-
-
-def _flicker(rng, shape):
-    reps, n = shape
-    f = np.fft.rfftfreq(2 * n)
-    X = rng.normal(size=(reps, f.size)) + 1j * rng.normal(size=(reps, f.size))
-    X[:, 1:] /= np.sqrt(f[1:])
-    X[:, 0] = 0.0
-    x = np.fft.irfft(X, 2 * n, axis=1)[:, :n]
-    return x / x.std(axis=1, keepdims=True)
-
-
-def _noise(kind, rng, reps, run_of_row, s):
-    n = run_of_row.size
-    w = rng.normal(0.0, s, (reps, n))
-    if kind == "white":
-        return w
-    if kind == "position-offsets":
-        return w + rng.normal(0.0, s, (reps, run_of_row.max() + 1))[:, run_of_row]
-    if kind == "random-walk":
-        return w + np.cumsum(rng.normal(0.0, 3 * s / np.sqrt(n), (reps, n)), axis=1)
-    return s * _flicker(rng, (reps, n))
 
 
 def _small_test(**params):
@@ -441,7 +420,7 @@ def mc_ratio(kind, noise_model, reps=120, seed=11, s=1e-7):
     """RMS reported std / scatter of the estimates over ``reps`` tests, per coefficient."""
     plan, clean, run_of_row = _small_test()
     f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
-    noise = _noise(kind, np.random.default_rng(seed), reps, run_of_row, s)
+    noise = noise_for(kind, np.random.default_rng(seed), reps, run_of_row, s)
     vals, stds, used = [], [], set()
     for k in range(reps):
         with warnings.catch_warnings():

@@ -15,6 +15,7 @@ from inertest.errors import DataError, IdentifiabilityError, PlanError
 from inertest.io.plan_file import load_truth
 from inertest.plan import Instrument, Plan
 from inertest.procedures import ferraris
+from noise_generators import flicker
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples" / "ferraris"
@@ -437,11 +438,7 @@ def _channel_noise(case, part, rng, reps, sigma):
     elif case == "random-walk":
         x += np.cumsum(rng.normal(size=(reps, 6, n)), axis=2) * sigma[:, None] / 10
     elif case == "flicker":
-        f = np.fft.rfftfreq(2 * n)
-        amp = np.r_[0.0, 1.0 / np.sqrt(f[1:])]
-        z = rng.normal(size=(reps, 6, f.size)) + 1j * rng.normal(size=(reps, 6, f.size))
-        y = np.fft.irfft(z * amp, 2 * n)[..., :n]
-        x += y / y.std() * sigma[:, None]
+        x += flicker(rng, (reps, 6, n), per_row=False) * sigma[:, None]
     return x
 
 

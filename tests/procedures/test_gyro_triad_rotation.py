@@ -11,6 +11,7 @@ from inertest.errors import DataError, IdentifiabilityError, InertestWarning, Pl
 from inertest.models.triad import TriadCalibration
 from inertest.plan import Instrument, Plan
 from inertest.procedures import gyro_triad_rotation as gtr
+from noise_generators import flicker
 
 LAT_DEG = 34.246
 L = np.radians(LAT_DEG)
@@ -239,11 +240,7 @@ def _window_noise(case, duration_s, rng, reps, sw=20.0):
     elif case == "random-walk":
         rate += np.cumsum(rng.normal(0.0, 0.5, (reps, 3, n)), axis=2)
     elif case == "flicker":
-        f = np.fft.rfftfreq(2 * n)
-        amp = np.r_[0.0, 1.0 / np.sqrt(f[1:])]
-        z = rng.normal(size=(reps, 3, f.size)) + 1j * rng.normal(size=(reps, 3, f.size))
-        x = np.fft.irfft(z * amp, 2 * n)[..., :n]
-        rate += 10.0 * x / x.std()
+        rate += 10.0 * flicker(rng, (reps, 3, n), per_row=False)
     cum = np.concatenate([np.zeros((reps, 3, 1)), np.cumsum(rate, axis=2)], axis=2)
     return cum[..., edges[1:]] - cum[..., edges[:-1]]
 

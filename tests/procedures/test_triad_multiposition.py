@@ -17,6 +17,7 @@ from inertest.errors import (
 from inertest.models.triad import TriadCalibration
 from inertest.plan import Instrument, Plan
 from inertest.procedures import triad_multiposition as tm
+from noise_generators import noise as noise_for
 
 TRUTH = {"K_x": 1671.2, "K_y": 1669.8, "K_z": 1672.5, "M_xy": 850.0, "M_xz": -420.0,
          "M_yx": 310.0, "M_yz": 1200.0, "M_zx": -640.0, "M_zy": 95.0, "B_x": 12.5,
@@ -230,31 +231,10 @@ def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
 
 
 # --- Monte Carlo under each noise model (issue 15) ---------------------------------------------
-# Noise generated here, independently of the library: white; white + an offset per position
+# Noise from tests/noise_generators.py, independent of the library: white; white + an offset per position
 # visit as large as the sample noise (the fixture re-settles); white + a random walk that
 # wanders ~3 sigma over the test; flicker (1/f) by FFT shaping of white noise (power 1/f from
 # 1/(2n) up), scaled to the sample noise.
-
-
-def _flicker(rng, shape):
-    reps, n = shape
-    f = np.fft.rfftfreq(2 * n)
-    X = rng.normal(size=(reps, f.size)) + 1j * rng.normal(size=(reps, f.size))
-    X[:, 1:] /= np.sqrt(f[1:])
-    X[:, 0] = 0.0
-    x = np.fft.irfft(X, 2 * n, axis=1)[:, :n]
-    return x / x.std(axis=1, keepdims=True)
-
-
-def _noise(kind, rng, reps, n, spp, s):
-    w = rng.normal(0.0, s, (reps, n))
-    if kind == "white":
-        return w
-    if kind == "position-offsets":
-        return w + np.repeat(rng.normal(0.0, s, (reps, n // spp)), spp, axis=1)
-    if kind == "random-walk":
-        return w + np.cumsum(rng.normal(0.0, 3 * s / np.sqrt(n), (reps, n)), axis=1)
-    return s * _flicker(rng, (reps, n))
 
 
 def mc_ratio(kind, noise_model, reps=120, seed=11, spp=6, s=2.0):
@@ -263,7 +243,8 @@ def mc_ratio(kind, noise_model, reps=120, seed=11, spp=6, s=2.0):
     clean = tm.simulate(plan, TRUTH)
     n = clean["output_x"].size
     rng = np.random.default_rng(seed)
-    noise = np.stack([_noise(kind, rng, reps, n, spp, s) for _ in tm.OUTPUT_COLUMNS], axis=-1)
+    noise = np.stack([noise_for(kind, rng, reps, np.arange(n) // spp, s)
+                      for _ in tm.OUTPUT_COLUMNS], axis=-1)
     vals, stds, used = [], [], set()
     for k in range(reps):
         data = dict(clean, **{c: clean[c] + noise[k, :, i]
