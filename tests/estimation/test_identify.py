@@ -126,7 +126,7 @@ def test_bad_noise_model():
 
 
 # --- Monte Carlo: reported std against the scatter over repeated tests ----------------------
-# Noise from tests/noise_generators.py, independent of the library: white; white + an offset per position
+# Noise from tests/noise_generators.py (not the library): white; white + an offset per position
 # as large as the sample noise; white + a random walk that wanders ~3 sigma over the test;
 # flicker (1/f) noise by FFT shaping of white noise (power 1/f from 1/(2n) up).
 

@@ -231,7 +231,7 @@ def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
 
 
 # --- Monte Carlo under each noise model (issue 15) ---------------------------------------------
-# Noise from tests/noise_generators.py, independent of the library: white; white + an offset per position
+# Noise from tests/noise_generators.py (not the library): white; white + an offset per position
 # visit as large as the sample noise (the fixture re-settles); white + a random walk that
 # wanders ~3 sigma over the test; flicker (1/f) by FFT shaping of white noise (power 1/f from
 # 1/(2n) up), scaled to the sample noise.
