@@ -24,6 +24,7 @@ from inertest.io.plan_file import load_plan as _load_plan
 from inertest.io.plan_file import load_truth
 from inertest.plan import Plan
 from inertest.procedures import procedure_module
+from inertest.procedures.spec import check_sample_rate
 
 PathLike = str | os.PathLike[str]
 
@@ -59,6 +60,11 @@ def fit(
     """
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     d = data if isinstance(data, Mapping) else load_data(data)
+    rate = getattr(p.procedure, "sample_rate_hz", None)
+    if isinstance(rate, int | float) and not isinstance(rate, bool):
+        # A plan's sample rate that the data's own clock contradicts scales every integral.
+        where = "(in memory)" if isinstance(data, Mapping) else str(data)
+        check_sample_rate(d, float(rate), source=f"data {where}")
     result = procedure_module(p.kind).fit(p, d, sigma=sigma)
     if dataclasses.is_dataclass(result) and "instrument" in {
         f.name for f in dataclasses.fields(result)

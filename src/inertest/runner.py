@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from inertest.api import fit, load_data, load_plan
 from inertest.errors import InertestError, PlanError
 from inertest.io.atomic import check_outputs, target_directory
-from inertest.io.data_file import check_sample_rate, file_sha256
+from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
 from inertest.plan import Plan
 
@@ -130,7 +130,6 @@ def run(
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     d = data if isinstance(data, Mapping) else load_data(data)
-    _check_rate(p, d, data_path)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=sigma)
@@ -245,13 +244,6 @@ def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[
         software_version=version, history=history)
 
 
-def _check_rate(plan: Plan, data: Mapping[str, Any], path: Path | None) -> None:
-    """The plan's sample_rate_hz (if its procedure has one) against the data's time column."""
-    rate = getattr(plan.procedure, "sample_rate_hz", None)
-    if isinstance(rate, int | float) and not isinstance(rate, bool):
-        check_sample_rate(data, float(rate), source=f"data {path or '(in memory)'}")
-
-
 def _data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:
     n = len(next(iter(data.values()))) if data else 0
     return {"file": str(path) if path is not None else "(in memory)", "rows": n,
@@ -331,7 +323,6 @@ def _compute(task: BatchTask) -> tuple[Any, Plan, str, str, tuple[str, ...], dic
     """Worker side of a batch task: read and fit (no database, no report)."""
     p = load_plan(task.plan)
     d = load_data(task.data)
-    _check_rate(p, d, task.data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=task.sigma)

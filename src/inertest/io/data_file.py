@@ -89,46 +89,6 @@ def _text_column(col: pa.ChunkedArray) -> NDArray:
     return labels[enc.indices.to_numpy(zero_copy_only=False)]
 
 
-#: Names of a time column [s] that :func:`check_sample_rate` compares with the plan's rate.
-TIME_COLUMNS = ("t_s", "time_s", "time", "t")
-
-
-def check_sample_rate(
-    columns: Mapping[str, NDArray], sample_rate_hz: float, *, source: str = "data",
-    tolerance: float = 0.05,
-) -> None:
-    """Refuse a plan's sample rate that the data's own time column contradicts.
-
-    A rate 10 times too low silently makes every integral over the samples (the Ferraris
-    turns) 10 times too large, and so the gyro scale factors. The median step of the first
-    column in :data:`TIME_COLUMNS` [s] must match ``1 / sample_rate_hz`` within ``tolerance``
-    (relative); steps that are not positive (a new segment restarting its clock) are ignored.
-    Data without a time column are not checked.
-
-    Raises
-    ------
-    DataError
-        Naming both rates and the fix.
-    """
-    name = next((c for c in TIME_COLUMNS if c in columns), None)
-    if name is None or not (np.isfinite(sample_rate_hz) and sample_rate_hz > 0):
-        return
-    t = np.asarray(columns[name])
-    if t.dtype.kind not in "fiu" or t.size < 3:
-        return
-    dt = np.diff(t.astype(float))
-    dt = dt[np.isfinite(dt) & (dt > 0)]
-    if dt.size < 2:
-        return
-    step = float(np.median(dt))
-    rate = 1.0 / step
-    if abs(rate * (1.0 / sample_rate_hz) - 1.0) > tolerance:
-        raise DataError(
-            f"{source}: the plan's sample_rate_hz = {sample_rate_hz:g} Hz, but the time column "
-            f"{name!r} steps by {step:.6g} s ({rate:.6g} Hz); fix sample_rate_hz in the plan "
-            "(or the time column)")
-
-
 def file_sha256(path: str | os.PathLike[str]) -> str:
     """SHA-256 of a file's bytes (hex), read in blocks."""
     h = hashlib.sha256()
