@@ -17,6 +17,7 @@ Plan files are TOML (read by :mod:`inertest.io.plan_file`)::
 
 from __future__ import annotations
 
+import datetime as _dt
 import difflib
 import math
 from collections.abc import Iterable, Mapping, Sequence
@@ -119,11 +120,14 @@ class Plan:
     procedure : Any
         The procedure's own parameter object (e.g. :class:`~inertest.procedures.polar_tumble.
         PolarTumbleSpec`), whose ``kind`` names the procedure.
+    test : TestConditions or None
+        The optional ``[test]`` table: operator, date, equipment ids, environment.
     """
 
     site: Site
     instrument: Instrument
     procedure: Any
+    test: TestConditions | None = None
 
     @property
     def kind(self) -> str:
@@ -288,3 +292,80 @@ def finite_number(
     if not math.isfinite(x):
         raise error(f"{source}: {key} must be finite, got {v!r}")
     return x
+
+
+@dataclass(frozen=True)
+class TestConditions:
+    """Who ran the test, with what, and in which conditions: a plan's optional ``[test]`` table.
+
+    ::
+
+        [test]
+        operator = "A. Engineer"
+        date = 2026-11-20            # test date (TOML date; the day of the fit when absent)
+        equipment = ["RT-02"]        # ids in the lab equipment file (inertest.lab)
+        temperature_C = 22.5
+        humidity_pct = 41
+        warm_up_min = 60
+        notes = "thermal chamber closed"
+
+    Attributes
+    ----------
+    operator : str
+    date : datetime.date or None
+    equipment : tuple of str
+        Ids of the equipment used, resolved against a lab file by :func:`inertest.lab.
+        select_equipment`.
+    temperature_C : float or None
+        Ambient (or chamber) temperature [degC].
+    humidity_pct : float or None
+        Relative humidity [%].
+    warm_up_min : float or None
+        Warm-up time of the instrument before the first measurement [min].
+    notes : str
+    """
+
+    __test__ = False                     # not a pytest class despite its name
+
+    operator: str = ""
+    date: _dt.date | None = None
+    equipment: tuple[str, ...] = ()
+    temperature_C: float | None = None
+    humidity_pct: float | None = None
+    warm_up_min: float | None = None
+    notes: str = ""
+
+    def environment(self) -> dict[str, dict[str, object]]:
+        """``{name: {"value", "unit"}}`` of the conditions given (JSON and report rows)."""
+        rows = (("temperature", self.temperature_C, "degC"),
+                ("humidity", self.humidity_pct, "%"),
+                ("warm_up", self.warm_up_min, "min"))
+        return {n: {"value": v, "unit": u} for n, v, u in rows if v is not None}
+
+
+TEST_FIELDS = (
+    Field("operator", "text", default=""),
+    Field("equipment", "texts", default=()),
+    Field("temperature_C", default=None, unit="degC", minimum=-100.0, maximum=300.0),
+    Field("humidity_pct", default=None, unit="%", minimum=0.0, maximum=100.0),
+    Field("warm_up_min", default=None, unit="min", minimum=0.0),
+    Field("notes", "text", default=""),
+)
+
+
+def read_test_table(table: Mapping[str, Any], where: str) -> TestConditions:
+    """A plan's ``[test]`` table by :data:`TEST_FIELDS` (plus ``date``); unknown keys are errors."""
+    if not isinstance(table, Mapping):
+        raise PlanError(f"{where} must be a table")
+    v = read_fields(table, TEST_FIELDS, where, ignore=("date",))
+    d = table.get("date")
+    if isinstance(d, _dt.datetime):
+        d = d.date()
+    elif isinstance(d, str):
+        try:
+            d = _dt.date.fromisoformat(d)
+        except ValueError:
+            pass
+    if d is not None and not isinstance(d, _dt.date):
+        raise PlanError(f"{where}: date must be a date such as date = 2026-11-20, got {d!r}")
+    return TestConditions(date=d, **v)

@@ -17,6 +17,7 @@ from inertest.plan import (
     Plan,
     check_known_keys,
     read_fields,
+    read_test_table,
     toml_table,
 )
 from inertest.procedures import procedure_module
@@ -37,7 +38,7 @@ def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
 
 
 #: Top-level tables of a plan file.
-PLAN_TABLES = ("site", "instrument", "procedure")
+PLAN_TABLES = ("site", "instrument", "procedure", "test")
 SITE_FIELDS = (
     Field("latitude_deg", unit="deg", minimum=-90.0, maximum=90.0,
           doc="geodetic latitude in degrees"),
@@ -75,7 +76,8 @@ def plan_from_mapping(doc: Mapping[str, Any], *, source: str = "plan") -> Plan:
     if not isinstance(kind, str):
         raise PlanError(f"{source}: [procedure] kind must be text, got {kind!r}")
     spec = procedure_module(kind).SPEC.from_mapping(proc_t)
-    return Plan(site=site, instrument=instrument, procedure=spec)
+    test = (read_test_table(doc["test"], f"{source}: [test]") if "test" in doc else None)
+    return Plan(site=site, instrument=instrument, procedure=spec, test=test)
 
 
 def load_plan(path: str | os.PathLike[str]) -> Plan:

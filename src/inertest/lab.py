@@ -1,0 +1,253 @@
+"""The lab's test equipment: identities, calibration status and Type-B uncertainties.
+
+A lab equipment file (TOML) lists every table, dividing head and centrifuge a plan may name in
+its ``[test]`` table (:class:`inertest.plan.TestConditions`)::
+
+    [[equipment]]
+    id = "RT-02"                      # referenced from the plan
+    name = "Two-axis rate table"
+    model = "Acutronic AC2247"        # free text
+    serial = "4711"
+    calibrated = 2026-03-01           # TOML dates
+    calibration_due = 2027-03-01
+    certificate = "DKD-K-12345 2026-03"
+    [equipment.type_b]                # standard uncertainties (k = 1) this equipment contributes
+    rate_ppm = 5.0                    # rate accuracy
+    tilt_urad = 20.0                  # axis tilt / alignment
+    angle_arcsec = 2.0                # encoder / dividing-head angle error
+
+Type-B keys carry their unit in a suffix (:data:`TYPE_B_UNITS`); each record keeps the values as
+written and offers them in SI, named without the suffix (``rate`` [1], ``tilt`` [rad]).
+The records are what ISO/IEC 17025 7.8.2 asks a report to identify: the equipment used, and
+whether its calibration was valid on the test date.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import tomllib
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from inertest.errors import PlanError
+from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
+from inertest.units import ARCSEC_TO_RAD, DEG_TO_RAD, MICRORAD_TO_RAD, PPM_TO_RATIO
+
+
+class LabFileError(PlanError):
+    """A lab equipment file is missing, unreadable or inconsistent with a plan."""
+
+
+#: Unit suffix of a Type-B key -> (unit as printed, factor to SI).
+#: mGal: 1 mGal = 1e-5 m/s^2; um: micrometre.
+TYPE_B_UNITS: dict[str, tuple[str, float]] = {
+    "_ppm": ("ppm", PPM_TO_RATIO),
+    "_urad": ("urad", MICRORAD_TO_RAD),
+    "_arcsec": ("arcsec", ARCSEC_TO_RAD),
+    "_um": ("um", 1e-6),
+    "_mgal": ("mGal", 1e-5),
+    "_deg": ("deg", DEG_TO_RAD),
+}
+
+_RECORD_FIELDS = (
+    Field("id", "text", doc='the identifier plans use, e.g. id = "RT-02"'),
+    Field("name", "text", default=""),
+    Field("model", "text", default=""),
+    Field("serial", "text", default=""),
+    Field("certificate", "text", default=""),
+)
+_DATE_KEYS = ("calibrated", "calibration_due")
+
+
+@dataclass(frozen=True)
+class TypeB:
+    """One Type-B standard uncertainty (k = 1) of a piece of equipment.
+
+    Attributes
+    ----------
+    key : str
+        As written in the file, with its unit suffix (``"tilt_urad"``).
+    name : str
+        Without the suffix (``"tilt"``).
+    value : float
+        As written, in ``unit``.
+    unit : str
+        ``"ppm"``, ``"urad"``, ``"arcsec"``, ``"um"``, ``"mGal"`` or ``"deg"``.
+    si : float
+        The same in SI: ratio, rad, m or m/s^2.
+    """
+
+    key: str
+    name: str
+    value: float
+    unit: str
+    si: float
+
+
+@dataclass(frozen=True)
+class Equipment:
+    """One item of test equipment from the lab file.
+
+    Attributes
+    ----------
+    id, name, model, serial, certificate : str
+        Identity as written in the lab file.
+    calibrated, calibration_due : datetime.date or None
+        Date of the last calibration and the date the next one is due.
+    type_b : tuple of TypeB
+        Standard uncertainties (k = 1) this item contributes, in file order.
+    """
+
+    id: str
+    name: str = ""
+    model: str = ""
+    serial: str = ""
+    certificate: str = ""
+    calibrated: _dt.date | None = None
+    calibration_due: _dt.date | None = None
+    type_b: tuple[TypeB, ...] = field(default=())
+
+    @property
+    def type_b_si(self) -> dict[str, float]:
+        """``{name without suffix: value in SI}``, e.g. ``{"tilt": 2e-5}`` [rad]."""
+        return {t.name: t.si for t in self.type_b}
+
+    def overdue(self, on: _dt.date) -> bool:
+        """True when the calibration was due before ``on`` (the test date)."""
+        return self.calibration_due is not None and self.calibration_due < on
+
+    def to_dict(self, test_date: _dt.date | None = None) -> dict[str, object]:
+        """JSON form; dates as ISO text, Type-B values with their units, ``overdue`` when known."""
+        d: dict[str, object] = {
+            "id": self.id, "name": self.name, "model": self.model, "serial": self.serial,
+            "certificate": self.certificate,
+            "calibrated": None if self.calibrated is None else self.calibrated.isoformat(),
+            "calibration_due": (None if self.calibration_due is None
+                                else self.calibration_due.isoformat()),
+            "type_b": {t.key: {"value": t.value, "unit": t.unit} for t in self.type_b},
+        }
+        if test_date is not None:
+            d["calibration_overdue"] = self.overdue(test_date)
+        return d
+
+
+def _date(v: Any, key: str, where: str) -> _dt.date | None:
+    if v is None:
+        return None
+    if isinstance(v, _dt.datetime):
+        return v.date()
+    if isinstance(v, _dt.date):
+        return v
+    if isinstance(v, str):
+        try:
+            return _dt.date.fromisoformat(v)
+        except ValueError:
+            pass
+    raise LabFileError(f"{where}: {key} must be a date such as {key} = 2027-03-01, got {v!r}")
+
+
+def _type_b(t: Any, where: str) -> tuple[TypeB, ...]:
+    if t is None:
+        return ()
+    if not isinstance(t, Mapping):
+        raise LabFileError(f"{where}: type_b must be a table [equipment.type_b]")
+    out = []
+    for key, v in t.items():
+        suffix = next((s for s in TYPE_B_UNITS if key.endswith(s) and len(key) > len(s)), None)
+        if suffix is None:
+            raise LabFileError(
+                f"{where}: type_b key {key} has no unit suffix; end it with one of "
+                f"{', '.join(TYPE_B_UNITS)} (e.g. tilt_urad = 20.0)")
+        unit, factor = TYPE_B_UNITS[suffix]
+        x = read_fields({key: v}, (Field(key, unit=unit, minimum=0.0),), f"{where}: type_b",
+                        error=LabFileError)[key]
+        out.append(TypeB(key=key, name=key[: -len(suffix)], value=x, unit=unit, si=x * factor))
+    return tuple(out)
+
+
+def equipment_from_mapping(
+    doc: Mapping[str, Any], *, source: str = "lab file"
+) -> dict[str, Equipment]:
+    """The equipment records of a parsed lab file, keyed by id in file order.
+
+    Raises
+    ------
+    LabFileError
+        No ``[[equipment]]`` entries, an unknown key (with did-you-mean), a duplicate id, a date
+        that is not a date, a due date before the calibration date, or a Type-B key without a
+        unit suffix.
+    """
+    check_known_keys(doc, {"equipment"}, source, error=LabFileError)
+    items = doc.get("equipment")
+    if not isinstance(items, list) or not items:
+        raise LabFileError(f"{source} has no [[equipment]] entries; see "
+                           "examples/lab/equipment.toml")
+    out: dict[str, Equipment] = {}
+    for i, t in enumerate(items):
+        where = f"{source}: [[equipment]] #{i + 1}"
+        if not isinstance(t, Mapping):
+            raise LabFileError(f"{where} must be a table")
+        v = read_fields(t, _RECORD_FIELDS, where, ignore=(*_DATE_KEYS, "type_b"),
+                        error=LabFileError)
+        where = f'{source}: equipment "{v["id"]}"'
+        if v["id"] in out:
+            raise LabFileError(f'{where} is listed twice; give each item its own id')
+        cal, due = (_date(t.get(k), k, where) for k in _DATE_KEYS)
+        if cal is not None and due is not None and due < cal:
+            raise LabFileError(f"{where}: calibration_due {due} is before calibrated {cal}")
+        out[v["id"]] = Equipment(**v, calibrated=cal, calibration_due=due,
+                                 type_b=_type_b(t.get("type_b"), where))
+    return out
+
+
+def read_equipment(path: str | os.PathLike[str]) -> dict[str, Equipment]:
+    """Read a lab equipment file (TOML); see the module docstring for its layout.
+
+    Parameters
+    ----------
+    path : path-like
+        The lab file, e.g. ``examples/lab/equipment.toml``.
+
+    Returns
+    -------
+    dict of str to Equipment
+        The records keyed by id, in file order.
+    """
+    source = f"lab file {os.fspath(path)}"
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise LabFileError(f"{source} does not exist; give --equipment the lab's equipment "
+                           "file (see examples/lab/equipment.toml)") from None
+    except OSError as exc:
+        raise LabFileError(f"{source} cannot be read: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise LabFileError(f"{source} is not valid TOML: {exc}") from None
+    return equipment_from_mapping(doc, source=source)
+
+
+def select_equipment(
+    lab: Mapping[str, Equipment], ids: Iterable[str], *, plan_source: str = "the plan",
+    lab_source: str = "the lab file",
+) -> tuple[Equipment, ...]:
+    """The records a plan's ``[test] equipment`` names; an unknown id names both files."""
+    out = []
+    for eid in ids:
+        if eid not in lab:
+            raise LabFileError(
+                f'{plan_source}: [test] equipment "{eid}" is not in {lab_source}'
+                f"{did_you_mean(eid, lab)}; add it there or correct the id (known: "
+                f"{', '.join(lab) or 'none'})")
+        out.append(lab[eid])
+    return tuple(out)
+
+
+def overdue_messages(equipment: Sequence[Equipment], test_date: _dt.date) -> list[str]:
+    """One warning per item whose calibration was overdue on ``test_date``."""
+    return [f"Calibration of {e.id} ({e.name or e.model or 'equipment'}, serial "
+            f"{e.serial or 'unknown'}) was due {e.calibration_due}, before the test date "
+            f"{test_date}: the results are not traceable until it is recalibrated"
+            for e in equipment if e.overdue(test_date)]
