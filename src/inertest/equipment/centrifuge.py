@@ -43,7 +43,7 @@ segment per run (position, signed rate), inputs from :func:`centrifuge_motion`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -53,6 +53,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu
 from inertest.equipment.motion import Inputs
+from inertest.equipment.type_b import TypeBSource, current_error
 from inertest.errors import InputError
 
 #: Position numbers of the nine-position method.
@@ -562,6 +563,15 @@ def run_labels(position: ArrayLike, omega: ArrayLike) -> NDArray[np.str_]:
     return names[np.asarray(inverse).reshape(p.shape)]
 
 
+#: Type-B errors the centrifuge accepts (:mod:`inertest.equipment.type_b`), applied by
+#: :meth:`CentrifugeRuns.inputs` on top of its :class:`CentrifugeErrors`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("radius", "m", "arm radius error: added to the nominal radius"),
+    TypeBSource("rate", "1", "main-axis rate accuracy: every rate scaled by (1 + error)"),
+    TypeBSource("tilt", "rad", "azimuth-axis alignment: a parallelism error about x"),
+)
+
+
 @dataclass(frozen=True)
 class CentrifugeRuns:
     """Runs of a dual-axis centrifuge as a :class:`~inertest.equipment.motion.Motion`.
@@ -614,10 +624,16 @@ class CentrifugeRuns:
         except ValueError:
             raise InputError(f"unknown centrifuge run {segment!r}; the plan has "
                              f"{', '.join(self.segments)}") from None
+        errors, tilt = self.errors, current_error("tilt")   # Type-B (zero unless applied)
+        if tilt:
+            base = CentrifugeErrors() if errors is None else errors
+            errors = replace(base, parallelism_x_rad=base.parallelism_x_rad + tilt)
         m = centrifuge_motion(
-            t, w, p, radius_m=self.radius_m, gravity_m_s2=self.site.gravity_m_s2,
+            t, w * (1.0 + current_error("rate")), p,
+            radius_m=self.radius_m + current_error("radius"),
+            gravity_m_s2=self.site.gravity_m_s2,
             latitude_rad=self.site.latitude_rad, platform_heading_rad=self.platform_heading_rad,
-            errors=self.errors, dgamma=self.dgamma,
+            errors=errors, dgamma=self.dgamma,
             earth_rotation_in_acceleration=self.earth_rotation_in_acceleration)
         return Inputs(m.attitude, m.omega_ios, m.f_ios)
 

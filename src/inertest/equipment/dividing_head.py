@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site
 from inertest.equipment.motion import StaticPositions
+from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 
 MOUNTINGS: tuple[str, ...] = ("IA-PA", "IA-OA", "PA-OA")
@@ -37,6 +38,11 @@ MOUNTINGS: tuple[str, ...] = ("IA-PA", "IA-OA", "PA-OA")
 _PLANE = {"IA-PA": (0, 1), "IA-OA": (0, 2), "PA-OA": (1, 2)}
 #: The axis along the head axis (never excited) for each mounting.
 HEAD_AXIS = {"IA-PA": "OA", "IA-OA": "PA", "PA-OA": "IA"}
+#: Type-B errors the head accepts (:mod:`inertest.equipment.type_b`), applied by :func:`motion`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("angle", "rad", "indexing zero error: added to every head angle"),
+    TypeBSource("tilt", "rad", "head axis out of horizontal: the head tilted about east"),
+)
 
 
 def check_mounting(mounting: str) -> str:
@@ -137,7 +143,8 @@ def motion(
         Segments ``"<mounting>@<angle>"`` (:func:`position_labels`), mounting by mounting;
         instrument axes (IA, PA, OA). Its specific force ``f_i / g0`` equals
         :func:`specific_force` with ``gravity_g = g / g0``; the axis along the head axis feels
-        none.
+        none. Inside :func:`~inertest.equipment.type_b.errors_applied` the :data:`TYPE_B`
+        errors apply.
 
     Raises
     ------
@@ -145,9 +152,12 @@ def motion(
         An unknown mounting.
     """
     angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
+    # Type-B errors (zero unless applied): the labels stay the nominal angles.
+    true_angles = angles + np.degrees(current_error("angle"))
+    tilt = tilt_rotation(current_error("tilt"))
     out: dict[str, NDArray[np.float64]] = {}
     for m in np.atleast_1d(np.asarray(mountings).astype(str)):
-        for label, c in zip(position_labels(m, angles), attitudes(str(m), angles,
+        for label, c in zip(position_labels(m, angles), attitudes(str(m), true_angles,
                                                                   head_azimuth_deg), strict=True):
-            out[str(label)] = c
+            out[str(label)] = tilt @ c
     return StaticPositions(out, site)

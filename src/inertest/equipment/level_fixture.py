@@ -16,6 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
 from inertest.equipment.motion import StaticPositions
+from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 from inertest.units import G0
 
@@ -93,6 +94,12 @@ def position_labels(i_dir: ArrayLike, o_dir: ArrayLike, s_dir: ArrayLike) -> NDA
     return np.char.add(np.char.add(np.char.add(i, " "), np.char.add(o, " ")), s)
 
 
+#: Type-B errors the fixture accepts (:mod:`inertest.equipment.type_b`), applied by :func:`motion`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("tilt", "rad", "fixture base out of level: tilted about east"),
+)
+
+
 def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositions:
     """The fixture holding the gyro in each position, as a motion.
 
@@ -115,11 +122,12 @@ def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositi
     InputError
         A position that is not three local directions of a right-handed triad.
     """
+    tilt = tilt_rotation(current_error("tilt"))   # Type-B (zero unless applied)
     attitudes: dict[str, NDArray[np.float64]] = {}
     for p in positions:
         triple = p.split() if isinstance(p, str) and " " in p.strip() else list(p)
         if len(triple) != 3:
             raise InputError(f"position {p!r} must give three directions (I, O, S), e.g. \"UNW\"")
         label = str(position_labels(*triple))
-        attitudes[label] = axes_from_directions(*triple).T
+        attitudes[label] = tilt @ axes_from_directions(*triple).T
     return StaticPositions(attitudes, site)

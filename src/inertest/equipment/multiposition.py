@@ -32,6 +32,7 @@ from scipy.spatial.transform import Rotation
 from inertest.earth import DIRECTIONS_ENU, Site
 from inertest.equipment.level_fixture import all_positions
 from inertest.equipment.motion import StaticPositions
+from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 
 SCHEMES = ("6", "12", "24")
@@ -91,6 +92,12 @@ def attitudes(labels: object) -> NDArray[np.float64]:
     return table[inverse.ravel()]
 
 
+#: Type-B errors the fixture accepts (:mod:`inertest.equipment.type_b`), applied by :func:`motion`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("tilt", "rad", "fixture base out of level: tilted about east"),
+)
+
+
 def motion(labels: object, site: Site) -> StaticPositions:
     """The fixture as a :class:`~inertest.equipment.motion.Motion`: one static segment per label.
 
@@ -108,5 +115,6 @@ def motion(labels: object, site: Site) -> StaticPositions:
         ``omega_i = C_ni^T W_ie_n``.
     """
     distinct = dict.fromkeys(str(x) for x in np.asarray(labels, dtype=str).ravel())
-    return StaticPositions({lab: attitude(lab) for lab in distinct}, site)
+    tilt = tilt_rotation(current_error("tilt"))   # Type-B (zero unless applied)
+    return StaticPositions({lab: tilt @ attitude(lab) for lab in distinct}, site)
 

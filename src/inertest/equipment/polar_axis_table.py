@@ -28,10 +28,17 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu, polar_axis_enu, specific_force_enu
 from inertest.equipment.motion import StaticPositions
+from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD, G0
 
 MOUNTINGS: tuple[str, ...] = ("O-Np", "O-Sp", "S-Np", "S-Sp")
+
+#: Type-B errors the table accepts (:mod:`inertest.equipment.type_b`), applied by :func:`motion`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("angle", "rad", "encoder zero error: added to every table angle"),
+    TypeBSource("tilt", "rad", "polar-axis alignment: the table tilted about east"),
+)
 
 
 def _base_axes_and_rotation_axis(
@@ -137,7 +144,8 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
         order given, angles in the order given; attitude ``C_ni`` with columns I, O, S in ENU
         (:func:`instrument_axes_enu` transposed). Its inputs: Earth rate and ``+g`` up on
         I, O, S, so ``f_i / g`` follows the table of the module docstring and ``omega_i[:, 0]``
-        vanishes (the input axis stays in the equatorial plane).
+        vanishes (the input axis stays in the equatorial plane). Inside
+        :func:`~inertest.equipment.type_b.errors_applied` the :data:`TYPE_B` errors apply.
 
     Raises
     ------
@@ -145,9 +153,11 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
         An unknown mounting.
     """
     angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
+    # Type-B errors (zero unless applied): the labels stay the nominal angles.
+    offset, tilt = current_error("angle"), tilt_rotation(current_error("tilt"))
     attitudes: dict[str, NDArray[np.float64]] = {}
     for m in np.atleast_1d(np.asarray(mountings).astype(str)):
-        axes = instrument_axes_enu(str(m), angles * DEG_TO_RAD, site.latitude_rad)
+        axes = instrument_axes_enu(str(m), angles * DEG_TO_RAD + offset, site.latitude_rad)
         for label, rows in zip(position_labels(m, angles), axes, strict=True):
-            attitudes[str(label)] = rows.T
+            attitudes[str(label)] = tilt @ rows.T
     return StaticPositions(attitudes, site)

@@ -30,6 +30,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
 from inertest.equipment.motion import Inputs
+from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD
 
@@ -380,6 +381,14 @@ def rate_label(rate_rad_s: float) -> str:
     return f"rate {rate_rad_s / DEG_TO_RAD:.9g} deg/s"
 
 
+#: Type-B errors a rate table at constant rates accepts (:mod:`inertest.equipment.type_b`),
+#: applied by :meth:`ConstantRates.inputs_at_rate`.
+TYPE_B: tuple[TypeBSource, ...] = (
+    TypeBSource("rate", "1", "rate accuracy: every table rate scaled by (1 + error)"),
+    TypeBSource("tilt", "rad", "table axis alignment: axis and instrument tilted together"),
+)
+
+
 @dataclass(frozen=True)
 class ConstantRates:
     """A single-axis rate table at constant rates: a :class:`~inertest.equipment.motion.Motion`.
@@ -439,10 +448,14 @@ class ConstantRates:
     def inputs_at_rate(self, rate_rad_s: float, t: ArrayLike = 0.0) -> Inputs:
         """Inputs at table rate ``rate_rad_s`` [rad/s] and times ``t`` [s]."""
         tt = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
-        C0 = np.asarray(self.C_ni0, dtype=float)
-        R = Rotation.from_rotvec(np.outer(rate_rad_s * tt, self.axis_enu)).as_matrix()
+        # Type-B errors (zero unless applied): rate scale, and the axis tilted with the mount.
+        rate_rad_s = rate_rad_s * (1.0 + current_error("rate"))
+        tilt = tilt_rotation(current_error("tilt"), self.axis_enu)
+        axis = tilt @ self.axis_enu
+        C0 = tilt @ np.asarray(self.C_ni0, dtype=float)
+        R = Rotation.from_rotvec(np.outer(rate_rad_s * tt, axis)).as_matrix()
         C = R @ C0
-        w_n = rate_rad_s * self.axis_enu + earth_rate_enu(self.site.latitude_rad)
+        w_n = rate_rad_s * axis + earth_rate_enu(self.site.latitude_rad)
         f_n = specific_force_enu(self.site.gravity_m_s2)
         return Inputs(C, np.einsum("kji,j->ki", C, w_n), np.einsum("kji,j->ki", C, f_n))
 

@@ -1,0 +1,93 @@
+"""Type-B error sources of the test equipment, and how each machine applies them to its motion.
+
+A lab equipment file states the standard uncertainties (k = 1) of a table, dividing head or
+centrifuge (``rate_ppm``, ``tilt_urad``, ``angle_arcsec``, ``radius_um``, see
+:mod:`inertest.lab`). Each equipment module declares, in its ``TYPE_B`` tuple of
+:class:`TypeBSource`, which of them it accepts and how the error enters its kinematics; its motion
+constructor reads the error currently applied (:func:`current_error`, zero unless a caller is
+inside :func:`errors_applied`). So the uncertainty budget (:mod:`inertest.budget`) can simulate a
+test on a machine with a given error and fit it with the nominal machine, without any procedure
+knowing about Type-B sources (JCGM 100:2008, GUM 5.1.3: the sensitivity coefficient as the change
+of the output estimate for a change of one input estimate).
+
+Every source is applied as one systematic error common to all positions and runs of the test
+(an index zero error, a rate-scale error, a tilt of the table axis), the error a calibration
+certificate states.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+
+@dataclass(frozen=True)
+class TypeBSource:
+    """One Type-B error a machine accepts.
+
+    Attributes
+    ----------
+    name : str
+        Name without the unit suffix, as :attr:`inertest.lab.TypeB.name` (``"tilt"``).
+    si_unit : str
+        Unit of the error inside the library (``"rad"``, ``"1"``, ``"m"``).
+    effect : str
+        How the machine's motion applies it, in plain language.
+    """
+
+    name: str
+    si_unit: str
+    effect: str
+
+
+_ERRORS: ContextVar[Mapping[str, float] | None] = ContextVar("inertest_equipment_errors",
+                                                             default=None)
+
+
+@contextmanager
+def errors_applied(errors: Mapping[str, float]) -> Iterator[None]:
+    """Motions built inside the block carry the given equipment errors [SI].
+
+    Parameters
+    ----------
+    errors : mapping of str to float
+        ``{source name: error in SI}``, e.g. ``{"angle": 9.7e-6}`` [rad].
+    """
+    token = _ERRORS.set(dict(errors))
+    try:
+        yield
+    finally:
+        _ERRORS.reset(token)
+
+
+def current_error(name: str) -> float:
+    """The error ``name`` applied now [SI]; 0.0 outside :func:`errors_applied`."""
+    errors = _ERRORS.get()
+    return 0.0 if errors is None else float(errors.get(name, 0.0))
+
+
+def tilt_rotation(
+    tilt_rad: float, axis_enu: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
+    """Rotation (3, 3) in ENU that tilts a machine by ``tilt_rad`` about a horizontal axis.
+
+    Parameters
+    ----------
+    tilt_rad : float
+        Tilt [rad].
+    axis_enu : ndarray, shape (3,), optional
+        The machine's own axis; the tilt is about the horizontal direction perpendicular to it
+        (east when the axis is vertical or along north, north when it is along east). Default:
+        about east.
+    """
+    east, north = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    about = east
+    if axis_enu is not None and abs(float(np.dot(axis_enu, east))) > 0.9:
+        about = north
+    return Rotation.from_rotvec(tilt_rad * about).as_matrix()
