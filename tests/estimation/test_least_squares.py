@@ -101,3 +101,48 @@ def test_null_space_accurate_with_heavy_row_weights_and_a_zero_column():
         assert fit.is_identifiable([1.0, 1.0, -1.0, 0.0, 0.0]) is False
         assert fit.is_identifiable([1.0, 0.0, 1.0, 0.0, 0.0]) is True  # orthogonal to (1,1,-1)
         assert fit.identifiable.tolist() == [False, False, False, False, True]
+
+
+def _thin_svd_reference(A, y, w):
+    """The textbook solution on the whole weighted design (Golub & Van Loan sec. 5.5)."""
+    Aw, yw = A * w[:, None], y * w
+    norms = np.linalg.norm(Aw, axis=0)
+    scale = np.where(norms > 0, norms, 1.0)
+    U, s, Vt = np.linalg.svd(Aw / scale, full_matrices=False)
+    r = int(np.sum(s > 1e-9 * s[0]))
+    x = Vt[:r].T @ ((U[:, :r].T @ yw) / s[:r]) / scale
+    cov_z = (Vt[:r].T / s[:r] ** 2) @ Vt[:r]
+    return x, cov_z / np.outer(scale, scale), s / s[0], r
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_tall_design_blocked_qr_equals_the_thin_svd(weighted):
+    # 200,000 rows (four QR blocks): the R-factor path against the thin SVD of the whole design.
+    rng = np.random.default_rng(3)
+    n = 200_000
+    t = rng.uniform(-1, 1, n)
+    A = np.column_stack([np.ones(n), 1e3 * t, 1e-3 * t**2, np.sin(3 * t), np.zeros(n)])
+    A[:, 4] = A[:, 0] - 2e-3 * A[:, 1]  # an exact dependency: rank 4
+    sig = rng.uniform(0.5, 2.0, n) if weighted else np.ones(n)
+    y = A @ np.array([1.0, 2e-3, 5.0, -0.7, 0.0]) + sig * rng.normal(0, 0.01, n)
+    fit = weighted_least_squares(A, y, sigma=sig if weighted else None)
+    x, cov, s_rel, r = _thin_svd_reference(A, y, 1.0 / sig)
+    assert fit.rank == r == 4
+    np.testing.assert_allclose(fit.singular_values / fit.singular_values[0], s_rel,
+                               rtol=1e-9, atol=1e-14)
+    # identifiable functions agree; the minimum-norm estimate itself agrees too
+    np.testing.assert_allclose(A @ fit.x, A @ x, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(fit.x, x, rtol=1e-9, atol=1e-12)
+    ref_sigma = (np.sqrt(np.sum(((y - A @ x) / sig) ** 2) / (n - r)) if not weighted else 1.0)
+    np.testing.assert_allclose(fit.sigma, ref_sigma, rtol=1e-12)
+    np.testing.assert_allclose(fit.covariance, cov * ref_sigma**2, rtol=1e-8,
+                               atol=1e-12 * np.abs(cov).max())
+    assert fit.null_space.shape == (5, 1)
+    assert np.abs(A @ fit.null_space[:, 0]).max() < 1e-9 * np.abs(A).max()
+
+
+def test_tall_design_with_nan_is_refused():
+    A = np.ones((100_000, 2))
+    A[99_999, 1] = np.nan
+    with pytest.raises(InputError, match="NaN"):
+        weighted_least_squares(A, np.ones(100_000))
