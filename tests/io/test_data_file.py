@@ -21,3 +21,39 @@ def test_empty_cells_become_nan_and_unknown_suffix(tmp_path):
     assert np.isnan(read_table(p)["output"][1])
     with pytest.raises(DataError, match="use .csv, .parquet or .h5"):
         read_table(tmp_path / "d.xlsx")
+
+
+@pytest.mark.parametrize("distinct", [3, 70_000])
+def test_text_columns_match_the_csv_module(tmp_path, distinct):
+    # Text columns of few labels (encoded while parsing) and of many (plain strings) read as
+    # Python's own csv module reads them; empty cells are "", numbers stay exact.
+    import csv
+
+    rng = np.random.default_rng(0)
+    n = 140_000
+    labels = np.array([f"L{k}" for k in range(distinct)] + [""])
+    text = labels[rng.integers(0, labels.size, n)]
+    values = rng.normal(size=n)
+    p = tmp_path / "d.csv"
+    with p.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["label", "value", "count"])
+        w.writerows(zip(text, map(repr, values.tolist()), range(n), strict=True))
+    with p.open(newline="") as fh:
+        rows = list(csv.reader(fh))[1:]
+    back = read_table(p)
+    assert back["label"].tolist() == [r[0] for r in rows]
+    np.testing.assert_array_equal(back["value"], [float(r[1]) for r in rows])
+    assert back["count"].dtype == np.float64
+    np.testing.assert_array_equal(back["count"], np.arange(n))
+
+
+def test_parquet_text_nulls_become_empty(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    p = tmp_path / "d.parquet"
+    pq.write_table(pa.table({"m": pa.array(["a", None, "b", "a"])}), p)
+    assert read_table(p)["m"].tolist() == ["a", "", "b", "a"]
+    pq.write_table(pa.table({"m": pa.array(["a", None, "b"]).dictionary_encode()}), p)
+    assert read_table(p)["m"].tolist() == ["a", "", "b"]

@@ -19,6 +19,9 @@ if TYPE_CHECKING:
     import pyarrow as pa
 
 _SUFFIXES = (".csv", ".parquet", ".pq")
+#: A CSV text column with more distinct values than this is read as plain strings (then
+#: encoded once); below it the reader encodes it while parsing.
+_MAX_DICT_LABELS = 65536
 
 
 def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
@@ -26,6 +29,10 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
 
     Numeric columns become float arrays (empty cells -> NaN, so the procedures can name them);
     text columns become arrays of str.
+
+    Memory: a CSV's text columns are dictionary-encoded while parsed (test data repeat a few
+    labels), and each column's Arrow buffers are released as soon as it is converted, so the
+    peak is about the numpy columns plus one Arrow column.
     """
     import pyarrow as pa
     import pyarrow.csv as pacsv
@@ -43,7 +50,8 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         raise FileNotFoundError(2, "no such file", str(p))
     try:
         if suffix == ".csv":
-            table = pacsv.read_csv(p)
+            table = pacsv.read_csv(p, convert_options=pacsv.ConvertOptions(
+                auto_dict_encode=True, auto_dict_max_cardinality=_MAX_DICT_LABELS))
         else:
             table = pq.read_table(p)
     except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError) as exc:
@@ -58,15 +66,18 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     if dup:
         raise DataError(f"data file {p} has the column {dup[0]!r} more than once; give each "
                         "column its own name")
+    pending = dict(zip(table.column_names, table.columns, strict=True))
+    del table
     out: dict[str, NDArray] = {}
-    for name in table.column_names:
-        col = table.column(name)
+    for name in list(pending):
+        col = pending.pop(name)
         if pa.types.is_integer(col.type) or pa.types.is_floating(col.type):
-            out[name] = col.to_numpy(zero_copy_only=False).astype(float)
+            out[name] = col.to_numpy(zero_copy_only=False).astype(float, copy=False)
         elif pa.types.is_null(col.type):
             out[name] = np.full(len(col), np.nan)
         else:
             out[name] = _text_column(col)
+        del col
     return out
 
 
@@ -84,9 +95,18 @@ def _text_column(col: pa.ChunkedArray) -> NDArray:
     import pyarrow as pa
     import pyarrow.compute as pc
 
-    enc = pc.dictionary_encode(pc.fill_null(pc.cast(col, pa.string()), "")).combine_chunks()
-    labels = np.asarray(enc.dictionary.to_pylist(), dtype=str)
-    return labels[enc.indices.to_numpy(zero_copy_only=False)]
+    if pa.types.is_dictionary(col.type) and pa.types.is_string(col.type.value_type):
+        enc = col.unify_dictionaries().combine_chunks()  # as the CSV reader encoded it
+    else:
+        enc = pc.dictionary_encode(pc.cast(col, pa.string())).combine_chunks()
+    labels = np.asarray([v if v is not None else "" for v in enc.dictionary.to_pylist()],
+                        dtype=str)
+    if enc.null_count:
+        labels = np.append(labels, "")
+        codes = pc.fill_null(enc.indices, labels.size - 1)
+    else:
+        codes = enc.indices
+    return labels[codes.to_numpy(zero_copy_only=False)]
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:
