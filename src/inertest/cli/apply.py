@@ -6,6 +6,14 @@ with ``calibrated = matrix @ (raw - offset)`` (gyroscope: ``raw - g_sensitivity 
 offset``). DATA and OUT are CSV, Parquet or HDF5 (by suffix). The calibrated columns replace the
 raw ones; in CSV and Parquet their names carry the unit (``acc_x [m/s^2]``), in HDF5 the name
 stays and the unit is the dataset attribute ``unit``. Other columns are copied unchanged.
+
+CAL.json may instead be a thermal model (``inertest thermal fit --model-out``): then
+``--temperature-column`` names the temperature [degC] and the model's quantity column (or
+``--columns``) is compensated, ``raw - bias(T, dT/dt)`` or ``raw / scale(T, dT/dt)``, the rate
+[degC/min] from ``--time-column`` [s]; a polynomial model adds the column
+``<column>_correction_std``, the standard uncertainty of the correction propagated from the
+coefficient covariance. Rows outside the model's temperature (or rate) range are refused, or
+with ``--extrapolate`` compensated with a warning that gives the distance.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import is_hdf5
+from inertest.io.thermal_model import is_thermal_model, load_thermal_model, read_json_object
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -46,10 +55,28 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
               show_default=True, help="Unit of the calibrated specific force.")
 @click.option("--gyr-unit", type=click.Choice(list(RATE_UNITS)), default="rad/s",
               show_default=True, help="Unit of the calibrated rate.")
+@click.option("--temperature-column", default=None,
+              help="Thermal model: column of the temperature [degC].")
+@click.option("--time-column", default="time_s", show_default=True,
+              help="Thermal model using the rate: column of the time [s].")
+@click.option("--columns", "thermal_columns", default=None,
+              help="Thermal model: comma-separated columns to compensate (default: bias_deg_h "
+              "or scale_factor, by the model's quantity).")
+@click.option("--extrapolate", is_flag=True,
+              help="Thermal model: compensate rows outside the valid range (with a warning).")
 def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_columns: str,
-          acc_unit: str, gyr_unit: str) -> None:
-    """Apply the triad calibration in CALIBRATION to the raw columns of DATA."""
+          acc_unit: str, gyr_unit: str, temperature_column: str | None, time_column: str,
+          thermal_columns: str | None, extrapolate: bool) -> None:
+    """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA."""
     check_paths([output], [calibration, data])
+    doc = read_json_object(calibration, "calibration")
+    if is_thermal_model(doc):
+        _apply_thermal(calibration, data, output, temperature_column, time_column,
+                       thermal_columns, extrapolate)
+        return
+    if temperature_column is not None or thermal_columns is not None:
+        raise click.UsageError(f"{calibration} is a triad calibration, not a thermal model: "
+                               "--temperature-column and --columns apply to thermal models")
     acc_cols = _columns(acc_columns, "--acc-columns")
     gyr_cols = _columns(gyr_columns, "--gyr-columns")
     cal = load_calibration(calibration)
@@ -99,3 +126,66 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     write_table(output, out, units)
     n = len(next(iter(out.values())))
     click.echo(f"wrote {n} calibrated rows ({', '.join(done)}) to {output}")
+
+
+def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_column: str | None,
+                   time_column: str, columns: str | None, extrapolate: bool) -> None:
+    """Compensate the thermal model's quantity in DATA; write OUTPUT with the uncertainty."""
+    from inertest.procedures.thermal_compensation import QUANTITIES, temperature_rate
+
+    model = load_thermal_model(model_path)
+    if temperature_column is None:
+        raise click.UsageError(f"{model_path} is a thermal model: name the temperature column "
+                               "with --temperature-column")
+    cols = ([c.strip() for c in columns.split(",") if c.strip()] if columns is not None
+            else [QUANTITIES[model.quantity][0]])
+    table = read_table(data)
+    need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
+    missing = [c for c in need if c not in table]
+    if missing:
+        hint = ("--temperature-column, --columns" + (", --time-column" if model.uses_rate
+                                                     else ""))
+        raise DataError(f"{data} lacks column(s) {', '.join(missing)} (found: "
+                        f"{', '.join(table)}); name them with {hint}")
+    try:
+        arr = {c: np.asarray(table[c], dtype=float) for c in need}
+    except (TypeError, ValueError):
+        raise DataError(f"columns {', '.join(need)} of {data} must be numeric") from None
+    for c, a in arr.items():
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise DataError(f'column "{c}" of {data} has NaN/inf (first at data row '
+                            f"{bad[0] + 1}); repair or remove those rows")
+    temp = arr[temperature_column]
+    rate = None
+    if model.uses_rate:
+        rate = temperature_rate(np.zeros(temp.size, dtype=int), arr[time_column], temp)
+    dt, dr = model.out_of_range(temp, rate)
+    outside = [f"{int(np.count_nonzero(dt))} row(s) up to {np.max(dt):.3g} degC outside the "
+               f"temperature range {model.temperature_range_c[0]:.4g} to "
+               f"{model.temperature_range_c[1]:.4g} degC"] if np.any(dt > 0) else []
+    if dr is not None and np.any(dr > 0):
+        lo, hi = model.rate_range_c_per_min  # type: ignore[misc]
+        outside.append(f"{int(np.count_nonzero(dr))} row(s) up to {np.max(dr):.3g} degC/min "
+                       f"outside the rate range {lo:.3g} to {hi:.3g} degC/min")
+    if outside and not extrapolate:
+        raise DataError(f"{data}: {'; '.join(outside)} of the model; nothing written. Use data "
+                        "inside the range, refit over a wider range, or --extrapolate")
+    for line in outside:
+        click.echo(f"warning: extrapolating the thermal model: {line}", err=True)
+    out = dict(table)
+    units: dict[str, str] = {}
+    unit = "deg/h" if model.quantity == "bias" else ""
+    for c in cols:
+        corrected, std = model.compensate(arr[c], temp, rate)
+        out[c] = corrected
+        if unit:
+            units[c] = unit
+        if std is not None:
+            out[f"{c}_correction_std"] = std
+            if unit:
+                units[f"{c}_correction_std"] = unit
+    write_table(output, out, units)
+    what = "bias removed" if model.quantity == "bias" else "divided by the scale factor"
+    click.echo(f"wrote {temp.size} compensated rows ({', '.join(cols)}: {what}, "
+               f"{model.model_type} model) to {output}")

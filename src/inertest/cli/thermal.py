@@ -9,6 +9,7 @@ import click
 from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
+from inertest.io.thermal_model import write_thermal_model
 from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -59,27 +60,66 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
               help="Write the figure (.png, .svg or .pdf).")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Write a self-contained HTML report into this folder.")
+@click.option("--model-out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the model (JSON: coefficients and covariance, or network weights) "
+              "for inertest apply.")
+@click.option("--model", "model_name", type=click.Choice(["polynomial", "neural-network"]),
+              default="polynomial", show_default=True, help="Model written by --model-out.")
+@click.option("--t-ref-c", type=float, default=None,
+              help="Reference temperature of the polynomial [degC] (default: training mean).")
+@click.option("--serial", default="", help="Instrument serial (written into the model; needed "
+              "by --store).")
+@click.option("--store", is_flag=True, help="Store the run and its models in the history "
+              "database.")
+@click.option("--db", default=None, help="History database URL or SQLite path (default: "
+              "$INERTEST_DB or ~/.local/share/inertest/history.db).")
 def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_rate: bool,
         hidden: int, max_iter: int, as_json: bool, plot: Path | None,
-        report_dir: Path | None) -> None:
-    """Fit the compensation models to the temperature cycles in DATA."""
+        report_dir: Path | None, model_out: Path | None, model_name: str,
+        t_ref_c: float | None, serial: str, store: bool, db: str | None) -> None:
+    """Fit the compensation models to the temperature cycles in DATA.
+
+    With --model-out, the chosen model is written as plain JSON for inertest apply; with
+    --store, the run (both models in its result) goes to the history database. Outputs and
+    the stored run are one transaction: when any step fails, nothing is kept.
+    """
     from inertest.report.html import page  # plotting loads only when the command runs
     from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
 
     figure_format(plot)
-    check_paths([plot, report_dir], [data])
+    check_paths([plot, report_dir, model_out], [data])
+    if store and not serial:
+        raise click.UsageError("--store needs --serial (the instrument's serial number)")
     result = fit_thermal(read_table(data), quantity=quantity,
                          validation_cycles=validation_cycles, max_degree=max_degree,
-                         use_rate=not no_rate, hidden=hidden, max_iter=max_iter)
-    if plot is not None:
-        fig = thermal_figure(result)
-        save_figure(fig, plot)
-    if report_dir is not None:
-        html = page(f"Temperature compensation: {quantity}",
-                    thermal_sections(result, title=f"{quantity} compensation"),
-                    subtitle=f"data: {data}")
-        with target_directory(report_dir, inputs=[data]) as tmp:
-            (tmp / "index.html").write_text(html, encoding="utf-8")
+                         use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
+                         t_ref_c=t_ref_c, serial=serial)
+    stored = None
+    db_store = None
+    if store:
+        stored, db_store = _store(result, data, serial, db, argv_text=(
+            f"quantity = {quantity!r}\nvalidation_cycles = {validation_cycles}\n"
+            f"max_degree = {max_degree}\nuse_rate = {str(not no_rate).lower()}\n"
+            f"hidden = {hidden}\nmax_iter = {max_iter}\n"))
+    try:
+        if plot is not None:
+            fig = thermal_figure(result)
+            save_figure(fig, plot)
+        if report_dir is not None:
+            html = page(f"Temperature compensation: {quantity}",
+                        thermal_sections(result, title=f"{quantity} compensation"),
+                        subtitle=f"data: {data}")
+            with target_directory(report_dir, inputs=[data]) as tmp:
+                (tmp / "index.html").write_text(html, encoding="utf-8")
+        if model_out is not None:
+            write_thermal_model(model_out, result.model(model_name))
+    except BaseException:
+        if stored is not None and db_store is not None:
+            db_store.discard(stored)
+        raise
+    finally:
+        if db_store is not None:
+            db_store.close()
     if as_json:
         echo_json(result.to_dict())
         return
@@ -91,3 +131,28 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
         click.echo(f"figure: {plot}")
     if report_dir is not None:
         click.echo(f"report: {report_dir / 'index.html'}")
+    if model_out is not None:
+        click.echo(f"model: {model_out} ({model_name}; "
+                   f"{result.model(model_name).to_dict().get('equation', 'network arrays')})")
+    if stored is not None:
+        click.echo(f"stored run {stored} of {serial}")
+
+
+def _store(result, data: Path, serial: str, db: str | None, *, argv_text: str):
+    """Add the run to the history database; return its id and the open store."""
+    from importlib import metadata
+
+    from inertest.io.data_file import file_sha256
+    from inertest.store import HistoryStore, RunRecord
+
+    record = RunRecord.from_result(
+        result.to_dict(), serial=serial, instrument_kind="rate-gyro",
+        plan_text="# inertest thermal fit\n" + argv_text, data_sha256=file_sha256(data),
+        software_version=metadata.version("inertest"))
+    store = HistoryStore(db)
+    try:
+        store.add(record)
+    except BaseException:
+        store.close()
+        raise
+    return record.run_uuid, store

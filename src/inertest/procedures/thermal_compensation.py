@@ -29,13 +29,21 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
+from inertest.estimation.least_squares import weighted_least_squares
+from inertest.procedures.thermal_model import (
+    NetworkThermalModel,
+    PolynomialThermalModel,
+    ThermalModel,
+    poly_design,
+    poly_exponents,
+)
 from inertest.results import envelope
 
 if TYPE_CHECKING:
@@ -73,17 +81,14 @@ class ThermalModelFit:
     validation_rms: float
     prediction: NDArray[np.float64] = field(repr=False)
     converged: bool = True
-    model: object = field(default=None, repr=False, compare=False)
+    model: ThermalModel | None = field(default=None, repr=False, compare=False)
+    estimator: object = field(default=None, repr=False, compare=False)
 
     def predict(self, temperature_c: NDArray, rate_c_per_min: NDArray | None = None) -> NDArray:
         """Model value [unit] at temperatures [degC] (and rates [degC/min] if it uses them)."""
-        X = np.asarray(temperature_c, dtype=float)[:, None]
-        n_in = int(self.model.n_features_in_)  # type: ignore[attr-defined]
-        if n_in == 2:
-            if rate_c_per_min is None:
-                raise InputError("this model needs the temperature rate as well")
-            X = np.column_stack([X[:, 0], np.asarray(rate_c_per_min, dtype=float)])
-        return np.asarray(self.model.predict(X), dtype=float)  # type: ignore[attr-defined]
+        if self.model is None:
+            raise InputError("this fit holds no exported model")
+        return self.model.predict(temperature_c, rate_c_per_min)
 
     def summary(self, unit: str) -> dict[str, object]:
         """JSON-ready summary, residuals in ``unit`` (a block of :meth:`ThermalResult.to_dict`)."""
@@ -120,6 +125,8 @@ class ThermalResult:
     cv_rms : dict
         Leave-one-cycle-out RMS of each polynomial degree [unit].
     messages : tuple of str
+    serial : str
+        Instrument serial ("" when not given); written into the exported models.
     """
 
     quantity: str
@@ -138,8 +145,27 @@ class ThermalResult:
     network: ThermalModelFit
     cv_rms: dict[int, float]
     messages: tuple[str, ...] = ()
+    serial: str = ""
 
     kind: ClassVar[str] = "thermal-compensation"
+    #: Model names accepted by :meth:`model`.
+    MODEL_NAMES: ClassVar[tuple[str, ...]] = ("polynomial", "neural-network")
+
+    def model(self, name: str = "polynomial") -> ThermalModel:
+        """The fitted model as plain arrays, ready to write and to apply.
+
+        Parameters
+        ----------
+        name : {"polynomial", "neural-network"}
+            The polynomial carries its coefficient covariance (uncertainty of the correction);
+            the network (the seed's model) carries weights, biases and scaling.
+        """
+        if name not in self.MODEL_NAMES:
+            raise InputError(f"thermal model {name!r} unknown; use one of "
+                             f"{', '.join(self.MODEL_NAMES)}")
+        fit = self.polynomial if name == "polynomial" else self.network
+        assert fit.model is not None
+        return fit.model
 
     def to_dict(self) -> dict[str, object]:
         """The result envelope (no per-row arrays); the models' residuals in :attr:`unit`."""
@@ -164,7 +190,9 @@ class ThermalResult:
                            "cv_rms": {str(k): v for k, v in self.cv_rms.items()},
                            "cv_unit": u},
             "neural_network": self.network.summary(u),
-        }, checks=[check], messages=self.messages)
+            "models": {name: self.model(name).to_dict() for name in self.MODEL_NAMES},
+        }, instrument={"serial": self.serial} if self.serial else None, checks=[check],
+            messages=self.messages)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -270,6 +298,8 @@ def fit_thermal(
     hidden: int = 10,
     max_iter: int = 3000,
     random_state: int = 0,
+    t_ref_c: float | None = None,
+    serial: str = "",
 ) -> ThermalResult:
     """Fit polynomial (degree by cross-validation) and BP-network compensation models.
 
@@ -290,6 +320,20 @@ def fit_thermal(
         L-BFGS iteration limit of the network; if reached, the result says so.
     random_state : int
         Seed of the network's initial weights (fixed: results are reproducible).
+    t_ref_c : float, optional
+        Reference temperature ``T_ref`` [degC] of the polynomial in ``(T - T_ref)``; default
+        the training mean rounded to 0.1 degC.
+    serial : str
+        Instrument serial, written into the exported models.
+
+    Notes
+    -----
+    The chosen polynomial is refitted by least squares in ``(T - T_ref)`` [degC] and ``dT/dt``
+    [degC/min] (:class:`~inertest.procedures.thermal_model.PolynomialThermalModel`; the same
+    function space as the cross-validated pipeline), its coefficient covariance from the
+    training residuals taken as white. The network is exported as arrays
+    (:class:`~inertest.procedures.thermal_model.NetworkThermalModel`); its predictions here are
+    the numpy forward pass of those arrays.
     """
     # scikit-learn (~1.5 s to import) loads only when a thermal model is fitted.
     from sklearn.compose import TransformedTargetRegressor
@@ -367,11 +411,27 @@ def fit_thermal(
     # data, where every degree above the true one fits to rounding).
     floor = 1.02 * min(cv.values()) + 1e-9 * float(np.sqrt(np.mean(y[train] ** 2)))
     best = min(d for d, v in cv.items() if v <= floor)
-    poly = _polynomial(best).fit(X[train], y[train])
-    p_pred = poly.predict(X)
+    t_ref = float(np.round(np.mean(temp[train]), 1)) if t_ref_c is None else float(t_ref_c)
+    if not np.isfinite(t_ref):
+        raise InputError(f"t_ref_c must be a finite temperature [degC], got {t_ref_c!r}")
+    common = dict(
+        quantity=quantity, unit=unit, reference=reference, inputs=inputs,
+        temperature_range_c=(float(np.min(temp[train])), float(np.max(temp[train]))),
+        rate_range_c_per_min=((float(np.min(rate[train])), float(np.max(rate[train])))
+                              if use_rate else None),
+        serial=serial,
+    )
+    exps = poly_exponents(best, use_rate)
+    A = poly_design(temp - t_ref, rate if use_rate else None, exps)
+    lf = weighted_least_squares(A[train], y[train])
+    poly_model = PolynomialThermalModel(
+        **common, t_ref_c=t_ref, exponents=exps, coefficients=lf.x, covariance=lf.covariance,
+        noise=float(lf.sigma))
+    p_pred = poly_model.predict(temp, rate if use_rate else None)
+    poly_val = rms(y[~train] - p_pred[~train])
     poly_fit = ThermalModelFit("polynomial", f"degree {best} in {', '.join(inputs)}",
-                               rms(y[train] - p_pred[train]), rms(y[~train] - p_pred[~train]),
-                               p_pred, model=poly)
+                               rms(y[train] - p_pred[train]), poly_val, p_pred,
+                               model=replace(poly_model, validation_rms=poly_val))
 
     net = TransformedTargetRegressor(
         regressor=Pipeline([
@@ -388,11 +448,20 @@ def fit_thermal(
         net.fit(X[train], y[train])
     converged = not any(issubclass(w.category, ConvergenceWarning) for w in caught)
     n_iter = int(net.regressor_.named_steps["mlp"].n_iter_)
-    n_pred = net.predict(X)
+    mlp = net.regressor_.named_steps["mlp"]
+    xs = net.regressor_.named_steps["scale"]
+    net_model = NetworkThermalModel(
+        **common, x_mean=np.array(xs.mean_, dtype=float), x_scale=np.array(xs.scale_, dtype=float),
+        weights=tuple(np.array(w, dtype=float) for w in mlp.coefs_),
+        biases=tuple(np.array(b, dtype=float) for b in mlp.intercepts_),
+        activation=str(mlp.activation), y_mean=float(net.transformer_.mean_[0]),
+        y_scale=float(net.transformer_.scale_[0]))
+    n_pred = net_model.predict(temp, rate if use_rate else None)
+    net_val = rms(y[~train] - n_pred[~train])
     net_fit = ThermalModelFit(
         "neural network", f"BP network, {len(inputs)}-{hidden}-1 tanh, L-BFGS {n_iter} iterations",
-        rms(y[train] - n_pred[train]), rms(y[~train] - n_pred[~train]), n_pred, converged,
-        model=net)
+        rms(y[train] - n_pred[train]), net_val, n_pred, converged,
+        model=replace(net_model, validation_rms=net_val), estimator=net)
     messages = []
     if best == max_degree:
         messages.append(
@@ -410,6 +479,7 @@ def fit_thermal(
         before_train_rms=rms(y[train] - np.mean(y[train])),
         before_validation_rms=rms(y[~train] - np.mean(y[train])),
         polynomial=poly_fit, network=net_fit, cv_rms=cv, messages=tuple(messages),
+        serial=serial,
     )
 
 
