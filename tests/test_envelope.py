@@ -33,7 +33,11 @@ EXAMPLES = {
 
 def check_envelope(doc: dict, kind: str) -> None:
     """The layout every result shares (results.envelope), with units beside numbers."""
-    assert list(doc) == list(ENVELOPE_KEYS)
+    assert [k for k in doc if k != "test"] == list(ENVELOPE_KEYS)
+    if "test" in doc:  # optional identity block (inertest.lab.identity_block), after instrument
+        assert list(doc).index("test") == list(doc).index("instrument") + 1
+        assert {"operator", "date", "software_version", "data_sha256", "equipment",
+                "environment"} <= set(doc["test"])
     assert doc["kind"] == kind and doc["schema_version"] == SCHEMA_VERSION
     assert isinstance(doc["result"], dict)
     assert isinstance(doc["checks"], list) and all("name" in c and "verdict" in c

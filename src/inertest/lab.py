@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from inertest.errors import PlanError
-from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
+from inertest.plan import Field, TestConditions, check_known_keys, did_you_mean, read_fields
 from inertest.units import ARCSEC_TO_RAD, DEG_TO_RAD, MICRORAD_TO_RAD, PPM_TO_RATIO
 
 
@@ -251,3 +251,49 @@ def overdue_messages(equipment: Sequence[Equipment], test_date: _dt.date) -> lis
             f"{e.serial or 'unknown'}) was due {e.calibration_due}, before the test date "
             f"{test_date}: the results are not traceable until it is recalibrated"
             for e in equipment if e.overdue(test_date)]
+
+
+def identity_block(
+    conditions: TestConditions | None,
+    *,
+    lab: Mapping[str, Equipment] | None,
+    tested_at: _dt.datetime,
+    software_version: str,
+    data_sha256: str,
+    plan_source: str = "the plan",
+    lab_source: str = "the lab file",
+) -> dict[str, object]:
+    """The envelope's ``test`` block: who, when, with what, in which conditions.
+
+    Parameters
+    ----------
+    conditions : TestConditions or None
+        The plan's ``[test]`` table.
+    lab : mapping of str to Equipment, or None
+        The lab file's records; without it the equipment ids are listed unresolved.
+    tested_at : datetime
+        When the test was run (UTC); its date is the test date unless ``[test] date`` gives one.
+    software_version, data_sha256 : str
+
+    Returns
+    -------
+    dict
+        ``{"operator", "date", "tested_at", "software_version", "data_sha256", "equipment":
+        [{"id", "name", "model", "serial", "certificate", "calibrated", "calibration_due",
+        "calibration_overdue", "type_b"}], "environment": {name: {"value", "unit"}}, "notes"}``.
+    """
+    c = conditions if conditions is not None else TestConditions()
+    date = c.date if c.date is not None else tested_at.date()
+    if lab is not None:
+        items: list[dict[str, object]] = [
+            e.to_dict(date) for e in select_equipment(lab, c.equipment, plan_source=plan_source,
+                                                      lab_source=lab_source)]
+    else:
+        items = [{"id": i, "calibration_due": None, "calibration_overdue": None}
+                 for i in c.equipment]
+    return {
+        "operator": c.operator, "date": date.isoformat(),
+        "tested_at": tested_at.isoformat(timespec="seconds"),
+        "software_version": software_version, "data_sha256": data_sha256,
+        "equipment": items, "environment": c.environment(), "notes": c.notes,
+    }

@@ -352,6 +352,7 @@ def envelope(
     result: Mapping[str, object] | None = None,
     checks: Sequence[Mapping[str, object]] = (),
     messages: Sequence[str] = (),
+    test: Mapping[str, object] | None = None,
 ) -> dict[str, object]:
     """The one JSON layout of every inertest result (``--json`` of every command).
 
@@ -373,13 +374,18 @@ def envelope(
         Self-checks of the result, each ``{"name", "verdict", ...}``.
     messages : sequence of str
         Notes and warnings in plain language.
+    test : mapping, optional
+        Who ran the test, when, with what equipment (ids, calibration due dates) and in which
+        environment, the software version and the data's SHA-256 (:func:`inertest.lab.
+        identity_block`); the key is present only when known, right after ``instrument``.
 
     Returns
     -------
     dict
-        Keys :data:`ENVELOPE_KEYS`; every number inside carries its unit beside it.
+        Keys :data:`ENVELOPE_KEYS` (and ``test`` when given); every number inside carries its
+        unit beside it.
     """
-    return {
+    doc: dict[str, object] = {
         "kind": kind,
         "schema_version": SCHEMA_VERSION,
         "site": None if site is None else dict(site),
@@ -389,6 +395,20 @@ def envelope(
         "checks": [dict(c) for c in checks],
         "messages": [str(m) for m in messages],
     }
+    return doc if test is None else with_test(doc, test)
+
+
+def with_test(doc: Mapping[str, object], test: Mapping[str, object] | None) -> dict[str, object]:
+    """``doc`` (an envelope) with its ``test`` block set, placed right after ``instrument``."""
+    out: dict[str, object] = {}
+    for k, v in doc.items():
+        if k != "test":
+            out[k] = v
+        if k == "instrument" and test is not None:
+            out["test"] = dict(test)
+    if test is not None and "test" not in out:
+        out["test"] = dict(test)
+    return out
 
 
 def instrument_block(instrument: Instrument | None) -> dict[str, object] | None:

@@ -17,6 +17,7 @@ Example
 
 from __future__ import annotations
 
+import datetime as _dt
 import hashlib
 import os
 import warnings
@@ -32,7 +33,15 @@ from inertest.errors import InertestError, PlanError
 from inertest.io.atomic import check_outputs, target_directory
 from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
+from inertest.lab import (
+    Equipment,
+    identity_block,
+    overdue_messages,
+    read_equipment,
+    select_equipment,
+)
 from inertest.plan import Plan
+from inertest.results import with_test
 
 if TYPE_CHECKING:
     from inertest.store import HistoryStore
@@ -64,7 +73,11 @@ class RunOutcome:
     report : Path or None
         The report's ``index.html``.
     warnings : tuple of str
-        Warnings raised while fitting (also shown by the command line).
+        Warnings raised while fitting, and overdue equipment calibrations (also shown by the
+        command line).
+    test : dict or None
+        The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
+        equipment with calibration status, environment, software version, data SHA-256.
     """
 
     result: Any
@@ -75,6 +88,13 @@ class RunOutcome:
     database: str | None = None
     report: Path | None = None
     warnings: tuple[str, ...] = field(default=())
+    test: dict[str, Any] | None = None
+
+    def to_dict(self) -> dict[str, object]:
+        """The result envelope with its ``test`` block (``inertest fit --json``)."""
+        from inertest.results import with_test
+
+        return with_test(self.result.to_dict(), self.test)
 
 
 def run(
@@ -87,6 +107,7 @@ def run(
     pdf: bool = False,
     tested_at: datetime | None = None,
     allow_duplicate: bool = False,
+    equipment: PathLike | Mapping[str, Equipment] | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -111,6 +132,10 @@ def run(
         When the test was run (default: now); naive datetimes are UTC.
     allow_duplicate : bool
         File a data file again that is already stored for this instrument and procedure.
+    equipment : path or mapping, optional
+        The lab equipment file (:func:`inertest.lab.read_equipment`) or its records: the plan's
+        ``[test] equipment`` ids are resolved against it (an unknown id is an error naming both
+        files) and an overdue calibration on the test date becomes a warning.
 
     Returns
     -------
@@ -129,6 +154,10 @@ def run(
     if pdf and report_dir is None:
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
+    lab, lab_source = _lab(equipment)
+    if lab is not None and p.test is not None:  # an unknown id fails before any work
+        select_equipment(lab, p.test.equipment, plan_source=_source("plan", plan_path),
+                         lab_source=lab_source)
     d = data if isinstance(data, Mapping) else load_data(data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -141,7 +170,22 @@ def run(
         result, p, plan_text=plan_text, data_sha256=digest, data_summary=_data_summary(
             data_path, d, digest), tested_at=when, store=store, report_dir=report_dir, pdf=pdf,
         allow_duplicate=allow_duplicate, warnings_=messages,
-        inputs=[x for x in (plan_path, data_path) if x is not None])
+        inputs=[x for x in (plan_path, data_path) if x is not None], lab=lab,
+        lab_source=lab_source, plan_source=_source("plan", plan_path))
+
+
+def _source(what: str, path: Path | None) -> str:
+    return f"{what} {path}" if path is not None else f"the {what}"
+
+
+def _lab(equipment: PathLike | Mapping[str, Equipment] | None
+         ) -> tuple[Mapping[str, Equipment] | None, str]:
+    """The lab's equipment records and how to name their file in messages."""
+    if equipment is None:
+        return None, "the lab file"
+    if isinstance(equipment, Mapping):
+        return equipment, "the lab equipment records"
+    return read_equipment(equipment), f"lab file {equipment}"
 
 
 def file_run(
@@ -158,11 +202,20 @@ def file_run(
     allow_duplicate: bool = False,
     warnings_: Sequence[str] = (),
     inputs: Sequence[PathLike] = (),
+    lab: Mapping[str, Equipment] | None = None,
+    lab_source: str = "the lab file",
+    plan_source: str = "the plan",
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`)."""
     from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
+    test = identity_block(plan.test, lab=lab, tested_at=tested_at, software_version=version,
+                          data_sha256=data_sha256, plan_source=plan_source,
+                          lab_source=lab_source)
+    used = [lab[i] for i in plan.test.equipment] if lab is not None and plan.test else []
+    warnings_ = [*warnings_, *overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))]
+    envelope_doc = with_test(result.to_dict(), test)
     own_store = store is True or isinstance(store, str)
     db: HistoryStore | None
     if store is False or store is None:
@@ -175,7 +228,7 @@ def file_run(
         record = None
         if db is not None:
             record = RunRecord.from_result(
-                result.to_dict(), serial=plan.instrument.serial,
+                envelope_doc, serial=plan.instrument.serial,
                 instrument_kind=plan.instrument.kind, plan_text=plan_text,
                 data_sha256=data_sha256, software_version=version, tested_at=tested_at)
             if not allow_duplicate:
@@ -198,7 +251,7 @@ def file_run(
                 history = summarize_runs(sorted([*earlier_runs, record],
                                                 key=lambda r: r.tested_at))
             html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
-                                history)
+                                history, test)
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -223,14 +276,15 @@ def file_run(
             result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
             stored_run=None if record is None else record.run_uuid,
             database=None if db is None else db.display_url, report=report_path,
-            warnings=tuple(warnings_))
+            warnings=tuple(warnings_), test=test)
     finally:
         if db is not None and own_store:
             db.close()
 
 
 def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[str, object],
-                 tested_at: datetime, version: str, history: list) -> str:
+                 tested_at: datetime, version: str, history: list,
+                 test: Mapping[str, Any] | None = None) -> str:
     from inertest.report.campaign import campaign_page
 
     inst = plan.instrument
@@ -241,7 +295,7 @@ def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[
         site={"latitude [deg]": f"{plan.site.latitude_deg:.6f}",
               "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
         plan_text=plan_text, data=data_summary, tested_at=tested_at,
-        software_version=version, history=history)
+        software_version=version, history=history, test=test)
 
 
 def _data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Sequence
+import os
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 from rich.console import Console
@@ -26,19 +27,72 @@ def echo_json(obj: object) -> None:
 
 
 def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """Print a table on the terminal (rich); the first column is left-aligned, the rest right."""
-    # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
+    """Print a table on the terminal; never cut a number, whatever the terminal's width.
+
+    The first column is left-aligned, the rest right. Headers may wrap at spaces, cells never:
+    when the cells do not fit the width (``$COLUMNS``; 200 when output is piped), the table is
+    printed as key/value lines instead (``row name`` then ``  column: value``), so every number
+    stays whole.
+    """
     # Control characters (terminal escape codes from a serial or a data label) are shown escaped.
+    hdr = [safe_line(str(h)) for h in header]
+    cells = [[safe_line(str(v)) for v in r] for r in rows]
+    console = _console()
+    widths = [max([len(c[i]) for c in cells if i < len(c)]
+                  + [max((len(w) for w in h.split()), default=0)])
+              for i, h in enumerate(hdr)]
+    if sum(widths) + 3 * len(widths) + 1 > console.width:
+        _print_stacked(title, hdr, cells)
+        return
+    # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
     table = Table(title=escape(safe_line(title)), title_justify="left")
-    for i, h in enumerate(header):
-        table.add_column(escape(safe_line(str(h))), justify="left" if i == 0 else "right")
-    for r in rows:
-        table.add_row(*(escape(safe_line(str(v))) for v in r))
-    # Piped output (files, pytest) gets a wide console instead of 80 columns, so rows don't wrap.
-    console = Console(soft_wrap=True)
-    if not console.is_terminal:
-        console = Console(soft_wrap=True, width=200)
+    for i, h in enumerate(hdr):
+        table.add_column(escape(h), justify="left" if i == 0 else "right", min_width=widths[i],
+                         overflow="fold")
+    for r in cells:
+        table.add_row(*(escape(v) for v in r))
     console.print(table)
+
+
+def _console() -> Console:
+    """A console as wide as ``$COLUMNS`` or the terminal; 200 columns for piped output."""
+    console = Console(soft_wrap=True)
+    if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
+        console = Console(soft_wrap=True, width=200)
+    return console
+
+
+def _print_stacked(title: str, header: Sequence[str], rows: Sequence[Sequence[str]]) -> None:
+    """A table too wide for the terminal as key/value lines: every value whole on its line."""
+    click.echo(safe_line(title))
+    if len(header) == 2:  # an item/value table: one "item: value" line each
+        for r in rows:
+            click.echo(f"  {': '.join(r[:2])}")
+        return
+    for r in rows:
+        click.echo(f"- {r[0]}" if r else "-")
+        for h, v in zip(header[1:], r[1:], strict=False):
+            click.echo(f"    {h}: {v}")
+
+
+def print_identity(doc: Mapping[str, Any], *, warn: bool = True) -> None:
+    """Who, what, when, where and with what (the envelope's identity), then equipment warnings.
+
+    ``warn=False`` when the overdue calibrations were already printed (``inertest fit``).
+    """
+    from inertest.report.identity import (
+        EQUIPMENT_HEADER,
+        equipment_rows,
+        equipment_warnings,
+        identity_rows,
+    )
+
+    print_table("identity of the test", ["item", "value"], identity_rows(doc))
+    eq = equipment_rows(doc)
+    if eq:
+        print_table("equipment used", EQUIPMENT_HEADER, eq)
+    for w in equipment_warnings(doc) if warn else ():
+        click.echo(f"warning: {safe_line(w)}", err=True)
 
 
 def parse_float_list(text: str, *, name: str, count: int | None = None) -> list[float]:

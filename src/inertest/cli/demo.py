@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from inertest.cli._common import print_identity
 from inertest.cli.procedure import print_result
 from inertest.demo import find_examples, run_campaign, write_campaign_report
 
@@ -22,6 +23,7 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
     tests = run_campaign(folder / "demo.toml")
     for t in tests:
         click.echo(f"\n{t.title} ({t.plan_path}; noise {t.noise:g} per reading, seed {t.seed})")
+        print_identity(t.to_dict())
         print_result(t.result, truth=t.truth_deg_h)
     index = write_campaign_report(tests, report_dir)
     click.echo(f"\nreport: {index}")

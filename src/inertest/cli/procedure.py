@@ -11,7 +11,13 @@ import click
 from inertest.api import load_plan
 from inertest.api import simulate as api_simulate
 from inertest.cli import safe_line
-from inertest.cli._common import check_paths, echo_json, plain_text_figures, print_table
+from inertest.cli._common import (
+    check_paths,
+    echo_json,
+    plain_text_figures,
+    print_identity,
+    print_table,
+)
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 from inertest.report.identification import coefficient_rows
@@ -57,10 +63,13 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               help="When the test was run (UTC; default: now). For filing older data.")
 @click.option("--allow-duplicate", is_flag=True,
               help="File a data file that is already stored for this instrument and procedure.")
+@click.option("--equipment", "equipment", type=_FILE, default=None,
+              help="Lab equipment file (TOML): identities, calibration due dates and Type-B "
+              "uncertainties of the equipment the plan's [test] table names.")
 def fit(
     plan: Path, data: Path, sigma: float | None, as_json: bool, report_dir: Path | None,
     pdf: bool, no_store: bool, db: str | None, tested_at: datetime | None,
-    allow_duplicate: bool,
+    allow_duplicate: bool, equipment: Path | None,
 ) -> None:
     """Identify the coefficients of the test in PLAN from the readings in DATA.
 
@@ -74,12 +83,13 @@ def fit(
         plain_text_figures()
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
-              allow_duplicate=allow_duplicate)
+              allow_duplicate=allow_duplicate, equipment=equipment)
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
-        echo_json(out.result.to_dict())
+        echo_json(out.to_dict())
         return
+    print_identity(out.to_dict(), warn=False)
     print_result(out.result)
     if out.stored_run is not None:
         click.echo(safe_line(f"stored run of {out.plan.instrument.serial} in {out.database}"))

@@ -14,6 +14,7 @@ from typing import Any
 from inertest.estimation.trend import QuantityHistory
 from inertest.report.history import history_figure, history_rows
 from inertest.report.html import Section, figure_html, page, paragraph, preformatted, table_html
+from inertest.report.identity import identity_section
 from inertest.report.sections import result_sections
 
 
@@ -28,6 +29,7 @@ def campaign_page(
     software_version: str,
     history: Sequence[tuple[QuantityHistory, Sequence[datetime]]] = (),
     truth: Mapping[str, float] | None = None,
+    test: Mapping[str, Any] | None = None,
 ) -> str:
     """The complete HTML report of one fit.
 
@@ -43,16 +45,18 @@ def campaign_page(
         Data summary: ``file``, ``rows``, ``columns``, ``sha256``.
     history : sequence of (QuantityHistory, times)
         The instrument's stored history including this run (figures shown from two runs on).
+    test : mapping, optional
+        The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
+        equipment and its calibration status, environment.
     """
     serial = str(instrument.get("serial") or "unnamed instrument")
-    head = Section("Instrument, site and test", [table_html(
-        ["item", "value"],
-        [[k, v] for k, v in instrument.items()]
-        + [[k, v] for k, v in site.items()]
-        + [["procedure", result.procedure],
-           ["tested at (UTC)", f"{tested_at:%Y-%m-%d %H:%M:%S}"],
-           ["inertest version", software_version]],
-    )])
+    doc = result.to_dict()
+    if test is not None:
+        doc = {**doc, "test": dict(test)}
+    rows = [[k, v] for k, v in instrument.items() if k not in ("serial", "kind")]
+    head = identity_section("Instrument, site and test", doc, extra_rows=[
+        *rows, ["procedure", result.procedure],
+        ["tested at (UTC)", f"{tested_at:%Y-%m-%d %H:%M:%S}"]], software_version=software_version)
     plan = Section("Plan", [preformatted(plan_text)])
     data_sec = Section("Data", [table_html(["item", "value"], [[k, v] for k, v in data.items()])])
     sections = [head, plan, data_sec, *result_sections(result, truth, title="Result")]

@@ -4,18 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
-
 from inertest.report.html import Section, paragraph, table_html
+from inertest.report.rounding import format_with_std
 from inertest.results import Identification
 
 
 def fmt(value: float, std: float | None = None) -> str:
-    """``value +- std`` with the std to two significant digits and the value to match."""
-    if std is None or not np.isfinite(std) or std <= 0:
-        return f"{value:.6g}"
-    digits = max(0, 1 - int(np.floor(np.log10(std))))
-    return f"{value:.{digits}f} ± {std:.2g}"
+    """``value ± std``, rounded by :func:`~inertest.report.rounding.round_to_uncertainty`.
+
+    The std to two significant digits and the value to the same decimal (GUM 7.2.6); zero to
+    the rounding is printed as zero; without a std, four significant digits.
+    """
+    return format_with_std(float(value), None if std is None else float(std))
 
 
 def coefficient_rows(

@@ -1,0 +1,117 @@
+"""Who, what, when, where and with what: the identity rows of every report and terminal table.
+
+Built from a result envelope (:func:`inertest.results.envelope`) and its optional ``test`` block
+(:func:`inertest.lab.identity_block`), so the terminal, the JSON and the HTML report state the
+same identity: instrument and serial, site, operator, date, software version, data SHA-256, the
+equipment used with its calibration status, and the environment. ISO/IEC 17025 7.8.2 lists what a
+test report identifies; this is that list for an inertial instrument test.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from inertest.report.html import Section, paragraph, table_html
+
+_ENV_LABELS = {"temperature": "temperature", "humidity": "relative humidity",
+               "warm_up": "warm-up before the first reading"}
+
+
+def identity_rows(doc: Mapping[str, Any]) -> list[list[str]]:
+    """``[item, value]`` rows: instrument, site, procedure, operator, dates, version, data hash.
+
+    Parameters
+    ----------
+    doc : mapping
+        A result envelope, with or without its ``test`` block.
+    """
+    rows: list[list[str]] = []
+    inst = doc.get("instrument") or {}
+    if inst:
+        rows.append(["instrument", str(inst.get("kind") or "-")])
+        rows.append(["serial", str(inst.get("serial") or "-")])
+    site = doc.get("site") or {}
+    if site.get("latitude_deg") is not None:
+        rows.append(["site latitude", f"{float(site['latitude_deg']):.6f} deg"])
+    if site.get("gravity_m_s2") is not None:
+        rows.append(["site gravity", f"{float(site['gravity_m_s2']):.7f} m/s^2"])
+    rows.append(["test", str(doc.get("kind") or "-")])
+    test = doc.get("test") or {}
+    if test:
+        rows.append(["operator", str(test.get("operator") or "not stated")])
+        rows.append(["test date", str(test.get("date") or "-")])
+        if test.get("tested_at"):
+            rows.append(["filed at (UTC)", str(test["tested_at"]).replace("T", " ")[:19]])
+        for name, e in (test.get("environment") or {}).items():
+            rows.append([_ENV_LABELS.get(name, name),
+                         f"{float(e['value']):g} {e['unit']}"])
+        if not test.get("environment"):
+            rows.append(["environment", "not stated"])
+        rows.append(["software", f"inertest {test.get('software_version') or '-'}"])
+        if test.get("data_sha256"):
+            rows.append(["data SHA-256", str(test["data_sha256"])])
+        if test.get("notes"):
+            rows.append(["notes", str(test["notes"])])
+    return rows
+
+
+EQUIPMENT_HEADER = ["id", "equipment", "model", "serial", "certificate", "calibrated",
+                    "calibration due", "status on the test date"]
+
+
+def equipment_rows(doc: Mapping[str, Any]) -> list[list[str]]:
+    """One row per item of equipment in the envelope's ``test`` block (:data:`EQUIPMENT_HEADER`)."""
+    test = doc.get("test") or {}
+    rows = []
+    for e in test.get("equipment") or []:
+        overdue = e.get("calibration_overdue")
+        status = ("OVERDUE" if overdue else "valid" if overdue is False
+                  else "unknown (no lab file given)")
+        rows.append([str(e.get("id", "")), str(e.get("name") or "-"), str(e.get("model") or "-"),
+                     str(e.get("serial") or "-"), str(e.get("certificate") or "-"),
+                     str(e.get("calibrated") or "-"), str(e.get("calibration_due") or "-"),
+                     status])
+    return rows
+
+
+def equipment_warnings(doc: Mapping[str, Any]) -> list[str]:
+    """One sentence per item whose calibration was overdue on the test date."""
+    test = doc.get("test") or {}
+    return [f"Calibration of {e.get('id')} ({e.get('name') or 'equipment'}) was due "
+            f"{e.get('calibration_due')}, before the test date {test.get('date')}: the "
+            "results are not traceable to it until it is recalibrated."
+            for e in test.get("equipment") or [] if e.get("calibration_overdue")]
+
+
+def no_equipment_note(doc: Mapping[str, Any]) -> str | None:
+    """A note when the test names no equipment (the plan has no ``[test] equipment``)."""
+    test = doc.get("test")
+    if test is None:
+        return ("The plan has no [test] table: operator, equipment and environment are not "
+                "stated.")
+    if not test.get("equipment"):
+        return "The plan's [test] table names no equipment."
+    return None
+
+
+def identity_section(title: str, doc: Mapping[str, Any], *,
+                     extra_rows: Sequence[Sequence[object]] = (),
+                     software_version: str | None = None) -> Section:
+    """The report section stating the identity: identity table, equipment table, warnings."""
+    rows: list[list[object]] = [list(r) for r in identity_rows(doc)]
+    have = {str(r[0]) for r in rows}
+    rows += [list(r) for r in extra_rows if str(r[0]) not in have]
+    if software_version is not None and "software" not in have:
+        rows.append(["software", f"inertest {software_version}"])
+    sec = Section(title, [table_html(["item", "value"], rows, caption="Identity of the test")])
+    eq = equipment_rows(doc)
+    if eq:
+        sec.parts.append(table_html(EQUIPMENT_HEADER, eq, left_columns=5,
+                                    caption="Test equipment and its calibration status"))
+    for w in equipment_warnings(doc):
+        sec.parts.append(paragraph("Warning: " + w, note=True))
+    note = no_equipment_note(doc)
+    if note:
+        sec.parts.append(paragraph(note))
+    return sec
