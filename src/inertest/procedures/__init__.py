@@ -95,6 +95,9 @@ REGISTRY: dict[str, ProcedureInfo] = {
         ProcedureInfo("servo-table", "inertest.procedures.servo_table",
                       "Floated gyro, servo-table drift test",
                       "inertest.report.servo_table:servo_table_sections"),
+        ProcedureInfo("orientation-free", "inertest.procedures.orientation_free",
+                      "IMU, multi-position without known orientations (Tedaldi)",
+                      "inertest.report.orientation_free:orientation_free_sections"),
     )
 }
 

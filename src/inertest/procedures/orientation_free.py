@@ -1,0 +1,725 @@
+"""IMU calibration without known orientations: the multi-position method of Tedaldi et al.
+
+Source: D. Tedaldi, A. Pretto, E. Menegatti, "A robust and easy to implement method for IMU
+calibration without external equipments", ICRA 2014, pp. 3042-3049,
+doi:10.1109/ICRA.2014.6907297 (reference implementation: A. Pretto's imu_tk, BSD). The IMU is
+left still for ``T_init`` (about 50 s), then turned by hand into many attitudes (Tedaldi
+recommend 36-50), each held still for a few seconds; nobody measures the attitudes.
+
+Steps (every number SI inside; conventions of :mod:`inertest.models.triad`)
+---------------------------------------------------------------------------
+1. **Static intervals** (:func:`inertest.estimation.static_detection.detect_static_intervals`,
+   Tedaldi Sec. III-C): the variance magnitude of the accelerometer over a ``window_s`` window
+   below ``threshold_factor`` x that of the initial period; intervals shorter than
+   ``min_interval_s`` dropped. Each interval's mean raw reading ``m_k`` is kept.
+2. **Accelerometer** (Tedaldi Sec. III-A, cost function of the accelerometer): with the triad
+   model ``raw = S u + b``, ``S = K (I + M)``, the specific force at rest has the magnitude of
+   local gravity ``g`` (the plan's site), so ``S``, ``b`` minimise
+   ``sum_k (|S^-1 (m_k - b)| - g)^2`` (scipy.optimize.least_squares, started from an
+   algebraic ellipsoid fit of the ``m_k``, so no initial guess is needed).
+   **Frame ambiguity.** ``|S^-1 (m - b)|`` is unchanged by ``S -> S R^T`` for any rotation
+   ``R``: the norm fixes the accelerometer triad only up to a rotation of its reference frame,
+   three of the nine entries of ``S``. The gauge is fixed as Tedaldi do (their misalignment
+   matrix ``T^a`` is upper triangular; imu_tk sets the lower-left terms to zero):
+   ``reference_axis = "z"`` (default): ``S`` upper triangular, ``M_yx = M_zx = M_zy = 0``: the
+   z accelerometer defines the reference z axis and the y accelerometer lies in the y-z plane;
+   ``reference_axis = "x"``: ``S`` lower triangular, ``M_xy = M_xz = M_yz = 0``: the x
+   accelerometer defines x and y lies in the x-y plane. The three fixed misalignments are
+   conventions, not measurements: they are not reported as estimates (``not_separable``).
+   Nine parameters (3 K, 3 M, 3 b) need at least nine attitudes.
+3. **Gyroscope** (Tedaldi Sec. III-B): bias ``b_g`` = mean raw gyro over the initial static
+   period; ``S_g`` (all nine entries: the gyro is referred to the accelerometer frame of step
+   2, so all six gyro misalignments are determined) minimises
+   ``sum_k |C_k^T u_k - u_{k+1}|^2``, where ``u_k`` is the calibrated gravity direction
+   (unit vector, body axes) of static interval k and ``C_k`` the body rotation from the end
+   of interval k to the start of k+1, integrated from the calibrated rates
+   ``w = S_g^-1 (raw - b_g)``: per sample step the rotation vector
+   ``(w_j + w_{j+1}) dt / 2 + (w_j x w_{j+1}) dt^2 / 12`` (trapezoid with the two-sample coning
+   term, second order like the RK4 quaternion integration of Tedaldi/imu_tk), composed with
+   ``scipy.spatial.transform.Rotation``. Time steps from the data's ``t_s`` column when present.
+   The Earth rate is not modelled (the initial-period bias holds its projection at the start
+   attitude; over a 3 s turn it moves gravity by < 0.013 deg, below MEMS noise).
+4. **Uncertainties**: ``cov = s^2 (J^T J)^-1`` from each fit's Jacobian ``J`` at the solution
+   and the residual variance ``s^2 = sum r^2 / dof`` (acc: dof = n - 9; gyro: 2 per motion,
+   the component along ``u`` being second order, minus 9), propagated to K, M, B by the triad
+   model's Jacobian. The gyro bias std is the white-noise std of the initial-period mean. The
+   gyro fit takes the accelerometer's gravity directions as exact (their error is in the gyro
+   residuals). Checked by Monte Carlo (tests: std / scatter in 0.8-1.25).
+
+Identifiability. Fewer than nine static attitudes raise
+:class:`~inertest.errors.IdentifiabilityError`; so does a design whose Jacobian is
+numerically singular (attitudes too similar). Either message, and a note on a fit that
+succeeds with poor coverage, says which attitudes are missing: for each axis direction
+(+x up, x down, ...) the nearest attitude's angle; directions farther than
+:data:`COVERAGE_ANGLE_DEG` are named ("no attitude with z down (nearest 75 deg away); add ...").
+
+Data columns: ``acc_x, acc_y, acc_z`` [acc_unit], ``gyr_x, gyr_y, gyr_z`` [gyr_unit], one row
+per sample at ``sample_rate_hz`` (a ``count`` gyro column is a rate reading per sample);
+optional ``t_s`` [s]. The imu_tk text files (t, x, y, z per line, two files) are converted by
+``examples/orientation_free/imu_tk_to_table.py``.
+
+Results: ``Ka_*`` [count/(m/s^2) or 1], ``Ma_ij`` (the three of the gauge) [urad], ``Ba_*``
+[mg], ``Kg_*`` [count/(deg/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], the ``calibration``
+block, the static intervals found and the checks: rms of ``|a| - g`` over the static intervals
+and rms angle between each carried gravity direction and the next, before (plan's nominal
+guesses) and after calibration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+import scipy.optimize
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from inertest.errors import DataError, IdentifiabilityError, PlanError
+from inertest.estimation.static_detection import StaticDetection, detect_static_intervals
+from inertest.models import triad
+from inertest.models.triad import AXES, ImuCalibration
+from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.spec import require_columns
+from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
+from inertest.results import Estimate, Identification
+from inertest.units import ACCEL_UNITS, COUNT_UNITS, MILLI_G_TO_M_PER_S2, RATE_UNITS
+
+KIND = "orientation-free"
+ACC_COLUMNS = ("acc_x", "acc_y", "acc_z")
+GYR_COLUMNS = ("gyr_x", "gyr_y", "gyr_z")
+#: Fewest static attitudes: the accelerometer has nine parameters (Tedaldi recommend 36-50).
+MIN_ATTITUDES = 9
+RECOMMENDED_ATTITUDES = 36
+#: An axis direction (x up, x down, ...) farther than this from every attitude is "missing".
+COVERAGE_ANGLE_DEG = 60.0
+#: Column-scaled Jacobian condition number beyond which the design is taken as singular.
+MAX_CONDITION = 1e7
+#: Verdict tolerances of the checks: calibrated rms |a| - g [mg], rms carried angle [deg].
+GRAVITY_TOLERANCE_MG = 10.0
+TRANSPORT_TOLERANCE_DEG = 1.0
+#: Entries of S left free by each gauge, and the misalignments the gauge fixes to zero.
+_FREE = {"z": ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)),
+         "x": ((0, 0), (1, 0), (1, 1), (2, 0), (2, 1), (2, 2))}
+_SPREAD = "add attitudes spread over the whole sphere"
+_FIXED_MIS = {"z": ("M_yx", "M_zx", "M_zy"), "x": ("M_xy", "M_xz", "M_yz")}
+
+
+def _prefixed(names: tuple[str, ...], letter: str) -> tuple[str, ...]:
+    return tuple(f"{n[0]}{letter}{n[1:]}" for n in names)
+
+
+@dataclass(frozen=True)
+class OrientationFreeSpec:
+    """Parameters of an orientation-free calibration (``[procedure]`` table).
+
+    Attributes
+    ----------
+    sample_rate_hz : float
+        [Hz].
+    acc_unit, gyr_unit : str
+        Units of the raw columns (``count`` or a specific-force / rate unit).
+    init_duration_s : float
+        Initial static period ``T_init`` [s]: detector threshold and gyro bias.
+    threshold_factor : float
+        ``k`` of the detector threshold ``k varsigma_init`` [1] (Tedaldi: 2..10).
+    window_s : float
+        Detector variance window [s].
+    min_interval_s : float
+        Shortest static interval kept [s].
+    reference_axis : {"z", "x"}
+        Gauge of the accelerometer frame (module docstring): ``z`` as Tedaldi/imu_tk.
+    gyr_scale_guess : float or None
+        Nominal gyro scale factor [count/(deg/s)] (start of the gyro fit and the "before"
+        check); required for a count gyro, 1 for a physical unit.
+    acc_scale_guess : float or None
+        Nominal accelerometer scale factor [count/(m/s^2)] for the "before" check (default:
+        the one common scale that makes the mean |a| = g).
+    acc_bias_guess : float
+        Nominal raw offset of every accelerometer channel [acc_unit] (e.g. 32768 for an
+        offset-binary 16-bit output) for the "before" check and the coverage report.
+    n_attitudes, static_s, motion_s : int, float, float
+        Simulation only: attitudes after the initial period, time held at each, turn time.
+    """
+
+    kind: ClassVar[str] = KIND
+    sample_rate_hz: float
+    acc_unit: str = "count"
+    gyr_unit: str = "count"
+    init_duration_s: float = 50.0
+    threshold_factor: float = 6.0
+    window_s: float = 1.0
+    min_interval_s: float = 1.0
+    reference_axis: str = "z"
+    gyr_scale_guess: float | None = None
+    acc_scale_guess: float | None = None
+    acc_bias_guess: float = 0.0
+    n_attitudes: int = 40
+    static_s: float = 4.0
+    motion_s: float = 2.0
+
+    @classmethod
+    def from_mapping(cls, params: Mapping[str, object]) -> OrientationFreeSpec:
+        """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
+        kw = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        spec = cls(**kw)
+        if spec.gyr_scale_guess is None and spec.gyr_unit not in RATE_UNITS:
+            raise PlanError(
+                f"[procedure] of kind {KIND} needs gyr_scale_guess [count/(deg/s)] for a "
+                f"{spec.gyr_unit} gyro output (the nominal scale from the data sheet, e.g. "
+                "109.2 for the Xsens MTi of imu_tk)")
+        return spec
+
+    @property
+    def acc_scale(self) -> triad.ScaleUnit:
+        """How the accelerometer scale factors are reported."""
+        return triad.scale_unit(self.acc_unit, "accelerometer")
+
+    @property
+    def gyr_scale(self) -> triad.ScaleUnit:
+        """How the gyro scale factors are reported (a count column: a rate reading)."""
+        return triad.scale_unit(self.gyr_unit, "gyroscope")
+
+
+FIELDS = (
+    Field("sample_rate_hz", positive=True, unit="Hz", doc="sample rate in Hz"),
+    Field("acc_unit", "text", default="count", choices=(*COUNT_UNITS, *ACCEL_UNITS)),
+    Field("gyr_unit", "text", default="count", choices=(*COUNT_UNITS, *RATE_UNITS)),
+    Field("init_duration_s", default=50.0, positive=True, unit="s",
+          doc="initial static period"),
+    Field("threshold_factor", default=6.0, positive=True, doc="detector threshold factor k"),
+    Field("window_s", default=1.0, positive=True, unit="s", doc="detector window"),
+    Field("min_interval_s", default=1.0, positive=True, unit="s",
+          doc="shortest static interval"),
+    Field("reference_axis", "text", default="z", choices=("z", "x"),
+          doc="accelerometer axis that defines the frame"),
+    Field("gyr_scale_guess", default=None, positive=True, unit="count/(deg/s)",
+          doc="nominal gyro scale factor"),
+    Field("acc_scale_guess", default=None, positive=True, unit="count/(m/s^2)",
+          doc="nominal accelerometer scale factor"),
+    Field("acc_bias_guess", default=0.0, unit="acc_unit", doc="nominal raw offset"),
+    Field("n_attitudes", "integer", default=40, positive=True, doc="simulated attitudes"),
+    Field("static_s", default=4.0, positive=True, unit="s", doc="simulated time per attitude"),
+    Field("motion_s", default=2.0, positive=True, unit="s", doc="simulated turn time"),
+)
+SPEC = OrientationFreeSpec
+
+
+@dataclass(frozen=True)
+class StaticInterval:
+    """One static attitude found by the detector.
+
+    Attributes
+    ----------
+    start_s, end_s : float
+        Times of its first and last sample [s] (from ``t_s``, else the sample index / rate).
+    acc_mean, gyr_mean : ndarray, shape (3,)
+        Mean raw readings [acc_unit], [gyr_unit].
+    n : int
+        Samples.
+    """
+
+    start_s: float
+    end_s: float
+    acc_mean: NDArray[np.float64]
+    gyr_mean: NDArray[np.float64]
+    n: int
+
+    @property
+    def duration_s(self) -> float:
+        """``end_s - start_s`` [s]."""
+        return self.end_s - self.start_s
+
+
+@dataclass(frozen=True, kw_only=True)
+class OrientationFreeResult(TriadResult):
+    """Outcome of :func:`fit` (a :class:`~.triad_multiposition.TriadResult`).
+
+    Attributes
+    ----------
+    intervals : tuple of StaticInterval
+    detection : StaticDetection
+    gravity_error_m_s2, gravity_error_before_m_s2 : ndarray, shape (m,)
+        ``|a| - g`` of each interval mean after / before calibration [m/s^2].
+    transport_angle_deg, transport_angle_before_deg : ndarray, shape (m - 1,)
+        Angle between each gravity direction carried by the integrated gyro and the next
+        interval's [deg], calibrated gyro / nominal gyro (same gravity directions).
+    reference_axis : str
+        The accelerometer gauge (module docstring).
+    """
+
+    intervals: tuple[StaticInterval, ...] = field(repr=False)
+    detection: StaticDetection = field(repr=False)
+    gravity_error_m_s2: NDArray[np.float64] = field(repr=False)
+    gravity_error_before_m_s2: NDArray[np.float64] = field(repr=False)
+    transport_angle_deg: NDArray[np.float64] = field(repr=False)
+    transport_angle_before_deg: NDArray[np.float64] = field(repr=False)
+    reference_axis: str = "z"
+    procedure: str = KIND
+
+    def summary(self) -> dict[str, dict[str, float | str]]:
+        """RMS of both checks before/after: ``{check: {"before", "after", "unit"}}``."""
+        def rms(x: NDArray[np.float64]) -> float:
+            return float(np.sqrt(np.mean(np.square(x))))
+        return {
+            "gravity_norm_rms": {"before": rms(self.gravity_error_before_m_s2) /
+                                 MILLI_G_TO_M_PER_S2,
+                                 "after": rms(self.gravity_error_m_s2) / MILLI_G_TO_M_PER_S2,
+                                 "unit": "mg"},
+            "gravity_transport_rms": {"before": rms(self.transport_angle_before_deg),
+                                      "after": rms(self.transport_angle_deg), "unit": "deg"},
+        }
+
+    def details(self) -> dict[str, object]:
+        """The procedure's own block (``result`` in the envelope)."""
+        d = super().details()
+        tri = d["triads"]
+        if isinstance(tri, dict) and "accelerometer" in tri:  # no numbers for the gauge terms
+            acc = dict(tri["accelerometer"])
+            acc["misalignment"] = {k: v for k, v in acc["misalignment"].items()
+                                   if k not in _FIXED_MIS[self.reference_axis]}
+            acc.pop("covariance", None)
+            tri["accelerometer"] = acc
+        d["reference_axis"] = self.reference_axis
+        d["detector"] = {
+            "threshold_factor": self.detection.threshold_factor,
+            "threshold": {"value": self.detection.threshold, "unit": "raw^2"},
+            "init_variance_magnitude": {"value": self.detection.init_variance_magnitude,
+                                        "unit": "raw^2"},
+            "window": {"value": self.detection.window, "unit": "sample"},
+            "short_intervals_dropped": self.detection.n_short,
+        }
+        g = self.site_gravity_m_s2
+        d["static_intervals"] = [
+            {"start": {"value": iv.start_s, "unit": "s"}, "end": {"value": iv.end_s, "unit": "s"},
+             "duration": {"value": iv.duration_s, "unit": "s"},
+             "mean_abs_a": {"value": g + float(e), "unit": "m/s^2"}}
+            for iv, e in zip(self.intervals, self.gravity_error_m_s2, strict=True)]
+        d["summary"] = self.summary()
+        return d
+
+    def to_dict(self) -> dict[str, object]:
+        """The envelope, with the two physical checks appended to ``checks``."""
+        doc = super().to_dict()
+        s = self.summary()
+        checks = doc["checks"]
+        assert isinstance(checks, list)
+        g, t = s["gravity_norm_rms"], s["gravity_transport_rms"]
+        checks.append({"name": "static |a| = g", "verdict": "pass" if float(g["after"]) <
+                       GRAVITY_TOLERANCE_MG else "fail", "tolerance": GRAVITY_TOLERANCE_MG, **g})
+        checks.append({"name": "gyro carries gravity to the next attitude",
+                       "verdict": "pass" if float(t["after"]) < TRANSPORT_TOLERANCE_DEG
+                       else "fail", "tolerance": TRANSPORT_TOLERANCE_DEG, **t})
+        return doc
+
+
+# ---------------------------------------------------------------------------------------------
+# accelerometer
+
+
+def ellipsoid_start(means: NDArray[np.float64], g: float, axis: str
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+    """``S`` (triangular in the gauge) and ``b`` from an algebraic ellipsoid fit, or None.
+
+    The quadric ``m^T A m + c^T m + d = 0`` through the interval means (smallest singular
+    vector, points centred and scaled first) gives the centre ``b = -A^-1 c / 2`` and
+    ``S^-T S^-1 = A / (g^2 (b^T A b - d))``; its Cholesky factor is ``S^-1`` up to ``g``.
+    None when the quadric is not an ellipsoid (attitudes too few or too similar).
+    """
+    c0 = means.mean(axis=0)
+    sc = float(np.std(means - c0)) or 1.0
+    x = (means - c0) / sc
+    D = np.column_stack([x[:, 0]**2, x[:, 1]**2, x[:, 2]**2, 2 * x[:, 0] * x[:, 1],
+                         2 * x[:, 0] * x[:, 2], 2 * x[:, 1] * x[:, 2], x, np.ones(len(x))])
+    _, sv, vt = np.linalg.svd(D, full_matrices=False)
+    if sv[-2] < 1e-9 * sv[0]:
+        return None
+    v = vt[-1]
+    A = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
+    try:
+        centre = -0.5 * np.linalg.solve(A, v[6:9])
+    except np.linalg.LinAlgError:
+        return None
+    rhs = centre @ A @ centre - v[9]
+    Q = A / rhs
+    if not np.all(np.linalg.eigvalsh(Q) > 0):
+        return None
+    P = np.eye(3)[::-1]
+    if axis == "z":  # S^-1 upper triangular: Q = U^T U
+        T = np.linalg.cholesky(Q).T * g
+    else:  # S^-1 lower triangular: Q = (P L^T P)^T (P L^T P)
+        T = P @ np.linalg.cholesky(P @ Q @ P).T @ P * g
+    return np.linalg.inv(T) * sc, c0 + centre * sc  # back to raw units
+
+
+def _unpack_acc(theta: NDArray, axis: str) -> tuple[NDArray, NDArray]:
+    S = np.zeros((3, 3), dtype=theta.dtype)
+    for k, (i, j) in enumerate(_FREE[axis]):
+        S[i, j] = theta[k]
+    return S, theta[6:9]
+
+
+def fit_accelerometer(
+    means: NDArray[np.float64], g: float, axis: str, *, centre: float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
+    """``p = [S.ravel(), b]`` [raw SI], its covariance (12x12), residuals [m/s^2], cond.
+
+    Minimises ``sum (|S^-1 (m_k - b)| - g)^2`` over the gauge's six entries of ``S`` and
+    ``b`` (Tedaldi Sec. III-A). Raises :class:`IdentifiabilityError` (with the coverage
+    message) when the attitudes cannot determine them.
+    """
+    start = ellipsoid_start(means, g, axis)
+    if start is None:
+        raise IdentifiabilityError(
+            f"the {len(means)} static attitudes do not determine the accelerometer (their "
+            "readings do not span an ellipsoid: attitudes too similar); "
+            + (coverage_message(means, None, axis, centre=centre) or _SPREAD))
+    S0, b0 = start
+    theta0 = np.r_[[S0[i, j] for i, j in _FREE[axis]], b0]
+
+    def resid(theta: NDArray) -> NDArray:
+        S, b = _unpack_acc(theta, axis)
+        u = np.linalg.solve(S, (means - b).T).T
+        return np.asarray(np.linalg.norm(u, axis=1) - g)
+
+    sol = scipy.optimize.least_squares(resid, theta0, x_scale="jac", method="lm",
+                                       xtol=1e-15, ftol=1e-15, gtol=1e-15)
+    J = sol.jac
+    col = np.linalg.norm(J, axis=0)
+    cond = float(np.linalg.cond(J / np.where(col > 0, col, 1.0)))
+    S, b = _unpack_acc(sol.x, axis)
+    if not np.isfinite(cond) or cond > MAX_CONDITION:
+        raise IdentifiabilityError(
+            f"the {len(means)} static attitudes are too similar to determine the "
+            f"accelerometer (design condition number {cond:.3g}); "
+            + (coverage_message(means, (S, b), axis) or _SPREAD))
+    r = sol.fun
+    dof = len(means) - 9
+    s2 = float(r @ r) / dof if dof > 0 else 0.0
+    cov_t = s2 * np.linalg.pinv(J.T @ J)
+    E = np.zeros((12, 9))  # p = E theta (the free entries of S, then b)
+    for k, (i, j) in enumerate(_FREE[axis]):
+        E[3 * i + j, k] = 1.0
+    E[9:, 6:] = np.eye(3)
+    return triad.stack_parameters(S, b), E @ cov_t @ E.T, r, cond
+
+
+def coverage(directions: NDArray[np.float64]) -> list[tuple[str, float]]:
+    """For +x, -x, +y, -y, +z, -z (up): the angle to the nearest attitude [deg]."""
+    out = []
+    for i, a in enumerate(AXES):
+        for sign, word in ((1, "up"), (-1, "down")):
+            c = np.clip(np.max(sign * directions[:, i]), -1.0, 1.0)
+            out.append((f"{a} {word}", float(np.degrees(np.arccos(c)))))
+    return out
+
+
+def coverage_message(means: NDArray[np.float64],
+                     model: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
+                     axis: str, *, centre: float = 0.0) -> str | None:
+    """Which attitudes are missing ("no attitude with z down ...; add ..."), or None.
+
+    The gravity direction of each attitude comes from ``model`` (``S``, ``b``) when given,
+    else from the raw means less ``centre`` (the plan's ``acc_bias_guess``).
+    """
+    if model is not None:
+        u = np.linalg.solve(model[0], (means - model[1]).T).T
+    else:
+        u = means - centre
+    d = u / np.linalg.norm(u, axis=1, keepdims=True)
+    missing = [(w, ang) for w, ang in coverage(d) if ang > COVERAGE_ANGLE_DEG]
+    if not missing:
+        return None
+    which = ", ".join(f"{w} (nearest attitude {ang:.0f} deg away)" for w, ang in missing)
+    return (f"no attitude with {which}; add attitudes with "
+            f"{', '.join(w for w, _ in missing)} (each held still > min_interval_s), "
+            f"{RECOMMENDED_ATTITUDES}-50 attitudes spread over the sphere in all")
+
+
+# ---------------------------------------------------------------------------------------------
+# gyroscope
+
+
+def integrate_rotation(rate: NDArray[np.float64], dt: NDArray[np.float64]) -> Rotation:
+    """Body rotation ``C(t0)^T C(t1)`` over samples ``rate`` (n, 3) [rad/s], steps ``dt`` (n-1,).
+
+    Per step the rotation vector ``(w_j + w_{j+1}) dt/2 + (w_j x w_{j+1}) dt^2/12`` (exact for
+    a rate linear in time to second order), composed in time order by a pairwise tree of
+    :class:`~scipy.spatial.transform.Rotation` products (``C = C_1 C_2 ... C_n``).
+    """
+    if rate.shape[0] < 2:
+        return Rotation.identity()
+    w0, w1 = rate[:-1], rate[1:]
+    phi = 0.5 * (w0 + w1) * dt[:, None] + np.cross(w0, w1) * (dt[:, None] ** 2 / 12.0)
+    r = Rotation.from_rotvec(phi)
+    while len(r) > 1:
+        n = len(r)
+        pairs = r[0:n - 1:2] * r[1:n:2]
+        r = Rotation.concatenate([pairs, r[n - 1:n]]) if n % 2 else pairs
+    return r[0]
+
+
+def transport_residuals(
+    S_g: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
+    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """``C_k^T u_k - u_{k+1}`` for every motion k (flattened, 3 per motion) [1]."""
+    Sinv = np.linalg.inv(S_g)
+    out = np.empty((len(spans), 3))
+    for k, (i0, i1) in enumerate(spans):
+        w = (gyr[i0:i1 + 1] - b_g) @ Sinv.T
+        C = integrate_rotation(w, dt[i0:i1])
+        out[k] = C.inv().apply(up[k]) - up[k + 1]
+    return out.ravel()
+
+
+def fit_gyroscope(
+    S0: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
+    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
+    """``S_g`` [raw SI per rad/s], its covariance (9x9), residuals, cond (Tedaldi Sec. III-B)."""
+    def resid(x: NDArray) -> NDArray:
+        return transport_residuals(x.reshape(3, 3), b_g, gyr, dt, spans, up)
+
+    sol = scipy.optimize.least_squares(resid, S0.ravel(), x_scale="jac", method="lm")
+    J = sol.jac
+    col = np.linalg.norm(J, axis=0)
+    cond = float(np.linalg.cond(J / np.where(col > 0, col, 1.0)))
+    if not np.isfinite(cond) or cond > MAX_CONDITION:
+        raise IdentifiabilityError(
+            f"the {len(spans)} turns between static attitudes do not determine the gyro scale "
+            f"factors and misalignments (condition number {cond:.3g}): turn the IMU about all "
+            "three axes between the attitudes")
+    dof = 2 * len(spans) - 9
+    s2 = float(sol.fun @ sol.fun) / dof if dof > 0 else 0.0
+    return sol.x.reshape(3, 3), s2 * np.linalg.pinv(J.T @ J), sol.fun, cond
+
+
+def _angles_deg(res: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angle between unit vectors whose difference is ``res`` (3 per motion) [deg]."""
+    chord = np.linalg.norm(res.reshape(-1, 3), axis=1)
+    return np.asarray(2 * np.degrees(np.arcsin(np.clip(chord / 2, 0.0, 1.0))))
+
+
+# ---------------------------------------------------------------------------------------------
+# fit
+
+
+def _time_steps(data: Mapping[str, object], n: int, fs: float) -> NDArray[np.float64]:
+    if "t_s" in data:
+        t = np.asarray(data["t_s"], dtype=float)
+        dt = np.diff(t)
+        if t.size == n and np.all(np.isfinite(dt)) and np.all(dt > 0):
+            return dt
+        raise DataError("column t_s must increase strictly, one time per sample [s]; "
+                        "repair it or drop it (then 1 / sample_rate_hz is used)")
+    return np.full(n - 1, 1.0 / fs)
+
+
+def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
+        ) -> OrientationFreeResult:
+    """Calibrate accelerometer and gyro triads from a hand-held multi-position recording.
+
+    Parameters
+    ----------
+    plan : Plan
+        ``[site]`` gravity (or normal gravity at its latitude) and an
+        :class:`OrientationFreeSpec`.
+    data : mapping
+        ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit], optional ``t_s`` [s].
+    sigma : None
+        Not used: the noise comes from the residuals.
+    """
+    if sigma is not None:
+        raise PlanError(f"{KIND} estimates the noise from the residuals; do not give sigma")
+    spec: OrientationFreeSpec = plan.procedure
+    g = plan.site.gravity_m_s2
+    cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, (), procedure=KIND)
+    sa, sg = spec.acc_scale, spec.gyr_scale
+    ra, rg = sa.raw_si_per_raw, sg.raw_si_per_raw
+    acc = np.column_stack([cols[c] for c in ACC_COLUMNS]) * ra
+    gyr = np.column_stack([cols[c] for c in GYR_COLUMNS]) * rg
+    n = acc.shape[0]
+    fs = spec.sample_rate_hz
+    dt = _time_steps(data, n, fs)
+    t = np.r_[0.0, np.cumsum(dt)] + (float(np.asarray(data["t_s"])[0]) if "t_s" in data else 0)
+    det = detect_static_intervals(
+        acc, sample_rate_hz=fs, init_duration_s=spec.init_duration_s,
+        threshold_factor=spec.threshold_factor, window_s=spec.window_s,
+        min_duration_s=spec.min_interval_s)
+    iv = det.intervals
+    m = det.count
+    if m < MIN_ATTITUDES:
+        raise IdentifiabilityError(
+            f"found {m} static attitude(s) (threshold_factor {spec.threshold_factor:g}, "
+            f"min_interval_s {spec.min_interval_s:g} s); the accelerometer's 9 parameters need "
+            f"at least {MIN_ATTITUDES} (Tedaldi recommend {RECOMMENDED_ATTITUDES}-50): record "
+            "more attitudes, each held still, or raise threshold_factor / lower "
+            "min_interval_s if the IMU was still longer than found")
+    means = np.array([acc[a:b].mean(axis=0) for a, b in iv])
+    gmeans = np.array([gyr[a:b].mean(axis=0) for a, b in iv])
+    p_a, cov_a, r_a, _ = fit_accelerometer(means, g, spec.reference_axis,
+                                           centre=spec.acc_bias_guess * ra)
+    S_a, b_a = p_a[:9].reshape(3, 3), p_a[9:]
+    messages: list[str] = []
+    cov_msg = coverage_message(means, (S_a, b_a), spec.reference_axis)
+    if cov_msg is not None:
+        messages.append("poor coverage of the sphere, the estimates may be weak: " + cov_msg)
+    if m < RECOMMENDED_ATTITUDES:
+        messages.append(f"{m} static attitudes found; Tedaldi et al. recommend "
+                        f"{RECOMMENDED_ATTITUDES}-50 for a robust calibration")
+
+    # gyroscope: bias from the initial static period, S_g from the gravity transport
+    n_init = det.n_init
+    b_g = gyr[:n_init].mean(axis=0)
+    var_bg = gyr[:n_init].var(axis=0, ddof=1) / n_init
+    u_cal = np.linalg.solve(S_a, (means - b_a).T).T
+    up = u_cal / np.linalg.norm(u_cal, axis=1, keepdims=True)
+    spans = [(int(iv[k, 1] - 1), int(iv[k + 1, 0])) for k in range(m - 1)]
+    # nominal gyro: the plan's scale guess [count/(deg/s)] in raw SI, or 1 for a physical unit
+    k_g0 = 1.0 if spec.gyr_scale_guess is None else spec.gyr_scale_guess * sg.si_per_unit
+    S_g0 = np.eye(3) * k_g0
+    S_g, cov_sg, r_g, _ = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up)
+    p_g = triad.stack_parameters(S_g, b_g)
+    cov_g = np.zeros((12, 12))
+    cov_g[:9, :9] = cov_sg
+    cov_g[9:, 9:] = np.diag(var_bg)
+
+    # checks before/after
+    if spec.acc_scale_guess is not None:
+        k_a0 = spec.acc_scale_guess * sa.si_per_unit
+    else:  # one common scale that makes the mean |a| = g
+        k_a0 = float(np.mean(np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1))) / g
+    err_before = np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1) / k_a0 - g
+    err_after = np.linalg.norm(u_cal, axis=1) - g
+    ang_after = _angles_deg(r_g)
+    ang_before = _angles_deg(transport_residuals(S_g0, b_g, gyr, dt, spans, up))
+
+    # results in THE triad model's conventions
+    tri_a = TriadEstimates.from_parameters(p_a, cov_a, sensor="accelerometer", scale=sa)
+    tri_g = TriadEstimates.from_parameters(p_g, cov_g, sensor="gyroscope", scale=sg)
+    fixed = set(_FIXED_MIS[spec.reference_axis])
+    names_a = [nm for nm in triad.parameter_names() if nm not in fixed]
+    all_a = triad.parameter_names()
+    idx_a = [all_a.index(nm) for nm in names_a]
+    cov_ea = tri_a.covariance[np.ix_(idx_a, idx_a)]
+    coefficients: dict[str, Estimate] = {}
+    for tri, names, letter in ((tri_a, names_a, "a"), (tri_g, list(all_a), "g")):
+        for nm in names:
+            e = tri.all_estimates()[nm]
+            key = f"{nm[0]}{letter}{nm[1:]}"
+            coefficients[key] = Estimate(key, e.value, e.std, e.unit)
+    cov_out = np.block([[cov_ea, np.zeros((cov_ea.shape[0], 12))],
+                        [np.zeros((12, cov_ea.shape[0])), tri_g.covariance]])
+    fixed_names = ", ".join(f"M{'a'}{nm[1:]}" for nm in _FIXED_MIS[spec.reference_axis])
+    frame = ("the z accelerometer defines the z axis and y lies in the y-z plane"
+             if spec.reference_axis == "z" else
+             "the x accelerometer defines the x axis and y lies in the x-y plane")
+    not_sep = (
+        f"accelerometer frame orientation: |a| = g determines the triad only up to a rotation "
+        f"of its reference frame; the gauge of Tedaldi et al. (reference_axis = "
+        f"{spec.reference_axis}: {frame}) sets {fixed_names} = 0 by definition, so they are "
+        "not estimates; the gyro misalignments Mg_ij refer to this same frame",
+        "cross-covariance between the accelerometer and gyro estimates is not propagated (the "
+        "gyro fit takes the calibrated gravity directions as exact)",
+    )
+    for msg in (triad.reversed_axes_message(p_a, "accelerometer", "acc_{}"),
+                triad.reversed_axes_message(p_g, "gyroscope", "gyr_{}")):
+        if msg is not None:
+            messages.append(msg)
+    ident = Identification(
+        coefficients=coefficients, combinations=(), not_separable=not_sep,
+        covariance=cov_out, names=tuple(coefficients), noise_sigma=float(
+            np.sqrt(r_a @ r_a / (m - 9))) if m > 9 else float("nan"),
+        noise_unit="m/s^2", sigma_from_residuals=True, dof=m - 9, rank=len(coefficients),
+        residuals=r_a,
+    )
+    calibration = ImuCalibration(
+        accelerometer=triad.calibration_from_parameters(p_a, sensor="accelerometer", scale=sa,
+                                                        raw_unit=spec.acc_unit),
+        gyroscope=triad.calibration_from_parameters(p_g, sensor="gyroscope", scale=sg,
+                                                    raw_unit=spec.gyr_unit),
+    )
+    intervals = tuple(
+        StaticInterval(float(t[a]), float(t[b - 1]), means[k] / ra, gmeans[k] / rg, int(b - a))
+        for k, (a, b) in enumerate(iv))
+    return OrientationFreeResult(
+        site_latitude_deg=plan.site.latitude_deg, site_gravity_m_s2=g, identification=ident,
+        calibration=calibration, triads=(tri_a, tri_g), residual_output=r_a,
+        output_unit="m/s^2", messages=tuple(messages), intervals=intervals, detection=det,
+        gravity_error_m_s2=err_after, gravity_error_before_m_s2=err_before,
+        transport_angle_deg=ang_after, transport_angle_before_deg=ang_before,
+        reference_axis=spec.reference_axis,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# simulation
+
+
+def simulate(
+    plan: Plan, truth: Mapping[str, float], *, noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """A virtual hand-held session with random attitudes and raised-cosine turns.
+
+    Still for ``init_duration_s``, then ``n_attitudes`` random attitudes held ``static_s``
+    each, reached by raised-cosine turns of ``motion_s`` about a fixed body axis (pure
+    rotation about the IMU; no Earth rate).
+
+    ``truth``: ``Ka_*``, ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``, ``Mg_ij`` [urad], ``Bg_*``
+    [deg/h] (the fit's units; scale factors required for count outputs), optional
+    ``acc_noise``, ``gyr_noise`` [raw unit per sample] (default ``noise``). Misalignments
+    outside the gauge rotate the frame: the fit then reports the rotated equivalent.
+    Returns columns ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
+    """
+    spec: OrientationFreeSpec = plan.procedure
+    gen = np.random.default_rng(rng)
+    known = set(_prefixed(triad.parameter_names(), "a") + _prefixed(triad.parameter_names(),
+                                                                    "g"))
+    unknown = sorted(set(truth) - known - {"acc_noise", "gyr_noise"})
+    if unknown:
+        raise PlanError(f"truth has unknown name(s) {', '.join(unknown)}; {KIND} knows Ka_x.., "
+                        "Ma_xy.. [urad], Ba_x.. [mg], Kg_x.., Mg_xy.., Bg_x.. [deg/h], "
+                        "acc_noise, gyr_noise")
+    sa, sg = spec.acc_scale, spec.gyr_scale
+    p_a = triad.parameters_from_engineering(truth, "accelerometer", sa, prefix="a")
+    p_g = triad.parameters_from_engineering(truth, "gyroscope", sg, prefix="g")
+    s_a = float(truth.get("acc_noise", noise))
+    s_g = float(truth.get("gyr_noise", noise))
+    g = plan.site.gravity_m_s2
+    fs = spec.sample_rate_hz
+    n_init = int(round(spec.init_duration_s * fs))
+    n_static = int(round(spec.static_s * fs))
+    n_move = int(round(spec.motion_s * fs))
+    att = Rotation.random(spec.n_attitudes + 1, random_state=gen)  # C_nb of each attitude
+    att = Rotation.concatenate([Rotation.identity(), att[1:]])
+    f_parts, w_parts = [], []
+    up = np.array([0.0, 0.0, g])
+    f_parts.append(np.tile(att[0].inv().apply(up), (n_init, 1)))
+    w_parts.append(np.zeros((n_init, 3)))
+    tau = (np.arange(n_move) + 0.5) / n_move  # sample mid-points of the turn
+    for k in range(spec.n_attitudes):
+        phi = (att[k].inv() * att[k + 1]).as_rotvec()  # body-frame turn C_k^T C_{k+1}
+        s = tau - np.sin(2 * np.pi * tau) / (2 * np.pi)
+        rate = (1 - np.cos(2 * np.pi * tau)) * fs / n_move
+        C = att[k] * Rotation.from_rotvec(np.outer(s, phi))
+        f_parts.append(C.inv().apply(up))
+        w_parts.append(np.outer(rate, phi))
+        f_parts.append(np.tile(att[k + 1].inv().apply(up), (n_static, 1)))
+        w_parts.append(np.zeros((n_static, 3)))
+    f = np.vstack(f_parts)
+    w = np.vstack(w_parts)
+    acc = triad.output(f, p_a[:9].reshape(3, 3), p_a[9:]) / sa.raw_si_per_raw
+    gyr = triad.output(w, p_g[:9].reshape(3, 3), p_g[9:]) / sg.raw_si_per_raw
+    if s_a > 0:
+        acc = acc + gen.normal(0.0, s_a, acc.shape)
+    if s_g > 0:
+        gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
+    out: dict[str, NDArray] = {"t_s": np.arange(len(f)) / fs}
+    for k in range(3):
+        out[ACC_COLUMNS[k]] = acc[:, k]
+    for k in range(3):
+        out[GYR_COLUMNS[k]] = gyr[:, k]
+    return out
