@@ -1,0 +1,169 @@
+"""Whole-IMU noise analysis: known N and K recovered, PSD convention, time stamps, outliers.
+
+References: the Kalibr wiki "IMU Noise Model" discrete-time generator (white noise of std
+sigma / sqrt(dt), bias steps of std sigma_b sqrt(dt)), written out here independently of
+inertest's simulators; IEEE Std 952-1997 Annex C for N = sqrt(two-sided PSD).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from inertest.errors import DataError, InputError
+from inertest.noise.imu import (
+    analyse_imu_noise,
+    check_time_stamps,
+    compare_kalibr,
+    find_outliers,
+    psd_welch,
+)
+
+RATE = 100.0
+DT = 1.0 / RATE
+
+
+def kalibr_generator(n: int, density: float, random_walk: float, seed: int) -> np.ndarray:
+    """Kalibr discrete model: y = sigma_g/sqrt(dt) w1 + b, b[k] = b[k-1] + sigma_bg sqrt(dt) w2."""
+    g = np.random.default_rng(seed)
+    white = density / math.sqrt(DT) * g.standard_normal(n)
+    bias = np.cumsum(random_walk * math.sqrt(DT) * g.standard_normal(n))
+    return white + bias
+
+
+def test_kalibr_generator_n_and_k_recovered_within_their_uncertainty():
+    # Crossing of the two lines at tau = sqrt(3) N / K = 17 s; 2000 s of data.
+    n = 200_000
+    true = {"gyro": (2e-3, 2e-4), "accelerometer": (5e-3, 4e-4)}
+    gyro = kalibr_generator(n, *true["gyro"], seed=11)
+    accel = kalibr_generator(n, *true["accelerometer"], seed=12)
+    res = analyse_imu_noise(None, gyro, accel, rate_hz=RATE)
+    assert [c.name for c in res.channels] == ["gyro_x", "accel_x"]
+    for c in res.channels:
+        n_true, k_true = true[c.kind]
+        assert c.model.fits
+        for term, ref in ((c.density, n_true), (c.random_walk, k_true)):
+            assert term.status == "fitted"
+            assert term.std is not None and 0 < term.std < 0.3 * ref
+            assert abs(term.value - ref) <= 3.0 * term.std, (c.name, term, ref)
+            assert ref <= term.bound_95
+    k = res.kalibr("gyro")
+    assert k is not None and k["noise_density"].unit == "rad/s/sqrt(Hz)"
+    assert k["random_walk"].unit == "rad/s^2/sqrt(Hz)"
+    assert res.kalibr("accelerometer")["random_walk"].unit == "m/s^3/sqrt(Hz)"
+
+
+def test_white_noise_only_gives_fitted_n_and_a_k_bound_from_the_tangent_line():
+    n_true = 1e-3
+    y = kalibr_generator(50_000, n_true, 0.0, seed=3)
+    res = analyse_imu_noise(None, y, None, rate_hz=RATE)
+    c = res.channels[0]
+    assert c.density.status == "fitted"
+    assert abs(c.density.value - n_true) <= 3 * c.density.std
+    assert c.random_walk.status == "bound"
+    r = c.oadev
+    ok = r.n >= 1
+    line = r.dev[ok] * np.sqrt(3.0 / r.taus[ok])
+    assert c.random_walk.value == pytest.approx(float(line.min()), rel=1e-12)
+    assert c.random_walk.tau_s == pytest.approx(float(r.taus[ok][np.argmin(line)]))
+    # The +1/2 line through that point lies under every measured deviation.
+    assert np.all(r.dev[ok] >= c.random_walk.value * np.sqrt(r.taus[ok] / 3.0) * (1 - 1e-12))
+
+
+def test_psd_one_sided_white_level_is_two_n_squared():
+    # IEEE 952 Annex C: two-sided S = N^2 for white rate noise; one-sided Welch S1 = 2 N^2.
+    n_true = 3e-3
+    y = kalibr_generator(2**17, n_true, 0.0, seed=5)
+    f, p = psd_welch(y, RATE)
+    assert f[0] > 0 and f[-1] == pytest.approx(RATE / 2)
+    assert float(np.mean(p)) == pytest.approx(2 * n_true**2, rel=0.03)
+    # Parseval: the one-sided density integrates to the variance.
+    assert float(np.sum(p) * (f[1] - f[0])) == pytest.approx(float(np.var(y)), rel=0.03)
+
+
+def test_gap_is_refused_naming_its_time_length_and_the_option():
+    t = np.arange(1000) * DT
+    t[600:] += 0.5  # a 0.51 s interval after sample 599
+    with pytest.raises(DataError, match=r"t = 5\.99 s: 0\.51 s instead of 0\.01 s.*--gaps longest"):
+        check_time_stamps(t)
+    rep = check_time_stamps(t, gaps="longest")
+    assert rep.segment == (0, 600)
+    assert rep.gaps[0].index == 600 and rep.gaps[0].length_s == pytest.approx(0.51)
+    assert rep.interval_s == pytest.approx(DT)
+
+
+def test_duplicated_stamps_refused_and_jitter_reported():
+    g = np.random.default_rng(1)
+    t = np.arange(2000) * DT + g.normal(0, 1e-4, 2000)
+    rep = check_time_stamps(t)
+    assert rep.jitter_s == pytest.approx(float(np.std(np.diff(t))))
+    assert rep.jitter_s == pytest.approx(math.sqrt(2) * 1e-4, rel=0.1)
+    t2 = np.arange(2000) * DT
+    t2[1500] = t2[1499]
+    with pytest.raises(DataError, match=r"1 duplicated time stamp.*t = 14\.99 s.*--gaps longest"):
+        check_time_stamps(t2)
+    rep = check_time_stamps(t2, gaps="longest")
+    assert rep.segment == (0, 1500) and len(rep.non_increasing) == 1
+
+
+def test_rate_given_must_match_the_stamps():
+    with pytest.raises(DataError, match="the time stamps say 100 Hz.*200 Hz"):
+        check_time_stamps(np.arange(100) * DT, rate_hz=200.0)
+
+
+def test_outliers_counted_refused_or_clipped():
+    y = kalibr_generator(20_000, 1e-3, 0.0, seed=8)
+    spikes = [1000, 5000, 12345]
+    y[spikes] += 1.0  # 100 sigma of the white noise
+    mask, _, sigma = find_outliers(y)
+    assert sorted(np.flatnonzero(mask)) == spikes
+    assert sigma == pytest.approx(1e-3 / math.sqrt(DT) * math.sqrt(1 + 1 / 51), rel=0.05)
+    with pytest.raises(DataError, match=r"gyro_x: 3 outlier\(s\).*sample 1000.*--outliers clip"):
+        analyse_imu_noise(None, y, None, rate_hz=RATE, outliers="refuse")
+    kept = analyse_imu_noise(None, y, None, rate_hz=RATE)
+    clipped = analyse_imu_noise(None, y, None, rate_hz=RATE, outliers="clip")
+    assert kept.channels[0].outliers == clipped.channels[0].outliers == 3
+    assert any("3 outlier(s)" in m for m in kept.messages)
+    # Clipping brings the short-tau deviation back to the white-noise level.
+    ref = 1e-3 / math.sqrt(DT)
+    assert clipped.channels[0].oadev.dev[0] == pytest.approx(ref, rel=0.05)
+    assert kept.channels[0].oadev.dev[0] > 1.1 * ref
+
+
+def test_detrend_removes_a_ramp():
+    y = kalibr_generator(50_000, 1e-3, 0.0, seed=9) + 1e-4 * np.arange(50_000) * DT
+    plain = analyse_imu_noise(None, y, None, rate_hz=RATE)
+    flat = analyse_imu_noise(None, y, None, rate_hz=RATE, detrend=True)
+    assert flat.channels[0].oadev.dev[-1] < 0.1 * plain.channels[0].oadev.dev[-1]
+    assert flat.detrended
+
+
+def test_compare_verdicts():
+    y = kalibr_generator(50_000, 1e-3, 0.0, seed=4)
+    res = analyse_imu_noise(None, y, None, rate_hz=RATE)
+    c = res.channels[0]
+    out = {r.parameter + str(r.claimed): r.verdict for r in compare_kalibr(res, {
+        "gyroscope_noise_density": c.density.value,
+        "gyroscope_random_walk": 0.5 * c.random_walk.value,
+        "accelerometer_noise_density": 1.0,  # no accelerometer channel: skipped
+    })}
+    assert out == {f"gyroscope_noise_density{c.density.value}": "agrees",
+                   f"gyroscope_random_walk{0.5 * c.random_walk.value}": "consistent"}
+    far = compare_kalibr(res, {"gyroscope_noise_density": 2 * c.density.value,
+                               "gyroscope_random_walk": 10 * c.random_walk.bound_95})
+    assert [r.verdict for r in far] == ["disagrees", "disagrees"]
+
+
+def test_bad_input():
+    with pytest.raises(InputError, match="sample rate"):
+        analyse_imu_noise(None, np.zeros(100), None)
+    with pytest.raises(InputError, match="no channel"):
+        analyse_imu_noise(None, None, None, rate_hz=RATE)
+    y = np.zeros(200)
+    y[50] = np.nan
+    with pytest.raises(DataError, match="gyro_x has a missing or infinite value at sample 50"):
+        analyse_imu_noise(None, y, None, rate_hz=RATE)
+    with pytest.raises(DataError, match="at least 64"):
+        analyse_imu_noise(None, np.zeros(20), None, rate_hz=RATE)
