@@ -11,6 +11,7 @@ get the value in the second, e.g. ``x_rad_s = x_deg_h * DEG_PER_H_TO_RAD_PER_S``
 from __future__ import annotations
 
 import math
+import re
 
 from inertest.errors import UnitError
 
@@ -100,3 +101,97 @@ def _factor(unit: str, table: dict[str, float], what: str) -> float:
     except KeyError:
         known = ", ".join(f'"{u}"' for u in table)
         raise UnitError(f'unknown {what} unit "{unit}"; use one of {known}') from None
+
+
+#: Factor to SI and dimension (exponents of rad, m, s, count, A, V) of each unit symbol that
+#: compound units (``deg/h/g^2``, ``count/(m/s^2)``, ``ug/g^2``) are written with.
+_ATOMS: dict[str, tuple[float, tuple[int, ...]]] = {
+    "rad": (1.0, (1, 0, 0, 0, 0, 0)), "mrad": (1e-3, (1, 0, 0, 0, 0, 0)),
+    "urad": (MICRORAD_TO_RAD, (1, 0, 0, 0, 0, 0)), "deg": (DEG_TO_RAD, (1, 0, 0, 0, 0, 0)),
+    "arcmin": (ARCMIN_TO_RAD, (1, 0, 0, 0, 0, 0)), "arcsec": (ARCSEC_TO_RAD, (1, 0, 0, 0, 0, 0)),
+    "m": (1.0, (0, 1, 0, 0, 0, 0)), "mm": (1e-3, (0, 1, 0, 0, 0, 0)),
+    "um": (1e-6, (0, 1, 0, 0, 0, 0)),
+    "s": (1.0, (0, 0, 1, 0, 0, 0)), "min": (60.0, (0, 0, 1, 0, 0, 0)),
+    "h": (HOUR_TO_S, (0, 0, 1, 0, 0, 0)), "Hz": (1.0, (0, 0, -1, 0, 0, 0)),
+    "g": (G0, (0, 1, -2, 0, 0, 0)), "mg": (MILLI_G_TO_M_PER_S2, (0, 1, -2, 0, 0, 0)),
+    "ug": (MICRO_G_TO_M_PER_S2, (0, 1, -2, 0, 0, 0)),
+    "count": (1.0, (0, 0, 0, 1, 0, 0)), "LSB": (1.0, (0, 0, 0, 1, 0, 0)),
+    "A": (1.0, (0, 0, 0, 0, 1, 0)), "mA": (1e-3, (0, 0, 0, 0, 1, 0)),
+    "uA": (1e-6, (0, 0, 0, 0, 1, 0)), "V": (1.0, (0, 0, 0, 0, 0, 1)),
+    "mV": (1e-3, (0, 0, 0, 0, 0, 1)),
+    "1": (1.0, (0, 0, 0, 0, 0, 0)), "ppm": (PPM_TO_RATIO, (0, 0, 0, 0, 0, 0)),
+    "%": (1e-2, (0, 0, 0, 0, 0, 0)),
+}
+
+
+def compound_unit(unit: str) -> tuple[float, tuple[int, ...]]:
+    """Factor to SI and dimension of a compound unit such as ``deg/h/g^2`` or ``count/(m/s^2)``.
+
+    Symbols of :data:`_ATOMS` joined by ``*`` and ``/`` (left to right), with integer powers
+    ``^n`` and parentheses. The dimension is the tuple of exponents of (rad, m, s, count, A, V):
+    angles are kept apart from pure ratios, so ``urad`` and ``ppm`` do not convert.
+
+    Raises
+    ------
+    UnitError
+        An unknown symbol or a malformed unit.
+    """
+    tokens = re.findall(r"[A-Za-z%]+|\d+|[()*/^]|\S", unit.replace(" ", ""))
+    pos = 0
+
+    def term() -> tuple[float, list[int]]:
+        nonlocal pos
+        if pos >= len(tokens):
+            raise UnitError(f'unit "{unit}" ends too early; write e.g. "deg/h/g^2"')
+        tok = tokens[pos]
+        pos += 1
+        if tok == "(":
+            f, d = expr()
+            if pos >= len(tokens) or tokens[pos] != ")":
+                raise UnitError(f'unit "{unit}" has an unclosed parenthesis')
+            pos += 1
+        elif tok in _ATOMS:
+            f, dim = _ATOMS[tok]
+            d = list(dim)
+        else:
+            known = ", ".join(_ATOMS)
+            raise UnitError(f'unknown unit symbol "{tok}" in "{unit}"; use {known}')
+        if pos < len(tokens) and tokens[pos] == "^":
+            if pos + 1 >= len(tokens) or not tokens[pos + 1].isdigit():
+                raise UnitError(f'unit "{unit}": a power needs an integer, e.g. g^2')
+            n = int(tokens[pos + 1])
+            pos += 2
+            f, d = f**n, [x * n for x in d]
+        return f, d
+
+    def expr() -> tuple[float, list[int]]:
+        nonlocal pos
+        f, d = term()
+        while pos < len(tokens) and tokens[pos] in "*/":
+            op = tokens[pos]
+            pos += 1
+            f2, d2 = term()
+            s = 1 if op == "*" else -1
+            f, d = (f * f2 if s > 0 else f / f2), [a + s * b for a, b in zip(d, d2, strict=True)]
+        return f, d
+
+    factor, dim = expr()
+    if pos != len(tokens):
+        raise UnitError(f'unit "{unit}" is malformed near "{tokens[pos]}"')
+    return factor, tuple(dim)
+
+
+def convert(value: float, from_unit: str, to_unit: str) -> float:
+    """``value`` in ``from_unit`` expressed in ``to_unit`` (compound units, :func:`compound_unit`).
+
+    Raises
+    ------
+    UnitError
+        The units measure different things (``deg/h`` and ``deg/h/g``).
+    """
+    f1, d1 = compound_unit(from_unit)
+    f2, d2 = compound_unit(to_unit)
+    if d1 != d2:
+        raise UnitError(f'"{from_unit}" cannot be expressed in "{to_unit}": they measure '
+                        "different quantities")
+    return float(value) * f1 / f2

@@ -454,9 +454,12 @@ def simulate(
     k2 = float(truth.get("K2", 0.0)) * PPM / DEG_TO_RAD
     rates = np.repeat(np.asarray(spec.rates_deg_s, dtype=float), spec.samples_per_rate)
     w_t = rates * DEG_TO_RAD
-    _, w_e = _input_rate(spec.motion(plan.site), w_t)
+    # The table rate on the input axis from the motion (which carries Type-B rate/tilt errors
+    # when the uncertainty budget applies them); equal to w_t on the nominal table.
+    w_in, w_e = _input_rate(spec.motion(plan.site), w_t)
+    w_tab = w_in - w_e
     k_dir = K * (1 + np.sign(w_t) * a / 2)
-    out_si = k_dir * w_t + K * (w_e + B + k2 * w_t**2)
+    out_si = k_dir * w_tab + K * (w_e + B + k2 * w_tab**2)
     per_si = raw_rate_per_si(inst.output_unit)
     output = out_si * per_si + noise_samples(rates.size, noise, rng)
     return {"rate_deg_s": rates, "output": output}

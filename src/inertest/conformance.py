@@ -1,0 +1,330 @@
+"""Specification limits and conformance verdicts with the measurement uncertainty.
+
+An instrument specification file (TOML) gives limits per quantity of a result, each with the
+clause of the standard it comes from, and the decision rule::
+
+    [spec]
+    name = "Example spec, navigation-grade floated gyro"
+    decision_rule = "guarded"          # or "simple"
+    [[limit]]
+    quantity = "DI"                    # a coefficient or combination name of the result
+    max_abs = 0.05                     # or min and/or max
+    unit = "deg/h/g"
+    clause = "IEEE Std 517-1974"
+
+Decision rules (ILAC-G8:09/2019, sec. 4): ``guarded`` is guarded acceptance with a guard band
+``w = U``, the expanded uncertainty (k = 2), and a non-binary statement: *pass* when the value is
+inside the limit by at least U, *conditional pass* when inside by less than U, *conditional
+fail* when outside by at most U, *fail* when outside by more than U. ``simple`` is simple
+acceptance (w = 0, binary statement): *pass* inside the limit, *fail* outside.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tomllib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from inertest.budget import UncertaintyBudget, quantities_of
+from inertest.errors import PlanError, UnitError
+from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
+from inertest.units import compound_unit, convert
+
+DECISION_RULES: dict[str, str] = {
+    "guarded": (
+        "ILAC-G8:09/2019 guarded acceptance, non-binary statement, guard band w = U (expanded "
+        "uncertainty, k = 2): pass when the value is inside the limit by at least U; conditional "
+        "pass when inside by less than U; conditional fail when outside by at most U; fail when "
+        "outside by more than U"),
+    "simple": (
+        "ILAC-G8:09/2019 simple acceptance, binary statement, w = 0: pass when the value is "
+        "inside the limit, fail otherwise (a value at the limit has up to 50 % risk of a false "
+        "decision)"),
+}
+
+#: Verdicts from best to worst.
+VERDICTS = ("pass", "conditional pass", "conditional fail", "fail")
+
+
+class SpecError(PlanError):
+    """A specification file is missing, malformed or does not fit the result."""
+
+
+@dataclass(frozen=True)
+class Limit:
+    """Limits on one quantity, in ``unit``.
+
+    Attributes
+    ----------
+    quantity, unit, clause : str
+    minimum, maximum, max_abs : float or None
+        ``minimum <= x``, ``x <= maximum``, ``|x| <= max_abs`` [unit].
+    """
+
+    quantity: str
+    unit: str
+    clause: str
+    minimum: float | None = None
+    maximum: float | None = None
+    max_abs: float | None = None
+
+    def text(self) -> str:
+        """The limit as printed: ``|DI| <= 0.05 deg/h/g``."""
+        parts = []
+        if self.max_abs is not None:
+            parts.append(f"|{self.quantity}| <= {self.max_abs:g} {self.unit}")
+        if self.minimum is not None and self.maximum is not None:
+            parts.append(f"{self.minimum:g} <= {self.quantity} <= {self.maximum:g} {self.unit}")
+        elif self.minimum is not None:
+            parts.append(f"{self.quantity} >= {self.minimum:g} {self.unit}")
+        elif self.maximum is not None:
+            parts.append(f"{self.quantity} <= {self.maximum:g} {self.unit}")
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Spec:
+    """An instrument specification: limits and the decision rule.
+
+    Attributes
+    ----------
+    name : str
+    decision_rule : {"guarded", "simple"}
+    limits : tuple of Limit
+    source : str
+        Where it came from (for messages).
+    """
+
+    name: str
+    decision_rule: str
+    limits: tuple[Limit, ...]
+    source: str = "spec"
+
+    def check_quantities(self, known: Iterable[str]) -> None:
+        """Every limited quantity must be a quantity of the result (did-you-mean otherwise)."""
+        names = list(known)
+        for lim in self.limits:
+            if lim.quantity not in names:
+                raise SpecError(
+                    f'{self.source}: quantity "{lim.quantity}" is not in the result'
+                    f'{did_you_mean(lim.quantity, names)}; the result has {", ".join(names)}')
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Conformance of one quantity with its limit.
+
+    Attributes
+    ----------
+    quantity, unit : str
+    value : float
+        Estimate [unit] (the result's unit).
+    expanded : float
+        Expanded uncertainty U [unit].
+    u_source : str
+        ``"budget"`` (Type A and B, k from the budget) or ``"type A only, k = 2"``.
+    limit : str
+        The limit as written in the spec, with its unit.
+    clause : str
+    verdict : str
+        One of :data:`VERDICTS`.
+    """
+
+    quantity: str
+    value: float
+    unit: str
+    expanded: float
+    u_source: str
+    limit: str
+    clause: str
+    verdict: str
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form."""
+        return {"quantity": self.quantity, "value": self.value, "unit": self.unit,
+                "expanded_uncertainty": self.expanded, "uncertainty_source": self.u_source,
+                "limit": self.limit, "clause": self.clause, "verdict": self.verdict}
+
+
+@dataclass(frozen=True)
+class Conformance:
+    """Verdicts of a result against a specification.
+
+    Attributes
+    ----------
+    spec_name, decision_rule, rule : str
+        The specification, its decision rule and the rule's text.
+    verdicts : tuple of Verdict
+    """
+
+    spec_name: str
+    decision_rule: str
+    rule: str
+    verdicts: tuple[Verdict, ...]
+
+    @property
+    def overall(self) -> str:
+        """The worst verdict."""
+        return max((v.verdict for v in self.verdicts), key=VERDICTS.index, default="pass")
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``conformance`` block of the result envelope."""
+        return {"spec": self.spec_name, "decision_rule": self.decision_rule, "rule": self.rule,
+                "overall": self.overall, "verdicts": [v.to_dict() for v in self.verdicts]}
+
+
+_SPEC_FIELDS = (
+    Field("name", "text", default="specification"),
+    Field("decision_rule", "text", default="guarded", choices=tuple(DECISION_RULES)),
+)
+_LIMIT_FIELDS = (
+    Field("quantity", "text", doc='a coefficient or combination name, e.g. quantity = "DI"'),
+    Field("unit", "text", doc='the unit of the limits, e.g. unit = "deg/h/g"'),
+    Field("clause", "text", doc='where the limit comes from, e.g. clause = "IEEE Std 952-2020"'),
+    Field("min", default=None),
+    Field("max", default=None),
+    Field("max_abs", default=None, minimum=0.0),
+)
+
+
+def spec_from_mapping(doc: Mapping[str, Any], *, source: str = "spec") -> Spec:
+    """A :class:`Spec` from a parsed specification file; clean errors for every mistake."""
+    check_known_keys(doc, {"spec", "limit"}, source, error=SpecError)
+    head = doc.get("spec", {})
+    if not isinstance(head, Mapping):
+        raise SpecError(f"{source}: [spec] must be a table")
+    h = read_fields(head, _SPEC_FIELDS, f"{source}: [spec]", error=SpecError)
+    items = doc.get("limit")
+    if not isinstance(items, list) or not items:
+        raise SpecError(f"{source} has no [[limit]] entries; see examples/specs/")
+    limits = []
+    for i, t in enumerate(items):
+        where = f"{source}: [[limit]] #{i + 1}"
+        if not isinstance(t, Mapping):
+            raise SpecError(f"{where} must be a table")
+        v = read_fields(t, _LIMIT_FIELDS, where, error=SpecError)
+        where = f'{source}: limit on "{v["quantity"]}"'
+        if v["min"] is None and v["max"] is None and v["max_abs"] is None:
+            raise SpecError(f"{where} has no limit; give max_abs, or min and/or max")
+        if v["max_abs"] is not None and (v["min"] is not None or v["max"] is not None):
+            raise SpecError(f"{where}: give either max_abs or min/max, not both")
+        if v["min"] is not None and v["max"] is not None and v["min"] > v["max"]:
+            raise SpecError(f"{where}: min {v['min']:g} is above max {v['max']:g}")
+        try:
+            compound_unit(v["unit"])
+        except UnitError as exc:
+            raise SpecError(f"{where}: {exc}") from None
+        limits.append(Limit(quantity=v["quantity"], unit=v["unit"], clause=v["clause"],
+                            minimum=v["min"], maximum=v["max"], max_abs=v["max_abs"]))
+    return Spec(name=h["name"], decision_rule=h["decision_rule"], limits=tuple(limits),
+                source=source)
+
+
+def read_spec(path: str | os.PathLike[str], result: Any = None) -> Spec:
+    """Read a specification file (TOML; layout in the module docstring).
+
+    Parameters
+    ----------
+    path : path-like
+    result : procedure result, optional
+        When given, every limited quantity must be one of its coefficients or combinations.
+
+    Raises
+    ------
+    SpecError
+        Missing or invalid file, an unknown key, a limit without a bound, an unknown unit, a
+        quantity the result does not have (with did-you-mean).
+    """
+    source = f"spec file {os.fspath(path)}"
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SpecError(f"{source} does not exist; give --spec an instrument specification "
+                        "(see examples/specs/)") from None
+    except OSError as exc:
+        raise SpecError(f"{source} cannot be read: {exc.strerror}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"{source} is not valid TOML: {exc}") from None
+    spec = spec_from_mapping(doc, source=source)
+    if result is not None:
+        spec.check_quantities(quantities_of(result))
+    return spec
+
+
+def decide(value: float, expanded: float, *, lower: float | None = None,
+           upper: float | None = None, rule: str = "guarded") -> str:
+    """Verdict of ``value`` with expanded uncertainty ``expanded`` against ``lower``/``upper``.
+
+    Guarded (w = U): inside by at least U -> pass; inside by less -> conditional pass; outside by
+    at most U -> conditional fail; outside by more -> fail. Simple (w = 0): pass / fail. A value
+    exactly on a limit is inside; ``value + U`` exactly on it is a pass.
+    """
+    if rule not in DECISION_RULES:
+        raise SpecError(f'unknown decision rule "{rule}"; use one of {", ".join(DECISION_RULES)}')
+    w = expanded if rule == "guarded" else 0.0
+    worst = 0
+    for bound, sign in ((upper, 1.0), (lower, -1.0)):
+        if bound is None:
+            continue
+        margin = sign * (bound - value)     # > 0: inside
+        if margin >= w:
+            v = 0
+        elif margin >= 0:
+            v = 1
+        elif margin >= -w:
+            v = 2
+        else:
+            v = 3
+        worst = max(worst, v)
+    if rule == "simple":
+        return "pass" if worst == 0 else "fail"
+    return VERDICTS[worst]
+
+
+def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -> Conformance:
+    """Verdict per limited quantity of ``result`` under the spec's decision rule.
+
+    Parameters
+    ----------
+    result : procedure result
+    spec : Spec
+    budget : UncertaintyBudget, optional
+        Its expanded uncertainty U (Type A and B) is the guard band; without it U = 2 x the
+        Type-A std, and the verdict says so.
+
+    Raises
+    ------
+    SpecError
+        A quantity not in the result, or a limit unit that cannot express the result's unit.
+    """
+    q = quantities_of(result)
+    spec.check_quantities(q)
+    out = []
+    for lim in spec.limits:
+        value, std, unit = q[lim.quantity]
+        if budget is not None and lim.quantity in budget.quantities:
+            b = budget.quantities[lim.quantity]
+            U, src = b.expanded, f"budget, k = {b.coverage_factor:.2f}"
+        else:
+            U, src = 2.0 * std, "type A only, k = 2"
+        try:
+            x, u = convert(value, unit, lim.unit), convert(U, unit, lim.unit)
+        except UnitError:
+            raise SpecError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
+                            f'the result gives it in "{unit}"; write the limit in {unit} or an '
+                            "equivalent unit") from None
+        if not math.isfinite(u):
+            u = 0.0
+        if lim.max_abs is not None:
+            verdict = decide(abs(x), u, upper=lim.max_abs, rule=spec.decision_rule)
+        else:
+            verdict = decide(x, u, lower=lim.minimum, upper=lim.maximum,
+                             rule=spec.decision_rule)
+        out.append(Verdict(quantity=lim.quantity, value=value, unit=unit, expanded=U,
+                           u_source=src, limit=lim.text(), clause=lim.clause, verdict=verdict))
+    return Conformance(spec_name=spec.name, decision_rule=spec.decision_rule,
+                       rule=DECISION_RULES[spec.decision_rule], verdicts=tuple(out))
