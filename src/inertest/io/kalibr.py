@@ -1,0 +1,140 @@
+"""Kalibr / OpenVINS ``imu.yaml``: write the measured noise model, read one back.
+
+Keys and units (Kalibr wiki "IMU Noise Model"; OpenVINS ``kalibr_imu_chain.yaml`` holds the
+same keys under ``imu0``):
+
+==============================  ====================  ===========================================
+key                             unit                  IEEE Std 952-1997 Annex C term
+==============================  ====================  ===========================================
+``gyroscope_noise_density``     rad/s/sqrt(Hz)        N, angle random walk [rad/sqrt(s)]
+``gyroscope_random_walk``       rad/s^2/sqrt(Hz)      K, rate random walk [rad/s/sqrt(s)]
+``accelerometer_noise_density`` m/s^2/sqrt(Hz)        N, velocity random walk [m/s/sqrt(s)]
+``accelerometer_random_walk``   m/s^3/sqrt(Hz)        K, acceleration random walk [m/s^2/sqrt(s)]
+``update_rate``                 Hz                    sample rate
+==============================  ====================  ===========================================
+
+The bias instability B (the flat floor of the Allan deviation, 0.664 B) is not the random walk.
+Each value written is the largest over the sensor's axes; a term the record does not resolve is
+written as an upper bound and says so in its comment (:mod:`inertest.noise.imu`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+from inertest import __version__
+from inertest.errors import DataError
+from inertest.io.atomic import write_text
+from inertest.noise.imu import ImuNoiseResult, KalibrTerm
+
+#: The four noise keys, in the order written.
+KEYS = ("gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
+        "accelerometer_random_walk")
+_SENSORS = (("gyroscope", "gyro"), ("accelerometer", "accelerometer"))
+_MEANING = {
+    ("gyro", "noise_density"): "white rate noise density = angle random walk N",
+    ("gyro", "random_walk"): "bias random walk = rate random walk K (NOT the bias instability B)",
+    ("accelerometer", "noise_density"): "white noise density = velocity random walk N",
+    ("accelerometer", "random_walk"): "bias random walk = acceleration random walk K (NOT the "
+                                      "bias instability B)",
+}
+
+
+def _num(v: float) -> str:
+    return format(float(v), ".10g")
+
+
+def _comment(kind: str, param: str, term: KalibrTerm, result: ImuNoiseResult) -> list[str]:
+    axes = result.sensor(kind)
+    per_axis = ", ".join(
+        f"{c.name} {getattr(c, 'density' if param == 'noise_density' else 'random_walk').value:.4g}"
+        for c in axes)
+    lines = [f"# {_MEANING[(kind, param)]} [{term.unit}]; largest of the axes ({per_axis})"]
+    if term.status == "fitted":
+        lines.append(f"#   fitted IEEE 952 term, standard uncertainty {term.std:.3g} "
+                     f"{term.unit}; its line meets the Allan deviation curve at tau = "
+                     f"{term.tau_s:g} s")
+    else:
+        slope = "-1/2" if param == "noise_density" else "+1/2"
+        lines.append(f"#   UPPER BOUND, not a measurement: the record does not resolve this "
+                     f"term; the {slope} slope line tangent to the measured Allan deviation at "
+                     f"tau = {term.tau_s:.4g} s (95 % bound on the confidence limits "
+                     f"{term.bound_95:.4g})")
+    return lines
+
+
+def kalibr_yaml_text(result: ImuNoiseResult, *, source: str, rostopic: str = "/imu0") -> str:
+    """The Kalibr ``imu.yaml`` of a noise analysis, with units and meanings in comments."""
+    out = [
+        f"# Kalibr / OpenVINS IMU noise model written by inertest {__version__} from {source}",
+        "# Continuous-time parameters (Kalibr wiki 'IMU Noise Model'): the discrete-time white",
+        "# noise of samples at dt is noise_density / sqrt(dt), the bias step per sample",
+        "# random_walk * sqrt(dt). Values from the overlapping Allan deviation (IEEE Std 952-1997",
+        f"# Annex C) of {result.duration_s:.6g} s of data at {result.rate_hz:.6g} Hz"
+        + (", straight line removed" if result.detrended else "") + ".",
+        "# The bias instability B (the flat floor of the Allan deviation) is NOT the random walk.",
+        f"rostopic: {rostopic}",
+        f"update_rate: {_num(result.rate_hz)}  # [Hz] sample rate of the recording",
+    ]
+    for key_sensor, kind in _SENSORS:
+        terms = result.kalibr(kind)
+        if terms is None:
+            out.append(f"# no {key_sensor} channels in the recording: no {key_sensor} keys")
+            continue
+        for param in ("noise_density", "random_walk"):
+            term = terms[param]
+            out.extend(_comment(kind, param, term, result))
+            tag = "fitted" if term.status == "fitted" else "upper bound"
+            out.append(f"{key_sensor}_{param}: {_num(term.value)}  # [{term.unit}] {tag}")
+    return "\n".join(out) + "\n"
+
+
+def write_kalibr_yaml(path: str | os.PathLike[str], result: ImuNoiseResult, *,
+                      source: str) -> Path:
+    """Write :func:`kalibr_yaml_text` to ``path`` atomically."""
+    return write_text(path, kalibr_yaml_text(result, source=source))
+
+
+def read_kalibr_yaml(path: str | os.PathLike[str]) -> dict[str, float | None]:
+    """The noise parameters of a Kalibr or OpenVINS IMU yaml (missing keys -> None).
+
+    Accepts the keys at the top level (Kalibr ``imu.yaml``) or under one ``imuN`` mapping
+    (OpenVINS ``kalibr_imu_chain.yaml``; its OpenCV ``%YAML:1.0`` line is skipped). Also
+    returns ``update_rate`` [Hz] when present.
+    """
+    import yaml
+
+    p = Path(path)
+    text = p.read_text(encoding="utf-8")
+    lines = text.splitlines()
+    if lines and lines[0].startswith("%YAML:"):
+        text = "\n".join(lines[1:])
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        raise DataError(f"{p} is not valid YAML ({str(exc).splitlines()[0]}); fix the file") \
+            from None
+    if not isinstance(doc, dict):
+        raise DataError(f"{p} holds no YAML mapping; expected Kalibr keys such as "
+                        "gyroscope_noise_density")
+    if not any(k in doc for k in KEYS):
+        nested = [v for k, v in doc.items() if isinstance(v, dict) and any(q in v for q in KEYS)]
+        if len(nested) != 1:
+            raise DataError(f"{p} has none of the Kalibr keys {', '.join(KEYS)} (at the top "
+                            "level or under one imu0 mapping); fix the file")
+        doc = nested[0]
+    out: dict[str, float | None] = {}
+    for k in (*KEYS, "update_rate"):
+        v = doc.get(k)
+        if v is None:
+            out[k] = None
+            continue
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+            raise DataError(f"{p}: {k} is {v!r}; expected a non-negative number in the Kalibr "
+                            "unit")
+        out[k] = float(v)
+    if all(out[k] is None for k in KEYS):
+        raise DataError(f"{p} has no value for any of {', '.join(KEYS)}; fix the file")
+    return out

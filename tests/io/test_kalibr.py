@@ -1,0 +1,87 @@
+"""Kalibr / OpenVINS imu.yaml: written values, comments, round trip, bad files."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from inertest.errors import DataError
+from inertest.io.kalibr import KEYS, kalibr_yaml_text, read_kalibr_yaml, write_kalibr_yaml
+from inertest.noise.imu import analyse_imu_noise
+
+
+@pytest.fixture(scope="module")
+def result():
+    g = np.random.default_rng(7)
+    n, dt = 40_000, 0.01
+    gyro = 1e-3 / math.sqrt(dt) * g.standard_normal((n, 3))
+    accel = 2e-3 / math.sqrt(dt) * g.standard_normal((n, 2))
+    return analyse_imu_noise(None, gyro, accel, rate_hz=100.0)
+
+
+def test_yaml_round_trip_and_values(tmp_path, result):
+    path = write_kalibr_yaml(tmp_path / "imu.yaml", result, source="sim")
+    back = read_kalibr_yaml(path)
+    doc = yaml.safe_load(path.read_text())  # PyYAML directly: a plain Kalibr mapping
+    assert doc["rostopic"] == "/imu0" and doc["update_rate"] == 100
+    for kind, key in (("gyro", "gyroscope"), ("accelerometer", "accelerometer")):
+        terms = result.kalibr(kind)
+        for param in ("noise_density", "random_walk"):
+            want = terms[param].value
+            assert back[f"{key}_{param}"] == pytest.approx(want, rel=1e-9)
+            assert doc[f"{key}_{param}"] == pytest.approx(want, rel=1e-9)
+            # The largest over the axes (conservative).
+            axes = [getattr(c, "density" if param == "noise_density" else "random_walk").value
+                    for c in result.sensor(kind)]
+            assert want == max(axes)
+    assert back["update_rate"] == 100.0
+
+
+def test_yaml_says_what_each_number_is(result):
+    text = kalibr_yaml_text(result, source="sim")
+    assert "[rad/s/sqrt(Hz)]" in text and "[rad/s^2/sqrt(Hz)]" in text
+    assert "[m/s^2/sqrt(Hz)]" in text and "[m/s^3/sqrt(Hz)]" in text
+    assert "NOT the bias instability B" in text
+    # White noise only: N fitted, K only bounded, and the yaml says so on the K line.
+    for line in text.splitlines():
+        if line.startswith("gyroscope_noise_density"):
+            assert line.endswith("fitted")
+        if line.startswith("gyroscope_random_walk"):
+            assert line.endswith("upper bound")
+    assert "UPPER BOUND, not a measurement" in text
+
+
+def test_openvins_nested_and_opencv_header(tmp_path):
+    p = tmp_path / "kalibr_imu_chain.yaml"
+    p.write_text("%YAML:1.0\n\nimu0:\n  T_i_b: [[1, 0], [0, 1]]\n"
+                 "  accelerometer_noise_density: 2.0000e-03\n"
+                 "  accelerometer_random_walk: 3.0000e-03\n"
+                 "  gyroscope_noise_density: 1.6968e-04\n"
+                 "  gyroscope_random_walk: 1.9393e-05\n"
+                 "  rostopic: /imu0\n  update_rate: 200.0\n")
+    got = read_kalibr_yaml(p)
+    assert got == {"gyroscope_noise_density": 1.6968e-04, "gyroscope_random_walk": 1.9393e-05,
+                   "accelerometer_noise_density": 2e-3, "accelerometer_random_walk": 3e-3,
+                   "update_rate": 200.0}
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("a: [1, 2\n", "not valid YAML"),
+    ("- 1\n- 2\n", "no YAML mapping"),
+    ("rostopic: /imu0\n", "none of the Kalibr keys"),
+    ("gyroscope_noise_density: -1.0\n", "non-negative number"),
+    ("gyroscope_noise_density: abc\n", "non-negative number"),
+])
+def test_bad_yaml(tmp_path, text, match):
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    with pytest.raises(DataError, match=match):
+        read_kalibr_yaml(p)
+
+
+def test_keys_are_kalibrs():
+    assert KEYS == ("gyroscope_noise_density", "gyroscope_random_walk",
+                    "accelerometer_noise_density", "accelerometer_random_walk")
