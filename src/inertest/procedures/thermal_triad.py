@@ -1,0 +1,377 @@
+"""A triad calibration (K, M, B) as a function of temperature, with heating/cooling hysteresis.
+
+Seed ``003_f374f866dfe7c99f.txt``: the FOG/accelerometer triad model of eq. (1) (scale factor,
+misalignment, bias; :mod:`inertest.models.triad`) is calibrated by the multi-position method
+(sec. 1.1), and its coefficients drift with temperature (sec. 3, temperature compensation).
+Here the multi-position calibration (:func:`inertest.procedures.triad_multiposition.fit`) is
+run at each temperature step of a chamber programme, then each coefficient ``q`` (``K_i``,
+``M_ij`` [urad], ``B_i`` [mg]) is fitted by weighted least squares (weights: the per-step
+standard uncertainties) as a polynomial in temperature, optionally plus a term in its rate::
+
+    q(T, dT/dt) = sum_{k=0..degree} a_k (T - T_ref)^k  [+ r dT/dt]     T [degC], dT/dt [degC/min]
+
+Hysteresis: the heating and cooling steps are fitted separately with the same polynomial; the
+difference of the two curves ``D(T) = q_heat(T) - q_cool(T)`` is reported at its largest over the
+common temperature range, with its standard uncertainty, and the Wald statistic of the
+coefficient differences ``d^T (C_heat + C_cool)^-1 d`` (chi-square with ``degree + 1`` dof)
+decides whether it is significant (p below ``alpha / number of coefficients``, Bonferroni over
+the twelve coefficients, so the family false-alarm rate is ``alpha``).
+
+Data columns: ``temperature_c`` [degC], ``branch`` (``heating`` or ``cooling``), ``position``,
+``output_x``, ``output_y``, ``output_z`` [output unit], optional ``step`` (the temperature step
+of each row; default: a new step where the branch changes or the temperature jumps by more
+than 1 degC between consecutive rows) and
+``temperature_rate_c_per_min`` [degC/min].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+from inertest.errors import DataError, IdentifiabilityError, InputError
+from inertest.estimation.least_squares import weighted_least_squares
+from inertest.plan import Plan
+from inertest.procedures import triad_multiposition as tmp
+from inertest.results import envelope
+
+KIND = "thermal-triad"
+BRANCHES = ("heating", "cooling")
+#: Temperature jump between consecutive rows that starts a new step [degC].
+STEP_JUMP_C = 1.0
+
+
+@dataclass(frozen=True)
+class CoefficientLaw:
+    """One coefficient's polynomial in temperature (and rate).
+
+    Attributes
+    ----------
+    name, unit : str
+        ``K_x`` .. ``B_z`` and its engineering unit.
+    t_ref_c : float
+        Reference temperature [degC].
+    coefficients, covariance : ndarray
+        ``a_0 .. a_degree`` [unit / degC^k] (then ``r`` [unit / (degC/min)] with the rate).
+    chi2, dof, p_value : float, int, float
+        Weighted residual sum of squares of the per-step values about the law, its degrees of
+        freedom and the probability of a larger one if the law and the step uncertainties hold.
+    """
+
+    name: str
+    unit: str
+    t_ref_c: float
+    degree: int
+    uses_rate: bool
+    coefficients: NDArray[np.float64] = field(repr=False)
+    covariance: NDArray[np.float64] = field(repr=False)
+    chi2: float
+    dof: int
+    p_value: float
+
+    def predict(self, temperature_c: ArrayLike, rate_c_per_min: ArrayLike | None = None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Value [unit] and its standard uncertainty at temperatures [degC] (and rates)."""
+        A = _design(np.atleast_1d(np.asarray(temperature_c, dtype=float)) - self.t_ref_c,
+                    self.degree, None if not self.uses_rate else rate_c_per_min,
+                    self.uses_rate)
+        value = A @ self.coefficients
+        std = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", A, self.covariance, A), 0.0, None))
+        return value, std
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON: terms with units, covariance, goodness of fit."""
+        std = np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+        names = [f"a{k}" for k in range(self.degree + 1)] + (["r"] if self.uses_rate else [])
+        units = ([self.unit] + [f"{self.unit}/degC" + (f"^{k}" if k > 1 else "")
+                                for k in range(1, self.degree + 1)]
+                 + ([f"{self.unit}/(degC/min)"] if self.uses_rate else []))
+        return {
+            "equation": (f"{self.name} [{self.unit}] = sum_k a_k (T - T_ref)^k"
+                         + (" + r dT/dt" if self.uses_rate else "")
+                         + f"; T [degC], T_ref = {self.t_ref_c:g} degC"),
+            "terms": {n: {"value": float(v), "std": float(s), "unit": u}
+                      for n, v, s, u in zip(names, self.coefficients, std, units, strict=True)},
+            "covariance": self.covariance.tolist(),
+            "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value,
+        }
+
+
+@dataclass(frozen=True)
+class Hysteresis:
+    """Heating minus cooling curve of one coefficient.
+
+    Attributes
+    ----------
+    max_difference, std : float
+        ``D(T)`` at the temperature where ``|D|`` is largest, and its standard uncertainty
+        [unit].
+    at_temperature_c : float
+    statistic, dof, p_value : float, int, float
+        Wald chi-square of the coefficient differences.
+    significant : bool
+        ``p_value`` below the per-coefficient threshold.
+    """
+
+    name: str
+    unit: str
+    max_difference: float
+    std: float
+    at_temperature_c: float
+    statistic: float
+    dof: int
+    p_value: float
+    significant: bool
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON with units and the verdict."""
+        return {
+            "heating_minus_cooling": {"value": self.max_difference, "std": self.std,
+                                      "unit": self.unit},
+            "at_temperature_c": self.at_temperature_c,
+            "wald_chi2": self.statistic, "dof": self.dof, "p_value": self.p_value,
+            "verdict": "significant" if self.significant else "not significant",
+        }
+
+
+@dataclass(frozen=True)
+class ThermalTriadResult:
+    """Outcome of :func:`fit_triad_thermal`.
+
+    Attributes
+    ----------
+    step_temperature_c, step_rate_c_per_min : ndarray, shape (n_steps,)
+        Mean temperature [degC] and rate [degC/min] of each step.
+    step_branch : ndarray of str
+    step_values, step_stds : dict of ndarray
+        Each coefficient's multi-position estimate and standard uncertainty per step [unit].
+    units : dict of str
+    laws : dict of CoefficientLaw
+        Fit over all steps.
+    hysteresis : dict of Hysteresis
+        Empty when either branch has too few steps.
+    alpha : float
+        Family significance level of the hysteresis verdicts.
+    messages : tuple of str
+    """
+
+    step_temperature_c: NDArray[np.float64] = field(repr=False)
+    step_rate_c_per_min: NDArray[np.float64] = field(repr=False)
+    step_branch: NDArray = field(repr=False)
+    step_values: dict[str, NDArray[np.float64]] = field(repr=False)
+    step_stds: dict[str, NDArray[np.float64]] = field(repr=False)
+    units: dict[str, str]
+    laws: dict[str, CoefficientLaw]
+    hysteresis: dict[str, Hysteresis]
+    alpha: float
+    serial: str = ""
+    messages: tuple[str, ...] = ()
+
+    kind: ClassVar[str] = KIND
+
+    def coefficients_at(self, temperature_c: float, rate_c_per_min: float = 0.0
+                        ) -> dict[str, tuple[float, float]]:
+        """Every coefficient's (value, std) [unit] at one temperature [degC] (and rate)."""
+        out = {}
+        for n, law in self.laws.items():
+            v, s = law.predict([temperature_c], [rate_c_per_min])
+            out[n] = (float(v[0]), float(s[0]))
+        return out
+
+    def to_dict(self) -> dict[str, object]:
+        """The result envelope: steps, laws, hysteresis verdicts."""
+        flagged = [n for n, h in self.hysteresis.items() if h.significant]
+        checks = []
+        if self.hysteresis:
+            checks.append({
+                "name": "hysteresis between heating and cooling",
+                "verdict": "significant" if flagged else "not significant",
+                "coefficients": flagged, "alpha": self.alpha,
+            })
+        misfit = [n for n, law in self.laws.items()
+                  if law.dof > 0 and law.p_value < self.alpha / max(len(self.laws), 1)]
+        checks.append({"name": "polynomial laws fit the steps within their uncertainties",
+                       "verdict": "warning" if misfit else "ok", "coefficients": misfit})
+        return envelope(self.kind, instrument={"serial": self.serial} if self.serial else None,
+                        result={
+            "steps": [{"temperature_c": float(t), "rate_c_per_min": float(r), "branch": str(b),
+                       "coefficients": {n: {"value": float(self.step_values[n][k]),
+                                            "std": float(self.step_stds[n][k]),
+                                            "unit": self.units[n]} for n in self.units}}
+                      for k, (t, r, b) in enumerate(zip(self.step_temperature_c,
+                                                        self.step_rate_c_per_min,
+                                                        self.step_branch, strict=True))],
+            "laws": {n: law.to_dict() for n, law in self.laws.items()},
+            "hysteresis": {n: h.to_dict() for n, h in self.hysteresis.items()},
+        }, checks=checks, messages=self.messages)
+
+
+def _design(dt: NDArray[np.float64], degree: int, rate: ArrayLike | None, uses_rate: bool
+            ) -> NDArray[np.float64]:
+    cols = [dt**k for k in range(degree + 1)]
+    if uses_rate:
+        if rate is None:
+            raise InputError("this law has a rate term: give the temperature rate [degC/min]")
+        cols.append(np.broadcast_to(np.asarray(rate, dtype=float), dt.shape))
+    return np.column_stack(cols)
+
+
+def _steps(data: Mapping[str, object], temp: NDArray[np.float64], branch: NDArray
+           ) -> NDArray[np.int64]:
+    """Step index of each row.
+
+    The ``step`` column, or a new step where the branch changes or the temperature jumps by
+    more than :data:`STEP_JUMP_C` between consecutive rows.
+    """
+    if "step" in data:
+        _, idx = np.unique(np.asarray(data["step"]), return_inverse=True)
+        return np.asarray(idx, dtype=np.int64)
+    change = np.r_[True, (branch[1:] != branch[:-1]) | (np.abs(np.diff(temp)) > STEP_JUMP_C)]
+    return np.cumsum(change) - 1
+
+
+def fit_triad_thermal(
+    plan: Plan,
+    data: Mapping[str, object],
+    *,
+    degree: int = 2,
+    use_rate: bool = False,
+    sigma: float | None = None,
+    t_ref_c: float | None = None,
+    alpha: float = 0.01,
+) -> ThermalTriadResult:
+    """Multi-position triad calibration at each temperature step, then laws in temperature.
+
+    Parameters
+    ----------
+    plan : Plan
+        A ``triad-multiposition`` plan (site, accelerometer triad, positions).
+    data : mapping
+        Columns in the module docstring; rows grouped by temperature step.
+    degree : int
+        Polynomial degree in ``T - T_ref``.
+    use_rate : bool
+        Add a term linear in the step's temperature rate (needs ``temperature_rate_c_per_min``).
+    sigma : float, optional
+        Known noise per reading [output unit] for every step; else from each step's residuals.
+    t_ref_c : float, optional
+        Reference temperature [degC]; default the mean step temperature rounded to 0.1 degC.
+    alpha : float
+        Family significance level of the hysteresis verdicts.
+
+    Raises
+    ------
+    DataError
+        Missing columns, unknown branch names, non-finite values.
+    IdentifiabilityError
+        Fewer steps than the polynomial (and rate term) needs, or a constant rate with
+        ``use_rate``.
+    """
+    for c in ("temperature_c", "branch"):
+        if c not in data:
+            raise DataError(f"thermal triad data lack column {c}; it needs temperature_c, "
+                            "branch (heating/cooling), position, output_x, output_y, output_z")
+    if degree < 0 or not 0 < alpha < 1:
+        raise InputError("degree must be >= 0 and alpha in (0, 1)")
+    try:
+        temp = np.asarray(data["temperature_c"], dtype=float)
+    except (TypeError, ValueError):
+        raise DataError("column temperature_c must be numeric [degC]") from None
+    if not np.all(np.isfinite(temp)):
+        raise DataError("column temperature_c has NaN/inf; repair or remove those rows")
+    branch = np.char.lower(np.char.strip(np.asarray(data["branch"]).astype(str)))
+    unknown = sorted(set(branch) - set(BRANCHES))
+    if unknown:
+        raise DataError(f"column branch has {', '.join(map(repr, unknown))}; use heating or "
+                        "cooling")
+    rate_col = None
+    if use_rate:
+        if "temperature_rate_c_per_min" not in data:
+            raise DataError("use_rate needs the column temperature_rate_c_per_min [degC/min]")
+        rate_col = np.asarray(data["temperature_rate_c_per_min"], dtype=float)
+    step = _steps(data, temp, branch)
+    n_steps = int(step.max()) + 1
+    p = degree + 1 + int(use_rate)
+    if n_steps < p:
+        raise IdentifiabilityError(
+            f"{n_steps} temperature step(s) for a law with {p} terms: record at least {p} "
+            "steps, or lower the degree")
+    cols = {k: np.asarray(v) for k, v in data.items()}
+    t_step = np.zeros(n_steps)
+    r_step = np.zeros(n_steps)
+    b_step = np.empty(n_steps, dtype=object)
+    values: dict[str, list[float]] = {}
+    stds: dict[str, list[float]] = {}
+    units: dict[str, str] = {}
+    for k in range(n_steps):
+        sel = step == k
+        if len(set(branch[sel])) != 1:
+            raise DataError(f"temperature step {k + 1} mixes heating and cooling rows; give "
+                            "each step one branch")
+        t_step[k] = float(np.mean(temp[sel]))
+        r_step[k] = 0.0 if rate_col is None else float(np.mean(rate_col[sel]))
+        b_step[k] = branch[sel][0]
+        try:
+            res = tmp.fit(plan, {c: v[sel] for c, v in cols.items()}, sigma=sigma)
+        except (DataError, IdentifiabilityError) as exc:
+            raise type(exc)(f"temperature step {k + 1} ({b_step[k]}, {t_step[k]:.1f} degC): "
+                            f"{exc}") from None
+        for name, est in res.triads[0].all_estimates().items():
+            values.setdefault(name, []).append(est.value)
+            stds.setdefault(name, []).append(est.std)
+            units[name] = est.unit
+    if use_rate and np.ptp(r_step) == 0:
+        raise IdentifiabilityError("the temperature rate is the same at every step, so its "
+                                   "term cannot be found; fit without use_rate")
+    t_ref = float(np.round(np.mean(t_step), 1)) if t_ref_c is None else float(t_ref_c)
+    vals = {n: np.array(v) for n, v in values.items()}
+    sds = {n: np.array(v) for n, v in stds.items()}
+    laws = {}
+    for n in vals:
+        A = _design(t_step - t_ref, degree, r_step, use_rate)
+        laws[n] = _law(n, units[n], t_ref, degree, use_rate, A, vals[n], sds[n])
+    hysteresis: dict[str, Hysteresis] = {}
+    messages = []
+    heat, cool = b_step == "heating", b_step == "cooling"
+    if min(heat.sum(), cool.sum()) >= degree + 2:
+        lo = max(t_step[heat].min(), t_step[cool].min())
+        hi = min(t_step[heat].max(), t_step[cool].max())
+        grid = np.linspace(lo, hi, 101)
+        G = _design(grid - t_ref, degree, None, False)
+        for n in vals:
+            fits = []
+            for sel in (heat, cool):
+                A = _design(t_step[sel] - t_ref, degree, None, False)
+                fits.append(weighted_least_squares(A, vals[n][sel], sigma=sds[n][sel]))
+            d = fits[0].x - fits[1].x
+            C = fits[0].covariance + fits[1].covariance
+            stat = float(d @ np.linalg.solve(C, d))
+            pval = float(stats.chi2.sf(stat, d.size))
+            curve = G @ d
+            j = int(np.argmax(np.abs(curve)))
+            sd = float(np.sqrt(G[j] @ C @ G[j]))
+            hysteresis[n] = Hysteresis(n, units[n], float(curve[j]), sd, float(grid[j]), stat,
+                                       d.size, pval, pval < alpha / len(vals))
+    else:
+        messages.append(f"hysteresis not assessed: each branch needs at least {degree + 2} "
+                        "temperature steps (heating and cooling)")
+    return ThermalTriadResult(
+        step_temperature_c=t_step, step_rate_c_per_min=r_step, step_branch=b_step.astype(str),
+        step_values=vals, step_stds=sds, units=units, laws=laws, hysteresis=hysteresis,
+        alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages))
+
+
+def _law(name: str, unit: str, t_ref: float, degree: int, use_rate: bool,
+         A: NDArray[np.float64], y: NDArray[np.float64], s: NDArray[np.float64]
+         ) -> CoefficientLaw:
+    lf = weighted_least_squares(A, y, sigma=s)
+    chi2 = float(np.sum((lf.residuals / s) ** 2))
+    dof = int(y.size - A.shape[1])
+    pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
+    return CoefficientLaw(name, unit, t_ref, degree, use_rate, lf.x, lf.covariance, chi2, dof,
+                          pval)
