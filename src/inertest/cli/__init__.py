@@ -53,6 +53,8 @@ _COMMANDS: dict[str, tuple[str, str, str]] = {
                 "Scale factor and bias against temperature: fit and simulate."),
     "allan": ("inertest.cli.allan", "allan",
               "Allan-family deviations and IEEE 952 noise terms of a recording."),
+    "noise": ("inertest.cli.noise", "noise",
+              "Noise of every IMU channel: Allan, PSD, IEEE 952 terms, Kalibr imu.yaml."),
     "centrifuge-study": ("inertest.cli.centrifuge", "centrifuge_study",
                          "What the centrifuge's machine errors cost the nine-position test."),
 }

@@ -1,0 +1,135 @@
+"""``inertest noise`` through ``main(argv)``: the real PSINS recording against allantools,
+Kalibr yaml, comparison, gaps, JSON, outputs never overwritten."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import allantools
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pytest
+import yaml
+
+from inertest.cli import main
+
+PSINS = Path(__file__).parents[2] / ".." / "shared" / "realdata" / "psins" / "lasergyro.imu"
+
+
+def _psins_rates_by_hand() -> tuple[np.ndarray, float]:
+    """The PSINS increments as rates, without inertest: LSB 0.1 arcsec, 125 ug*s (PSINS ug =
+    1e-6 x 9.7803267714 m/s^2), interval 10 ms, from the file's three parameter lines."""
+    rows = [ln for ln in PSINS.read_text().splitlines()
+            if ln.strip() and not ln.startswith("%")]
+    params = np.array([[float(v) for v in r.split()] for r in rows[:3]])
+    dt = params[1, 4] * 1e-3
+    inc = np.loadtxt(rows[3:])
+    lsb = np.r_[params[2, :3] * math.pi / 180 / 3600, params[2, 3:] * 1e-6 * 9.7803267714]
+    return inc * lsb / dt, 1.0 / dt
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not PSINS.exists(), reason="shared/realdata not beside the checkout")
+def test_psins_six_channels_yaml_agrees_with_the_allantools_curve(tmp_path, capsys):
+    out = tmp_path / "imu.yaml"
+    assert main(["noise", str(PSINS), "--kalibr", str(out), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    res = doc["result"]
+    assert len(res["channels"]) == 6 and res["rate_hz"] == 100.0
+    y = yaml.safe_load(out.read_text())
+    assert y["update_rate"] == 100
+    rates, fs = _psins_rates_by_hand()
+    taus = np.array(res["channels"]["gyro_x"]["oadev"]["tau"])
+    # allantools' overlapping Allan deviation of the same rates at the same taus.
+    n_lines, k_lines = {}, {}
+    for j, name in enumerate(res["channels"]):
+        t, dev, _, _ = allantools.oadev(rates[:, j], rate=fs, data_type="freq", taus=taus)
+        ours = res["channels"][name]["oadev"]["dev"]
+        np.testing.assert_allclose(ours, dev, rtol=1e-9)
+        # The -1/2 (ARW) and +1/2 (RRW) lines tangent to the curve: at tau = 1 s and tau = 3 s
+        # their deviations are N and K.
+        n_lines[name] = float(np.min(dev * np.sqrt(t)))
+        k_lines[name] = float(np.min(dev * np.sqrt(3.0 / t)))
+        kal = res["channels"][name]["kalibr"]
+        # The five-term model does not describe this vehicle record: bounds, not fits.
+        assert kal["noise_density"]["status"] == "bound"
+        assert kal["noise_density"]["value"] == pytest.approx(n_lines[name], rel=1e-9)
+        assert kal["random_walk"]["value"] == pytest.approx(k_lines[name], rel=1e-9)
+    gyro, acc = list(res["channels"])[:3], list(res["channels"])[3:]
+    assert y["gyroscope_noise_density"] == pytest.approx(max(n_lines[c] for c in gyro), rel=1e-9)
+    assert y["gyroscope_random_walk"] == pytest.approx(max(k_lines[c] for c in gyro), rel=1e-9)
+    assert y["accelerometer_noise_density"] == pytest.approx(max(n_lines[c] for c in acc),
+                                                             rel=1e-9)
+    assert y["accelerometer_random_walk"] == pytest.approx(max(k_lines[c] for c in acc),
+                                                           rel=1e-9)
+    text = out.read_text()
+    assert text.count("UPPER BOUND, not a measurement") == 4
+
+
+def _write_csv(path, n=20_000, rate=100.0, gap_at=None, seed=0, density=1e-3):
+    g = np.random.default_rng(seed)
+    t_ns = np.arange(n, dtype=np.int64) * int(round(1e9 / rate))
+    if gap_at is not None:
+        t_ns[gap_at:] += 250_000_000
+    cols = {"timestamp": pa.array(t_ns + 1_600_000_000_000_000_000)}
+    for a in "xyz":
+        cols[f"gyro_{a}"] = density / math.sqrt(1 / rate) * g.standard_normal(n)
+    pacsv.write_csv(pa.table(cols), path)
+    return path
+
+
+def test_gap_refused_then_longest_segment(tmp_path, capsys):
+    data = _write_csv(tmp_path / "imu.csv", gap_at=15_000)
+    out = tmp_path / "imu.yaml"
+    assert main(["noise", str(data), "--kalibr", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "gap(s) in the time stamps, the first at t = 149.99 s: 0.26 s instead of 0.01 s" in err
+    assert "--gaps longest" in err and "Traceback" not in err
+    assert not out.exists()
+    assert main(["noise", str(data), "--gaps", "longest", "--kalibr", str(out), "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)["result"]
+    assert res["timing"]["segment"] == [0, 15_000]
+    assert res["timing"]["gaps"][0]["index"] == 15_000
+    back = yaml.safe_load(out.read_text())
+    assert back["gyroscope_noise_density"] == pytest.approx(1e-3, rel=0.05)
+    assert "accelerometer_noise_density" not in back
+
+
+def test_compare_report_and_no_overwrite(tmp_path, capsys):
+    data = _write_csv(tmp_path / "imu.csv", seed=3)
+    claim = tmp_path / "datasheet.yaml"
+    claim.write_text("gyroscope_noise_density: 1.0e-3\ngyroscope_random_walk: 1.0e-9\n")
+    report = tmp_path / "rep"
+    assert main(["noise", str(data), "--compare", str(claim), "--report", str(report)]) == 0
+    out = capsys.readouterr().out
+    assert "agrees" in out and "consistent" in out
+    html = (report / "index.html").read_text()
+    assert "Claimed values against the record" in html and "gyro_z: Allan deviation" in html
+    claim.write_text("gyroscope_noise_density: 3.0e-3\n")
+    assert main(["noise", str(data), "--compare", str(claim), "--json"]) == 0
+    comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
+    assert [c["verdict"] for c in comp] == ["disagrees"] * 3
+    existing = tmp_path / "imu.yaml"
+    existing.write_text("mine\n")
+    assert main(["noise", str(data), "--kalibr", str(existing)]) == 2
+    assert "already exists" in capsys.readouterr().err
+    assert existing.read_text() == "mine\n"
+
+
+def test_unresolved_refuse_writes_nothing(tmp_path, capsys):
+    data = _write_csv(tmp_path / "imu.csv", n=5_000)
+    out = tmp_path / "imu.yaml"
+    assert main(["noise", str(data), "--kalibr", str(out), "--unresolved", "refuse"]) == 2
+    err = capsys.readouterr().err
+    assert "does not resolve gyro_x K" in err and "--unresolved bound" in err
+    assert not out.exists()
+
+
+def test_no_stamps_needs_a_rate(tmp_path, capsys):
+    p = tmp_path / "imu.csv"
+    pacsv.write_csv(pa.table({f"g{a}": np.zeros(500) for a in "xyz"}), p)
+    assert main(["noise", str(p)]) == 2
+    assert "give the sample rate with --rate" in capsys.readouterr().err
