@@ -64,6 +64,20 @@ Monte Carlo (tests): reported std / scatter 0.9-1.2 for each case with its model
 model gave 0.02-0.2 under offsets, a random walk or flicker). The horizontal Earth rate, unknown
 in heading, enters the gyro pair sums used for the offsets (< ``W_ie cos L``).
 
+Model checks (``checks`` of the result; a warning when the session does not fit): the design
+has no redundant residual left after the per-face fit, so the checks use what the model says
+the session must show, each against its variance under the noise model: the six accelerometer
+off-axis pair sums (the noise plus face tilts of the plan's ``face_tilt_deg``, 1 sigma per
+horizontal axis); the six gyro pair sums (the noise plus the horizontal Earth rate of an unknown
+heading, variance ``(W_ie cos L)^2 / 2``); and each turn's ``|integral of a_cal dt| / T - g``
+(a turn about the vertical keeps g along one body direction, and the hand's own acceleration
+integrates to the zero velocity change; allowance :data:`TURN_GRAVITY_ALLOWANCE_M_S2` for the
+wobble of a hand turn). Chi-square of the 15 (``dof`` less the fitted offset levels under
+``position-offsets``, where the pair sums also gave the offsets) and outliers by marginal
+``z`` (Bonferroni, >= 4). A face recorded partly on another face, a face not lying flat, or a
+turn label running into the next face are named; imucal's two real sessions are consistent.
+The calibrated faces' ``|a| - g`` is reported separately: it is second order in the pair sums.
+
 Identifiability: the design is exactly the one above -- each axis up and down determines its
 accelerometer column, bias and gyro bias (and G column); each turn its gyro column. A missing
 part raises :class:`~inertest.errors.IdentifiabilityError` naming the coefficients it would
@@ -101,6 +115,7 @@ ignored), ``acc_x``, ``acc_y``, ``acc_z`` [acc_unit], ``gyr_x``, ``gyr_y``, ``gy
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -108,27 +123,30 @@ from typing import ClassVar
 
 import numpy as np
 import scipy.signal
-import scipy.stats
+import scipy.special
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import Site, earth_rate_enu
+from inertest.earth import OMEGA_IE, Site, earth_rate_enu
 from inertest.equipment import ferraris_session as session
 from inertest.equipment.motion import Inputs, StaticPositions
 from inertest.equipment.rate_table import Turns
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
+from inertest.estimation.identify import CHECK_ALPHA
 from inertest.estimation.identify import solve as identify_solve
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import require_columns
 from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
-from inertest.results import Estimate, Identification
+from inertest.results import Estimate, Identification, ModelChecks, Outlier
 from inertest.units import (
     ACCEL_UNITS,
     COUNT_UNITS,
+    DEG_PER_H_PER_G_TO_RAD_PER_S_PER_M_PER_S2,
     DEG_TO_RAD,
     G0,
+    MICRORAD_TO_RAD,
     MILLI_G_TO_M_PER_S2,
     RATE_UNITS,
 )
@@ -152,6 +170,11 @@ G_NAMES = _prefixed(triad.G_SENSITIVITY_NAMES, "g")
 FACE_GRAVITY_TOLERANCE_M_S2 = 10e-3 * G0
 #: Significance level at which the face-pair disagreement is taken as face tilt.
 TILT_ALPHA = 0.01
+#: Allowance (1 sigma) for a hand turn's ``|integral a dt| / T - g`` [m/s^2]: a wobble of the
+#: turn axis by ``w`` rad RMS lowers it by ``g w^2 / 2`` (3 deg: 1.4 mg), the centripetal
+#: acceleration of a sensor off the turn axis raises it to second order; imucal's two real
+#: sessions show 0.4-1.6 mg.
+TURN_GRAVITY_ALLOWANCE_M_S2 = 2e-3 * G0
 #: Noise models of a raw channel (module docstring, "Noise models").
 NOISE_MODELS = ("white", "position-offsets", "random-walk", "flicker")
 #: Blocks each face's samples are cut into to estimate a drift from the scatter of block means.
@@ -182,6 +205,10 @@ class FerrarisSpec:
     noise_model : str
         Noise of each raw channel behind the uncertainties (:data:`NOISE_MODELS`, module
         docstring): ``white`` (default), ``position-offsets``, ``random-walk``, ``flicker``.
+    face_tilt_deg : float
+        Expected tilt of a hand-set face about each horizontal axis, 1 sigma [deg] (default
+        1): the model checks test the face-pair disagreement against it (a face whose pair
+        sums exceed it was not lying flat, moved, or is mislabelled).
     face_duration_s, turn_duration_s, rest_s : float
         Simulation only: time on each face, duration of each turn and rest before and after it.
     """
@@ -194,6 +221,7 @@ class FerrarisSpec:
     g_sensitivity: bool = False
     earth_rate: bool = True
     noise_model: str = "white"
+    face_tilt_deg: float = 1.0
     face_duration_s: float = 5.0
     turn_duration_s: float = 4.0
     rest_s: float = 1.0
@@ -233,6 +261,8 @@ FIELDS = (
     Field("noise_model", "text", default="white", choices=(
         "white", "position-offsets", "random-walk", "flicker"),
           doc="noise of each raw channel behind the uncertainties"),
+    Field("face_tilt_deg", default=1.0, minimum=0.0, unit="deg",
+          doc="expected tilt of a hand-set face (1 sigma), for the model checks"),
     Field("face_duration_s", default=5.0, positive=True, unit="s", doc="time on each face"),
     Field("turn_duration_s", default=4.0, positive=True, unit="s", doc="duration of a turn"),
     Field("rest_s", default=1.0, minimum=0.0, unit="s", doc="rest before and after a turn"),
@@ -344,37 +374,41 @@ class FerrarisResult(TriadResult):
 def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
     """Means, spreads and turn integrals of each part; errors name missing or empty parts."""
     cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, ("part",), procedure=KIND)
-    part = np.char.lower(np.char.strip(cols["part"]))
-    acc = np.column_stack([cols[c] for c in ACC_COLUMNS])
-    gyr = np.column_stack([cols[c] for c in GYR_COLUMNS])
-    _check_parts_present(part, spec)
+    # Rows labelled exactly are matched directly; only the others are normalised (case,
+    # blanks), once per distinct label: row-wise string operations were most of the time.
+    label = np.asarray(cols["part"])
+    code = np.full(label.shape, -1, dtype=np.intp)
+    for k, name in enumerate(session.PARTS):
+        code[label == name] = k
+    rest = np.flatnonzero(code < 0)
+    if rest.size:
+        uniq, inv = np.unique(label[rest], return_inverse=True)
+        names = np.char.lower(np.char.strip(uniq.astype(str)))
+        code_of = np.array([session.PARTS.index(n) if n in session.PARTS else -1
+                            for n in names], dtype=np.intp)
+        code[rest] = code_of[inv.ravel()]
+    _check_parts_present({session.PARTS[k] for k in np.unique(code) if k >= 0}, spec)
+    raw = np.column_stack([cols[c] for c in ACC_COLUMNS + GYR_COLUMNS])  # acc, then gyro
+    rows = tuple(np.flatnonzero(code == k) for k in range(len(session.PARTS)))
     fs = spec.sample_rate_hz
-    am, gm, asd, gsd, nf = [], [], [], [], []
-    for label in session.FACE_LABELS:
-        sel = part == label
-        n = int(sel.sum())
+    mean, sd, nf = [], [], []
+    for f, face in enumerate(session.FACE_LABELS):
+        n = rows[f].size
         if n < 2:
             raise IdentifiabilityError(
-                f"face {label} has {n} sample(s); record at least 2 (a few seconds) at rest"
+                f"face {face} has {n} sample(s); record at least 2 (a few seconds) at rest"
             )
-        am.append(acc[sel].mean(axis=0))
-        gm.append(gyr[sel].mean(axis=0))
-        asd.append(acc[sel].std(axis=0, ddof=1))
-        gsd.append(gyr[sel].std(axis=0, ddof=1))
+        v = raw[rows[f]]
+        mean.append(v.mean(axis=0))
+        sd.append(v.std(axis=0, ddof=1))
         nf.append(n)
-    tg, ta, nt = [], [], []
-    for label in session.TURN_LABELS:
-        sel = part == label
-        tg.append(gyr[sel].sum(axis=0) / fs)
-        ta.append(acc[sel].sum(axis=0) / fs)
-        nt.append(int(sel.sum()))
-    rows = tuple(np.flatnonzero(part == label) for label in session.PARTS)
-    return FaceStats(np.array(am), np.array(gm), np.array(asd), np.array(gsd),
-                     np.array(nf, float), np.array(tg), np.array(ta), np.array(nt, float), rows)
+    turn = np.array([raw[r].sum(axis=0) / fs for r in rows[6:]])
+    m, d = np.array(mean), np.array(sd)
+    return FaceStats(m[:, :3], m[:, 3:], d[:, :3], d[:, 3:], np.array(nf, float),
+                     turn[:, 3:], turn[:, :3], np.array([r.size for r in rows[6:]], float), rows)
 
 
-def _check_parts_present(part: NDArray, spec: FerrarisSpec) -> None:
-    present = set(np.unique(part).tolist())
+def _check_parts_present(present: set[str], spec: FerrarisSpec) -> None:
     for a in AXES:
         others = [b for b in AXES if b != a]
         for s, word, sign in (("p", "up", "+g"), ("a", "down", "-g")):
@@ -436,8 +470,10 @@ def _check_labels(stats: FaceStats, spec: FerrarisSpec) -> None:
 
 
 def _face_gyro_bias(gyr_mean: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Gyro bias i from the two faces where axis i is vertical [raw]."""
-    return np.array([(gyr_mean[2 * i, i] + gyr_mean[2 * i + 1, i]) / 2 for i in range(3)])
+    """Gyro bias i from the two faces where axis i is vertical [raw] (batched: (..., 6, 3))."""
+    ax = np.arange(3)
+    out: NDArray[np.float64] = (gyr_mean[..., 2 * ax, ax] + gyr_mean[..., 2 * ax + 1, ax]) / 2
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -456,22 +492,50 @@ def _solve(
     The horizontal Earth rate turns with the body during a turn and only partly cancels; it is
     not modelled (the heading is unknown) and leaves a spurious gyro misalignment
     ``W_ie cos L T_eff / theta`` (module docstring: 28 urad for the example plan).
+
+    Every input may carry leading batch axes (``acc_mean`` (..., 6, 3), ``turn_gyr``
+    (..., 3, 3)): the Jacobian evaluates all perturbed inputs in one call.
     """
-    A_a = (acc_mean[0::2] - acc_mean[1::2]).T / span
-    b_a = np.array([(acc_mean[2 * i, i] + acc_mean[2 * i + 1, i]) / 2 for i in range(3)])
+    def tr(m: NDArray) -> NDArray:
+        return np.swapaxes(m, -1, -2)
+
+    ax = np.arange(3)
+    A_a = tr(acc_mean[..., 0::2, :] - acc_mean[..., 1::2, :]) / span
+    b_a = (acc_mean[..., 2 * ax, ax] + acc_mean[..., 2 * ax + 1, ax]) / 2
     b_g = _face_gyro_bias(gyr_mean)
     if with_g:
-        G = (gyr_mean[0::2] - gyr_mean[1::2]).T / span
+        G = tr(gyr_mean[..., 0::2, :] - gyr_mean[..., 1::2, :]) / span
     else:
-        G = np.zeros((3, 3))
+        G = np.zeros(A_a.shape)
     cal_a = np.linalg.inv(A_a)
-    acc_int = (turn_acc - turn_s[:, None] * b_a) @ cal_a.T  # integral of a_cal, row per turn
-    W = turn_gyr - turn_s[:, None] * b_g - acc_int @ G.T
-    up = acc_int / np.linalg.norm(acc_int, axis=1, keepdims=True)
+    acc_int = (turn_acc - turn_s[:, None] * b_a[..., None, :]) @ tr(cal_a)  # a_cal, per turn
+    W = turn_gyr - turn_s[:, None] * b_g[..., None, :] - acc_int @ tr(G)
+    up = acc_int / np.linalg.norm(acc_int, axis=-1, keepdims=True)
     E = omega_up * turn_s[:, None] * up
     # A_g Theta = W^T with Theta's column j the body angle of turn j: theta_j e_j + E_j.
-    A_g = np.linalg.solve((np.diag(theta) + E.T).T, W).T
+    A_g = tr(np.linalg.solve(np.diag(theta) + E, W))
     return A_a, b_a, A_g, b_g, G, E
+
+
+def _engineering(
+    A: NDArray[np.float64], b: NDArray[np.float64], G: NDArray[np.float64] | None,
+    sensor: str, scale: triad.ScaleUnit,
+) -> NDArray[np.float64]:
+    """:func:`inertest.models.triad.engineering` of ``S = A``, ``b`` (raw units), batched.
+
+    ``A`` (..., 3, 3), ``b`` (..., 3), ``G`` (..., 3, 3) or None; returns (..., 12 or 21):
+    ``K`` [scale unit], ``M_ij = A_ij / A_ii`` [urad], ``B = A^-1 b`` [mg or deg/h] and
+    ``A^-1 G`` [deg/h/g]. The raw-to-SI factor of the parameters cancels in all but ``K``.
+    """
+    r = scale.raw_si_per_raw
+    d = np.diagonal(A, axis1=-2, axis2=-1)
+    mis = np.stack([A[..., i, j] / d[..., i] for i, j in triad.OFF_DIAGONAL], axis=-1)
+    B = np.linalg.solve(A, b[..., None])[..., 0]
+    out = [d * r / scale.si_per_unit, mis / MICRORAD_TO_RAD, B / triad.bias_unit(sensor)[1]]
+    if G is not None:
+        out.append(np.linalg.solve(A, G).reshape(*A.shape[:-2], 9)
+                   / DEG_PER_H_PER_G_TO_RAD_PER_S_PER_M_PER_S2)
+    return np.concatenate(out, axis=-1)
 
 
 def _parameters(
@@ -483,6 +547,25 @@ def _parameters(
     p_a = triad.stack_parameters(A_a * ra, b_a * ra)
     p_g = triad.stack_parameters(A_g * rg, b_g * rg, G * rg if with_g else None)
     return p_a, p_g
+
+
+@functools.lru_cache(maxsize=32)
+def _kinematics(site: Site, spec: FerrarisSpec) -> tuple[NDArray, NDArray, float]:
+    """Specific-force span of each face pair, signed turn angles [rad], vertical Earth rate.
+
+    From the session's motions: ``f_j(j_p) - f_j(j_a) = 2 g`` [m/s^2], each turn's signed
+    table angle, the Earth rate on the up axis of a face [rad/s] (0 without ``earth_rate``).
+    Cached per site and plan (the same for every fit of a plan; arrays read-only).
+    """
+    faces, turns = _motions(site, spec, spec.rest_s)
+    f_face = np.array([faces.inputs(label).f_i[0] for label in session.FACE_LABELS])
+    span = np.array([f_face[2 * j, j] - f_face[2 * j + 1, j] for j in range(3)])
+    theta = np.array([turns.starts[label][2] * turns.profile.angle_rad
+                      for label in session.TURN_LABELS])
+    omega_up = float(faces.inputs("z_p").omega_i[0, 2]) if spec.earth_rate else 0.0
+    span.flags.writeable = False
+    theta.flags.writeable = False
+    return span, theta, omega_up
 
 
 def _pack(s: FaceStats) -> NDArray[np.float64]:
@@ -522,12 +605,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     # Kinematics from the session's motions: the specific-force span of each face pair
     # (f_j(j_p) - f_j(j_a) = 2 g), each turn's signed table angle, and the vertical Earth rate
     # (on the up axis of a face). The vertical during a hand turn comes from the accelerometers.
-    faces, turns = _motions(plan.site, spec, spec.rest_s)
-    f_face = np.array([faces.inputs(label).f_i[0] for label in session.FACE_LABELS])
-    span = np.array([f_face[2 * j, j] - f_face[2 * j + 1, j] for j in range(3)])
-    theta = np.array([turns.starts[label][2] * turns.profile.angle_rad
-                      for label in session.TURN_LABELS])
-    omega_up = float(faces.inputs("z_p").omega_i[0, 2]) if spec.earth_rate else 0.0
+    span, theta, omega_up = _kinematics(plan.site, spec)
 
     def solve(x: NDArray[np.float64]) -> tuple[NDArray, ...]:
         return _solve(x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:45].reshape(3, 3),
@@ -569,39 +647,55 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         C_d = L_a @ cov @ L_a.T
         chi2 = float(resid_raw @ np.linalg.lstsq(C_d, resid_raw, rcond=1e-12)[0])
         tau2 = 0.0
-        if scipy.stats.chi2.sf(chi2, len(_OFF)) < TILT_ALPHA:
+        if scipy.special.chdtrc(len(_OFF), chi2) < TILT_ALPHA:  # chi-square survival
             tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - var_d / kk**2)) / g**2)
+    fitted_offsets = int(model == "position-offsets") * sum(
+        components[k].get("position offset", 0.0) > 0 for k in components)
+    cov_noise = cov.copy()  # the noise model alone, for the model checks
     # Face tilts (on the acc means, first order on the horizontal axes).
-    for f, (_, axis, _) in enumerate(session.FACES):
-        P = np.eye(3)
-        P[axis, axis] = 0.0
-        sl = slice(3 * f, 3 * f + 3)
-        cov[sl, sl] += g**2 * tau2 * A_a @ P @ A_a.T
+    cov += _tilt_covariance(A_a, g, tau2)
 
-    def params(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.concatenate(_parameters(*solve(x)[:5], with_g, spec))
-
-    # Covariance of both triads' SI parameters (cross terms kept: the gyro uses the acc).
-    p0 = params(x0)
-    J = _jacobian(params, x0, np.sqrt(np.diag(cov)))
-    cov_p = J @ cov @ J.T
     sa, sg = spec.acc_scale, spec.gyr_scale
     n_a = 12
 
-    # The triad model's Jacobian, block-diagonal over the two triads (cross terms kept).
-    v_a, J_a = triad.engineering_jacobian(p0[:n_a], "accelerometer", sa)
-    v_g, J_g = triad.engineering_jacobian(p0[n_a:], "gyroscope", sg)
+    def outputs(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Engineering values of both triads, then the turns' |a| - g [m/s^2] (batched)."""
+        bx = x.shape[:-1]
+        A_a_, b_a_, A_g_, b_g_, G_, _ = _solve(
+            x[..., :18].reshape(*bx, 6, 3), x[..., 18:36].reshape(*bx, 6, 3),
+            x[..., 36:45].reshape(*bx, 3, 3), x[..., 45:54].reshape(*bx, 3, 3),
+            turn_s, span, theta, with_g, omega_up)
+        acc_int = np.linalg.solve(
+            A_a_[..., None, :, :],
+            (x[..., 45:54].reshape(*bx, 3, 3) - turn_s[:, None] * b_a_[..., None, :])[..., None]
+        )[..., 0]
+        return np.concatenate([
+            _engineering(A_a_, b_a_, None, "accelerometer", sa),
+            _engineering(A_g_, b_g_, G_ if with_g else None, "gyroscope", sg),
+            np.linalg.norm(acc_int, axis=-1) / turn_s - g], axis=-1)
+
+    # Values as the closed form gives them; their covariance (both triads, cross terms kept:
+    # the gyro uses the acc) by a central-difference Jacobian over every input at once.
+    p0 = np.concatenate(_parameters(A_a, b_a, A_g, b_g, G, with_g, spec))
+    v_a = triad.engineering(p0[:n_a], "accelerometer", sa)
+    v_g = triad.engineering(p0[n_a:], "gyroscope", sg)
     values = np.concatenate([v_a, v_g])
-    Je = np.block([[J_a, np.zeros((J_a.shape[0], J_g.shape[1]))],
-                   [np.zeros((J_g.shape[0], J_a.shape[1])), J_g]])
-    cov_out = Je @ cov_p @ Je.T
+    f0, J = _jacobian(outputs, x0, np.sqrt(np.diag(cov)))
+    cov_all = J @ cov @ J.T
+    n_v = values.size
+    cov_out = cov_all[:n_v, :n_v]
     std = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
     triads = (
-        TriadEstimates.from_parameters(p0[:n_a], cov_p[:n_a, :n_a], sensor="accelerometer",
-                                       scale=sa),
-        TriadEstimates.from_parameters(p0[n_a:], cov_p[n_a:, n_a:], sensor="gyroscope",
-                                       scale=sg),
+        TriadEstimates.from_engineering(v_a, cov_out[:n_a, :n_a], sensor="accelerometer",
+                                        scale=sa),
+        TriadEstimates.from_engineering(v_g, cov_out[n_a:, n_a:], sensor="gyroscope", scale=sg),
     )
+    turn_gravity = f0[n_v:]
+    checks = _model_checks(
+        pair_acc=resid_raw, pair_gyr=L_g @ x0, turn_gravity=turn_gravity,
+        cov_pairs=(L_a @ cov_noise @ L_a.T, L_g @ cov_noise @ L_g.T), cov_turn=cov_all[n_v:, n_v:],
+        A_a=A_a, A_g=A_g, g=g, latitude_rad=plan.site.latitude_rad, spec=spec, model=model,
+        fitted_offsets=fitted_offsets)
 
     names = ACC_NAMES + GYR_NAMES + (G_NAMES if with_g else ())
     ua, ug = triad.units_of("accelerometer", sa), triad.units_of("gyroscope", sg, with_g)
@@ -626,7 +720,10 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         covariance=cov_out, names=names, noise_sigma=resid_rms, noise_unit=spec.acc_unit,
         sigma_from_residuals=True, dof=6, rank=len(names), residuals=resid_raw,
         noise_model=model, noise_components=dict(components["accelerometer"]),
+        checks=checks,
     )
+    if not checks.fits:
+        warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=2)
 
     calibration = ImuCalibration(
         accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
@@ -671,6 +768,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     )
 
 
+@functools.lru_cache(maxsize=2)
 def _pair_sums(first: int) -> NDArray[np.float64]:
     """The six off-axis pair sums as rows over the packed inputs, shape (6, 54).
 
@@ -681,7 +779,85 @@ def _pair_sums(first: int) -> NDArray[np.float64]:
     for r, (i, k) in enumerate(_OFF):
         for f, w in ((2 * i, 0.5), (2 * i + 1, 0.5), (2 * k, -0.5), (2 * k + 1, -0.5)):
             L[r, first + 3 * f + k] += w
+    L.flags.writeable = False
     return L
+
+
+def _tilt_covariance(A_a: NDArray[np.float64], g: float, tau2: float) -> NDArray[np.float64]:
+    """Covariance (54, 54) that face tilts of variance ``tau2`` [rad^2] per horizontal axis add.
+
+    Each face's specific force gets ``g t`` on its two horizontal axes (first order), read
+    through ``A_a`` by the accelerometer means; faces independent.
+    """
+    out = np.zeros((54, 54))
+    for f, (_, axis, _) in enumerate(session.FACES):
+        P = np.eye(3)
+        P[axis, axis] = 0.0
+        sl = slice(3 * f, 3 * f + 3)
+        out[sl, sl] = g**2 * tau2 * A_a @ P @ A_a.T
+    return out
+
+
+def _model_checks(
+    *, pair_acc: NDArray[np.float64], pair_gyr: NDArray[np.float64],
+    turn_gravity: NDArray[np.float64], cov_pairs: tuple[NDArray[np.float64], NDArray[np.float64]],
+    cov_turn: NDArray[np.float64], A_a: NDArray[np.float64], A_g: NDArray[np.float64], g: float,
+    latitude_rad: float, spec: FerrarisSpec, model: str, fitted_offsets: int,
+) -> ModelChecks:
+    """The session's redundancy against the noise model (module docstring, "Model checks").
+
+    Fifteen checks, each with its variance under the noise model: the six off-axis pair sums
+    of the accelerometers [acc_unit] (noise plus face tilts of the plan's ``face_tilt_deg``),
+    the six of the gyros [gyr_unit] (noise plus the horizontal Earth rate of an unknown
+    heading, variance ``(W_ie cos L)^2 / 2`` per axis), and each turn's ``|integral a_cal| / T
+    - g`` [m/s^2] (noise propagated through the calibration, plus the hand-turn allowance
+    :data:`TURN_GRAVITY_ALLOWANCE_M_S2`). Chi-square over the three blocks (each whitened by its
+    covariance) with ``15 - fitted`` dof, outliers by their marginal ``z`` above a Bonferroni
+    bound, verdict at :data:`~inertest.estimation.identify.CHECK_ALPHA`.
+    """
+    kk_g = np.array([A_g[k, k] for _, k in _OFF])
+    V_a = cov_pairs[0]
+    if model != "position-offsets":  # there the tilts are in the fitted offsets
+        V_a = V_a + _pair_sums(0) @ _tilt_covariance(
+            A_a, g, (spec.face_tilt_deg * DEG_TO_RAD) ** 2) @ _pair_sums(0).T
+    w_h = OMEGA_IE * np.cos(latitude_rad)
+    V_g = cov_pairs[1] + np.diag((kk_g * w_h) ** 2 / 2)
+    V_t = cov_turn + TURN_GRAVITY_ALLOWANCE_M_S2**2 * np.eye(3)
+    chi2 = 0.0
+    z = []
+    for c, V in ((pair_acc, V_a), (pair_gyr, V_g), (turn_gravity, V_t)):
+        chi2 += float(c @ np.linalg.solve(V, c))
+        z.append(c / np.sqrt(np.diag(V)))
+    zz = np.concatenate(z)
+    labels = ([f"{AXES[i]} faces, acc_{AXES[k]}" for i, k in _OFF]
+              + [f"{AXES[i]} faces, gyr_{AXES[k]}" for i, k in _OFF]
+              + [f"{lab} |a| - g" for lab in session.TURN_LABELS])
+    n = zz.size
+    dof = n - fitted_offsets
+    p = float(scipy.special.chdtrc(dof, chi2))  # chi-square survival function
+    thr = max(4.0, float(-scipy.special.ndtri(CHECK_ALPHA / (2 * n))))  # Bonferroni
+    outliers = tuple(Outlier(labels[i], float(zz[i])) for i in np.flatnonzero(np.abs(zz) > thr))
+    statistic = ("chi-square of the 6 + 6 off-axis face-pair sums (accelerometer, gyro) and the "
+                 "3 turns' |a| - g against the noise model, face tilts and Earth rate")
+    if fitted_offsets:
+        statistic += " (the pair sums also gave the position offsets: a weak test)"
+    return ModelChecks(
+        noise_model=model, unit="face pair / turn", n_units=n, statistic=statistic,
+        chi_square=chi2, dof=dof, p_value=p, serial_chi_square=None, serial_dof=0,
+        serial_p_value=None, outliers=outliers, outlier_threshold=thr, alpha=CHECK_ALPHA,
+        verdict="model does not fit" if p < CHECK_ALPHA or outliers else "consistent",
+        name="face pairs and turns against the noise model")
+
+
+def _misfit_message(c: ModelChecks) -> str:
+    """One line naming why the Ferraris checks failed and what to look at."""
+    why = [f"chi-square {c.chi_square:.4g} for {c.dof} dof (p = {c.p_value:.2g})"]
+    if c.outliers:
+        why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers))
+    return (f'ferraris: the session does not fit its "{c.noise_model}" noise model: '
+            f"{'; '.join(why)}; check the face and turn labels (a face with the IMU moving or "
+            "not lying flat, a turn label running into the next face), the face_tilt_deg of "
+            "the plan and the noise model; the uncertainties are not reliable")
 
 
 def _drift_kernel(model: str, n_fit_rows: int, n_rows: int
@@ -790,21 +966,20 @@ def _noise_covariance(
     return cov, comps, notes
 
 
-def _jacobian(func, x0: NDArray[np.float64], scale: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Central-difference Jacobian with steps of 1e-3 of each input's standard deviation.
+def _jacobian(func, x0: NDArray[np.float64], scale: NDArray[np.float64]
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``func(x0)`` and its central-difference Jacobian, steps 1e-3 of each input's std.
 
     The map is smooth (ratios and a 3x3 inverse); steps far below the input spread keep the
-    truncation error negligible against the propagated uncertainty.
+    truncation error negligible against the propagated uncertainty. ``func`` is evaluated once,
+    on ``x0`` and all ``2 x0.size`` perturbed inputs stacked along a leading axis.
     """
-    f0 = func(x0)
-    J = np.zeros((f0.size, x0.size))
-    for k in range(x0.size):
-        h = 1e-3 * scale[k] if scale[k] > 0 else 1e-6 * max(1.0, abs(x0[k]))
-        xp, xm = x0.copy(), x0.copy()
-        xp[k] += h
-        xm[k] -= h
-        J[:, k] = (func(xp) - func(xm)) / (2 * h)
-    return J
+    h = np.where(scale > 0, 1e-3 * scale, 1e-6 * np.maximum(1.0, np.abs(x0)))
+    steps = np.diag(h)
+    f = func(np.concatenate([x0 + steps, x0 - steps, x0[None, :]]))
+    n = x0.size
+    J: NDArray[np.float64] = ((f[:n] - f[n:2 * n]) / (2 * h[:, None])).T
+    return f[2 * n], J
 
 
 # ---------------------------------------------------------------------------------------------

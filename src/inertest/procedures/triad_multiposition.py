@@ -151,6 +151,14 @@ class TriadEstimates:
     ) -> TriadEstimates:
         """Build from the SI parameter vector ``[S.ravel(), b, (G.ravel())]`` and its covariance."""
         value, cov = triad.propagate(p, covariance, sensor, scale)
+        return cls.from_engineering(value, cov, sensor=sensor, scale=scale)
+
+    @classmethod
+    def from_engineering(
+        cls, value: ArrayLike, covariance: ArrayLike, *, sensor: str, scale: triad.ScaleUnit
+    ) -> TriadEstimates:
+        """Build from :func:`~inertest.models.triad.engineering` values and their covariance."""
+        value, cov = np.asarray(value, dtype=float), np.asarray(covariance, dtype=float)
         names = triad.parameter_names(value.size == 21)
         units = triad.units_of(sensor, scale, value.size == 21)
         std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
