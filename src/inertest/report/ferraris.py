@@ -75,6 +75,18 @@ def ferraris_sections(
         "(how much the two faces of each pair were tilted differently) are the independent "
         "checks. Biases use only the faces where the axis is vertical (tilt enters to second "
         "order); the face tilt scatter is included in the misalignment uncertainty."))
+    c = result.identification.checks
+    if c is not None:
+        rows = [[c.name, c.verdict, f"{c.chi_square:.4g}", str(c.dof),
+                 "" if c.p_value is None else f"{c.p_value:.3g}",
+                 ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers) or "none"]]
+        sec.parts.append(table_html(["check", "verdict", "chi-square", "dof", "p", "outliers"],
+                                    rows))
+        if not c.fits:
+            sec.parts.append(paragraph(
+                "The session does not fit its noise model: check the face and turn labels, the "
+                "plan's face_tilt_deg and the noise model; the uncertainties are not reliable.",
+                note=True))
     for m in result.messages:
         sec.parts.append(paragraph(m, note=True))
     sec.parts.append(figure_html(ferraris_figure(result), "face checks"))
