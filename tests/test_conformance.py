@@ -1,0 +1,110 @@
+"""Specification limits and verdicts: ILAC-G8:09/2019 decision rules at the limits, spec files."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+import inertest
+from inertest.budget import uncertainty_budget
+from inertest.conformance import SpecError, decide, read_spec, spec_from_mapping, verdicts
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+@pytest.mark.parametrize(("value", "guarded", "simple"), [
+    (0.5, "pass", "pass"),                    # inside by 0.5 >= U
+    (0.75, "pass", "pass"),                   # inside by exactly U
+    (0.875, "conditional pass", "pass"),      # inside by less than U
+    (1.0, "conditional pass", "pass"),        # on the limit
+    (1.125, "conditional fail", "fail"),      # outside by less than U
+    (1.25, "conditional fail", "fail"),       # outside by exactly U
+    (1.5, "fail", "fail"),                    # outside by more than U
+])
+def test_ilac_g8_upper_limit(value, guarded, simple):
+    # limit x <= 1, U = 0.25 (binary fractions: the comparisons at the limits are exact)
+    assert decide(value, 0.25, upper=1.0, rule="guarded") == guarded
+    assert decide(value, 0.25, upper=1.0, rule="simple") == simple
+    # the mirror image against a lower limit x >= -1
+    assert decide(-value, 0.25, lower=-1.0, rule="guarded") == guarded
+    assert decide(-value, 0.25, lower=-1.0, rule="simple") == simple
+
+
+def test_range_takes_the_worse_side():
+    assert decide(0.0, 0.25, lower=-1.0, upper=0.125) == "conditional pass"
+    assert decide(0.0, 0.25, lower=-0.125, upper=0.125, rule="guarded") == "conditional pass"
+    assert decide(0.5, 0.25, lower=-0.125, upper=0.125, rule="guarded") == "fail"
+
+
+def _result():
+    plan = inertest.load_plan(EXAMPLES / "polar_tumble" / "plan.toml")
+    truth = EXAMPLES / "polar_tumble" / "truth.toml"
+    return plan, inertest.fit(plan, inertest.simulate(plan, truth, noise=0.002, rng=1))
+
+
+def _spec(**limit):
+    lim = {"quantity": "DI", "unit": "deg/h/g", "clause": "IEEE Std 517-1974", **limit}
+    return {"spec": {"name": "t", "decision_rule": "guarded"}, "limit": [lim]}
+
+
+def test_verdicts_convert_units_and_use_budget_U():
+    plan, result = _result()
+    di = result.coefficients["DI"]
+    budget = uncertainty_budget(plan, result)
+    U = budget.quantities["DI"].expanded
+    # limit in deg/s/g: DI = 0.85 deg/h/g; a limit 1.5 U above the value passes ...
+    lim = (abs(di.value) + 1.5 * U) / 3600.0
+    c = verdicts(result, spec_from_mapping(_spec(max_abs=lim, unit="deg/s/g")), budget)
+    (v,) = c.verdicts
+    assert v.verdict == "pass" and v.expanded == U and v.unit == "deg/h/g"
+    # ... half a U above it is a conditional pass, half a U below a conditional fail
+    for shift, want in ((0.5, "conditional pass"), (-0.5, "conditional fail"), (-2, "fail")):
+        s = spec_from_mapping(_spec(max_abs=abs(di.value) + shift * U))
+        assert verdicts(result, s, budget).verdicts[0].verdict == want
+    # without a budget: U = 2 x the Type-A std, said so
+    v = verdicts(result, spec_from_mapping(_spec(max=1.0))).verdicts[0]
+    assert v.expanded == pytest.approx(2 * di.std) and "type A only" in v.u_source
+    assert "ILAC-G8:09/2019" in c.to_dict()["rule"]
+
+
+def test_bad_spec_files(tmp_path):
+    _, result = _result()
+    with pytest.raises(SpecError, match=r'"DIx" is not in the result \(did you mean "DI"'):
+        verdicts(result, spec_from_mapping(_spec(quantity="DIx", max_abs=1.0)))
+    with pytest.raises(SpecError, match='"deg/h" but the result gives it in "deg/h/g"'):
+        verdicts(result, spec_from_mapping(_spec(unit="deg/h", max_abs=1.0)))
+    with pytest.raises(SpecError, match="has no limit; give max_abs, or min and/or max"):
+        spec_from_mapping(_spec())
+    with pytest.raises(SpecError, match='unknown unit symbol "furlong"'):
+        spec_from_mapping(_spec(unit="furlong/h", max_abs=1.0))
+    with pytest.raises(SpecError, match="decision_rule"):
+        spec_from_mapping({**_spec(max_abs=1.0), "spec": {"decision_rule": "lenient"}})
+    with pytest.raises(SpecError, match="either max_abs or min/max"):
+        spec_from_mapping(_spec(max_abs=1.0, max=2.0))
+    with pytest.raises(SpecError, match="does not exist"):
+        read_spec(tmp_path / "missing.toml")
+    bad = tmp_path / "spec.toml"
+    bad.write_text('[spec]\nname = "x"\n[[limit]]\nquantity = "DI"\nunit = "deg/h/g"\n'
+                   'clause = "c"\nmax_abs = 1.0\nmaxx = 2\n')
+    with pytest.raises(SpecError, match="maxx"):
+        read_spec(bad, result)
+
+
+@pytest.mark.parametrize(("spec", "plan"), [
+    ("floated_gyro", "polar_tumble"), ("floated_gyro", "local_level_tumble"),
+    ("floated_gyro", "servo_table"), ("accelerometer", "accelerometer_multipoint"),
+    ("accelerometer_triad", "triad_multiposition"), ("fog", "gyro_rate_table"),
+    ("fog_triad", "gyro_triad_rotation"),
+])
+def test_example_specs_fit_their_example_results(spec, plan):
+    demo = {t["plan"].split("/")[0]: t for t in
+            tomllib.loads((EXAMPLES / "demo.toml").read_text())["test"]}[plan]
+    p = inertest.load_plan(EXAMPLES / demo["plan"])
+    truth = (EXAMPLES / demo["plan"]).parent / demo["truth"]
+    result = inertest.fit(p, inertest.simulate(p, truth, noise=demo.get("noise", 0.0),
+                                               rng=demo.get("seed")))
+    s = read_spec(EXAMPLES / "specs" / f"{spec}.toml", result)
+    c = verdicts(result, s)
+    assert all(v.clause.startswith("IEEE Std") for v in c.verdicts)
