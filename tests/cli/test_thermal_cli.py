@@ -19,7 +19,8 @@ def test_simulate_fit_json_plot_report(tmp_path, capsys):
     assert d["neural_network"]["validation_rms"]["unit"] == "ppm"
     assert d["polynomial"]["validation_rms"]["value"] < d["before"]["validation_rms"]["value"] / 10
     assert png.read_bytes()[:4] == b"\x89PNG"
-    assert "data:image/png;base64" in (rep / "index.html").read_text()
+    html = (rep / "index.html").read_text()
+    assert "data:image/png;base64" in html and "(T - T_ref)" in html and "ppm/degC" in html
     assert main(["thermal", "fit", str(data), "--quantity", "bias", "--no-rate"]) == 0
     out = capsys.readouterr().out
     assert "uncompensated" in out and "deg/h" in out

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import click
+import numpy as np
 
 from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
 from inertest.io.atomic import target_directory
@@ -156,3 +157,52 @@ def _store(result, data: Path, serial: str, db: str | None, *, argv_text: str):
         store.close()
         raise
     return record.run_uuid, store
+
+
+@thermal.command()
+@click.argument("plan", type=_FILE)
+@click.argument("data", type=_FILE)
+@click.option("--degree", type=int, default=2, show_default=True,
+              help="Polynomial degree of each coefficient in (T - T_ref).")
+@click.option("--rate", "use_rate", is_flag=True,
+              help="Add a term in the temperature rate (column temperature_rate_c_per_min).")
+@click.option("--t-ref-c", type=float, default=None,
+              help="Reference temperature [degC] (default: mean step temperature).")
+@click.option("--sigma", type=float, default=None,
+              help="Known noise per reading [output unit] (default: from each step).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | None,
+          sigma: float | None, as_json: bool) -> None:
+    """Triad K, M, B against temperature from multi-position data at several temperatures.
+
+    PLAN is a triad-multiposition plan; DATA has the columns temperature_c, branch
+    (heating/cooling), position, output_x, output_y, output_z (optional step,
+    temperature_rate_c_per_min). Hysteresis between heating and cooling is tested per
+    coefficient.
+    """
+    from inertest.api import load_plan
+    from inertest.procedures.thermal_triad import fit_triad_thermal
+
+    result = fit_triad_thermal(load_plan(plan), read_table(data), degree=degree,
+                               use_rate=use_rate, sigma=sigma, t_ref_c=t_ref_c)
+    if as_json:
+        echo_json(result.to_dict())
+        return
+    t_ref = next(iter(result.laws.values())).t_ref_c
+    header = ["coefficient", f"at {t_ref:g} degC", "slope per degC", "heating - cooling",
+              "hysteresis"]
+    rows = []
+    for n, law in result.laws.items():
+        s = np.sqrt(np.diag(law.covariance))
+        u = law.unit
+        h = result.hysteresis.get(n)
+        rows.append([n, f"{law.coefficients[0]:.6g} ± {s[0]:.2g} {u}",
+                     (f"{law.coefficients[1]:.3g} ± {s[1]:.2g} {u}/degC" if degree >= 1
+                      else "-"),
+                     "-" if h is None else f"{h.max_difference:.3g} ± {h.std:.2g} {u} at "
+                     f"{h.at_temperature_c:.0f} degC",
+                     "-" if h is None else ("SIGNIFICANT" if h.significant else "no")])
+    print_table(f"triad against temperature ({len(result.step_temperature_c)} steps)",
+                header, rows)
+    for m in result.messages:
+        click.echo(f"warning: {m}", err=True)

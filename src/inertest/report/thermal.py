@@ -65,10 +65,29 @@ def summary_rows(result: ThermalResult) -> tuple[list[str], list[list[str]]]:
     return header, rows
 
 
+def model_rows(result: ThermalResult) -> tuple[list[str], list[list[str]]]:
+    """Header and rows: the polynomial model's coefficients with std and unit."""
+    doc = result.model("polynomial").to_dict()
+    header = ["term", "power of (T - T_ref)", "power of dT/dt", "value", "std", "unit"]
+    rows = [[t["name"], str(t["power_of_t_minus_t_ref"]), str(t["power_of_rate"]),
+             f"{t['value']:.6g}", f"{t['std']:.2g}", t["unit"]]
+            for t in doc["terms"]]  # type: ignore[attr-defined]
+    return header, rows
+
+
 def thermal_sections(result: ThermalResult, *, title: str) -> list[Section]:
-    """Report section: summary table, figure, notes."""
+    """Report section: summary table, the polynomial model, figure, notes."""
     header, rows = summary_rows(result)
     sec = Section(title, [table_html(header, rows)])
+    poly = result.model("polynomial")
+    sec.parts.append(paragraph(
+        f"Polynomial model (write it with thermal fit --model-out, apply it with inertest "
+        f"apply): {poly.equation()}; valid for {poly.temperature_range_c[0]:.4g} to "
+        f"{poly.temperature_range_c[1]:.4g} degC"
+        + ("" if poly.rate_range_c_per_min is None else
+           f" and {poly.rate_range_c_per_min[0]:.3g} to {poly.rate_range_c_per_min[1]:.3g} "
+           "degC/min") + "."))
+    sec.parts.append(table_html(*model_rows(result)))
     sec.parts.append(paragraph(
         f"Inputs: {', '.join(result.inputs)}. Train/validation split by temperature cycle; the "
         "polynomial degree was chosen by leave-one-cycle-out cross-validation on the training "
