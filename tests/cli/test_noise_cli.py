@@ -133,3 +133,14 @@ def test_no_stamps_needs_a_rate(tmp_path, capsys):
     pacsv.write_csv(pa.table({f"g{a}": np.zeros(500) for a in "xyz"}), p)
     assert main(["noise", str(p)]) == 2
     assert "give the sample rate with --rate" in capsys.readouterr().err
+
+
+def test_report_folder_of_someone_else_refused_before_any_work(tmp_path, capsys):
+    data = _write_csv(tmp_path / "imu.csv", n=2_000)
+    folder = tmp_path / "notes"
+    folder.mkdir()
+    (folder / "mine.txt").write_text("x")
+    out = tmp_path / "imu.yaml"
+    assert main(["noise", str(data), "--report", str(folder), "--kalibr", str(out)]) == 2
+    assert "did not write" in capsys.readouterr().err
+    assert not out.exists() and sorted(p.name for p in folder.iterdir()) == ["mine.txt"]

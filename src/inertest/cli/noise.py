@@ -64,11 +64,14 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
     per channel, the IEEE Std 952-1997 terms with uncertainties, and the Kalibr continuous-time
     noise density and random walk (--kalibr writes imu.yaml; --compare reads one back).
     """
-    from inertest.io.atomic import target_directory
+    from inertest.io.atomic import check_outputs, check_report_directory, target_directory
     from inertest.io.kalibr import KEYS, read_kalibr_yaml, write_kalibr_yaml
     from inertest.noise.imu import analyse_imu_noise, compare_kalibr
 
     check_paths([kalibr_out], [data, compare_yaml])
+    if report_dir is not None:  # before any work: nothing is written half-way
+        check_report_directory(report_dir)
+        check_outputs([report_dir], [data, compare_yaml] if compare_yaml else [data])
     if report_dir is not None and kalibr_out is not None and (
             kalibr_out.resolve().parent == report_dir.resolve()):
         raise InputError(f"--kalibr {kalibr_out} is inside the report folder {report_dir}; "
@@ -101,7 +104,7 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
         html = page(f"IMU noise of {data.name}", imu_noise_sections(result, comparisons),
                     subtitle="Overlapping Allan deviation (NIST SP 1065), PSD, IEEE Std "
                              "952-1997 Annex C terms, Kalibr parameters")
-        with target_directory(report_dir, inputs=[data]) as tmp:
+        with target_directory(report_dir, inputs=[p for p in (data, compare_yaml) if p]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if kalibr_out is not None:
         write_kalibr_yaml(kalibr_out, result, source=data.name)
