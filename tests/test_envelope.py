@@ -14,7 +14,7 @@ from inertest.cli import main
 from inertest.procedures import REGISTRY
 from inertest.report.html import page
 from inertest.report.sections import envelope_sections
-from inertest.results import ENVELOPE_KEYS, SCHEMA_VERSION
+from inertest.results import ENVELOPE_KEYS, OPTIONAL_KEYS, SCHEMA_VERSION, envelope
 from inertest.store import HistoryStore, RunRecord
 
 #: Procedure kind -> (plan folder, truth file relative to it, noise) of the examples.
@@ -28,12 +28,14 @@ EXAMPLES = {
     "accelerometer-multipoint": ("accelerometer_multipoint", "truth.toml", 1e-6),
     "centrifuge-nine-position": ("centrifuge", "truth.toml", 1e-9),
     "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
+    "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
 }
 
 
 def check_envelope(doc: dict, kind: str) -> None:
     """The layout every result shares (results.envelope), with units beside numbers."""
-    assert [k for k in doc if k != "test"] == list(ENVELOPE_KEYS)
+    assert list(doc) == [k for k in ENVELOPE_KEYS if k in doc]
+    assert set(ENVELOPE_KEYS) - OPTIONAL_KEYS <= set(doc)
     if "test" in doc:  # optional identity block (inertest.lab.identity_block), after instrument
         assert list(doc).index("test") == list(doc).index("instrument") + 1
         assert {"operator", "date", "software_version", "data_sha256", "equipment",
@@ -128,3 +130,16 @@ def test_every_analysis_json_is_the_envelope_stored_and_reported(tmp_path, examp
     finally:
         store.close()
     assert back == json.loads(json.dumps(docs))
+
+
+def test_optional_blocks_take_their_place_and_only_when_given():
+    plain = envelope("polar-tumble", messages=["m"])
+    assert list(plain) == [k for k in ENVELOPE_KEYS if k not in OPTIONAL_KEYS]
+    budget = {"quantities": {"DI": {"value": 0.1, "unit": "deg/h/g", "expanded": 0.02}},
+              "assumptions": ["sources independent"]}
+    verdicts = {"spec": "s", "rule": "r", "verdicts": [{"quantity": "DI", "verdict": "pass"}]}
+    doc = envelope("polar-tumble", test={"operator": "A"}, uncertainty_budget=budget,
+                   conformance=verdicts)
+    assert list(doc) == list(ENVELOPE_KEYS)
+    assert doc["uncertainty_budget"] == budget and doc["conformance"] == verdicts
+    assert json.loads(json.dumps(doc)) == doc

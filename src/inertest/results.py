@@ -336,11 +336,17 @@ class LinearTestResult:
         )
 
 
-#: Top-level keys of every result's JSON, in order (:func:`envelope`).
+#: Top-level keys of a result's JSON, in order (:func:`envelope`); the keys of
+#: :data:`OPTIONAL_KEYS` are present only when known, the others always.
 ENVELOPE_KEYS: tuple[str, ...] = (
-    "kind", "schema_version", "site", "instrument", "identification", "result", "checks",
-    "messages",
+    "kind", "schema_version", "site", "instrument", "test", "identification", "result",
+    "uncertainty_budget", "conformance", "checks", "messages",
 )
+
+#: Envelope keys present only when known: the test's identity (``inertest fit --equipment``),
+#: the uncertainty budget (:meth:`inertest.budget.UncertaintyBudget.to_dict`) and the verdicts
+#: against a specification (:meth:`inertest.conformance.Conformance.to_dict`).
+OPTIONAL_KEYS: frozenset[str] = frozenset({"test", "uncertainty_budget", "conformance"})
 
 
 def envelope(
@@ -353,6 +359,8 @@ def envelope(
     checks: Sequence[Mapping[str, object]] = (),
     messages: Sequence[str] = (),
     test: Mapping[str, object] | None = None,
+    uncertainty_budget: Mapping[str, object] | None = None,
+    conformance: Mapping[str, object] | None = None,
 ) -> dict[str, object]:
     """The one JSON layout of every inertest result (``--json`` of every command).
 
@@ -378,12 +386,21 @@ def envelope(
         Who ran the test, when, with what equipment (ids, calibration due dates) and in which
         environment, the software version and the data's SHA-256 (:func:`inertest.lab.
         identity_block`); the key is present only when known, right after ``instrument``.
+    uncertainty_budget : mapping, optional
+        Per quantity: the Type-A std and its dof, each Type-B source's contribution, the
+        combined std, k and the expanded U, with the independence assumption (JCGM 100:2008,
+        GUM 5.1.2, G.4.1; :meth:`inertest.budget.UncertaintyBudget.to_dict`); present only
+        when computed, after ``result``.
+    conformance : mapping, optional
+        Verdict per limited quantity (value, U, k, limit, clause, verdict) and the decision
+        rule's text (ILAC-G8:09/2019; :meth:`inertest.conformance.Conformance.to_dict`);
+        present only when a specification was given, after ``uncertainty_budget``.
 
     Returns
     -------
     dict
-        Keys :data:`ENVELOPE_KEYS` (and ``test`` when given); every number inside carries its
-        unit beside it.
+        Keys :data:`ENVELOPE_KEYS` in that order, the :data:`OPTIONAL_KEYS` only when given;
+        every number inside carries its unit beside it.
     """
     doc: dict[str, object] = {
         "kind": kind,
@@ -395,19 +412,38 @@ def envelope(
         "checks": [dict(c) for c in checks],
         "messages": [str(m) for m in messages],
     }
-    return doc if test is None else with_test(doc, test)
+    return with_blocks(doc, test=test, uncertainty_budget=uncertainty_budget,
+                       conformance=conformance)
 
 
 def with_test(doc: Mapping[str, object], test: Mapping[str, object] | None) -> dict[str, object]:
     """``doc`` (an envelope) with its ``test`` block set, placed right after ``instrument``."""
-    out: dict[str, object] = {}
-    for k, v in doc.items():
-        if k != "test":
-            out[k] = v
-        if k == "instrument" and test is not None:
-            out["test"] = dict(test)
-    if test is not None and "test" not in out:
-        out["test"] = dict(test)
+    return with_blocks(doc, test=test)
+
+
+def with_blocks(
+    doc: Mapping[str, object],
+    *,
+    test: Mapping[str, object] | None = None,
+    uncertainty_budget: Mapping[str, object] | None = None,
+    conformance: Mapping[str, object] | None = None,
+) -> dict[str, object]:
+    """``doc`` (an envelope) with its optional blocks set, each in its :data:`ENVELOPE_KEYS` place.
+
+    Parameters
+    ----------
+    doc : mapping
+        A result envelope.
+    test, uncertainty_budget, conformance : mapping, optional
+        The :data:`OPTIONAL_KEYS` blocks (see :func:`envelope`); None keeps what ``doc`` has.
+    """
+    merged = dict(doc)
+    for key, block in (("test", test), ("uncertainty_budget", uncertainty_budget),
+                       ("conformance", conformance)):
+        if block is not None:
+            merged[key] = dict(block)
+    out: dict[str, object] = {k: merged[k] for k in ENVELOPE_KEYS if k in merged}
+    out.update({k: v for k, v in merged.items() if k not in out})  # foreign keys last
     return out
 
 
