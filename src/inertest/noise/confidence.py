@@ -21,6 +21,7 @@ Interval
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -34,80 +35,8 @@ MIN_ACF_AVERAGES = 30
 _J_MAX = 100
 
 # ----------------------------------------------------------------------------- Greenhall EDF
-
-
-def _sw(t: NDArray, alpha: int) -> NDArray:
-    """Greenhall's eq. (7): generalised autocovariance of the twice-integrated phase."""
-    a = np.abs(t)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lg = np.where(a > 0, np.log(np.where(a > 0, a, 1.0)), 0.0)
-    if alpha == 2:
-        return -a
-    if alpha == 1:
-        return a**2 * lg
-    if alpha == 0:
-        return a**3
-    if alpha == -1:
-        return -(a**4) * lg
-    if alpha == -2:
-        return -(a**5)
-    if alpha == -3:
-        return a**6 * lg
-    if alpha == -4:
-        return a**7
-    raise ValueError(f"alpha {alpha} outside -4 .. 2")
-
-
-def _sx(t: NDArray, f: float, alpha: int) -> NDArray:
-    """Greenhall's eq. (8): autocovariance of the phase averaged over tau/F (F = inf: limit)."""
-    if math.isinf(f):
-        return _sw(t, alpha + 2)
-    h = 1.0 / f
-    return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
-
-
-def _sz(t: NDArray, f: float, alpha: int, d: int) -> NDArray:
-    """Greenhall's eq. (9): autocovariance of the d-th difference at lag t [tau]."""
-    t = np.asarray(t, dtype=float)
-    out = math.comb(2 * d, d) * _sx(t, f, alpha)
-    for k in range(1, d + 1):
-        c = (-1) ** k * math.comb(2 * d, d + k)
-        out = out + c * (_sx(t - k, f, alpha) + _sx(t + k, f, alpha))
-    return out
-
-
-def _basic_sum(j: int, m_terms: int, s: float, f: float, alpha: int, d: int) -> float:
-    """Greenhall's eq. (10), the basic sum.
-
-    ``sz(0)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2 + (1 - J/M) sz(J/S)^2``.
-    """
-    k = np.arange(1, j, dtype=float)
-    mid = float(np.sum((1.0 - k / m_terms) * _sz(k / s, f, alpha, d) ** 2))
-    end = (1.0 - j / m_terms) * float(_sz(np.array([j / s]), f, alpha, d)[0]) ** 2
-    return float(_sz(np.zeros(1), f, alpha, d)[0]) ** 2 + 2.0 * mid + end
-
-
-# Greenhall & Riley (2003) Tables 1-3: (a0, a1) per alpha (rows 2 .. -4) and d (columns 1 .. 3).
-_NA = (math.nan, math.nan)
-_TABLE1 = {  # modified variances (F = 1)
-    2: [(2 / 3, 1 / 3), (7 / 9, 1 / 2), (22 / 25, 2 / 3)],
-    1: [(0.840, 0.345), (0.997, 0.616), (1.141, 0.843)],
-    0: [(1.079, 0.368), (1.033, 0.607), (1.184, 0.848)],
-    -1: [_NA, (1.048, 0.534), (1.180, 0.816)],
-    -2: [_NA, (1.302, 0.535), (1.175, 0.777)],
-    -3: [_NA, _NA, (1.194, 0.703)],
-    -4: [_NA, _NA, (1.489, 0.702)],
-}
-_TABLE2 = {  # unmodified variances (F = m)
-    2: [(3 / 2, 1 / 2), (35 / 18, 1.0), (231 / 100, 3 / 2)],
-    1: [(78.6, 25.2), (790.0, 410.0), (9950.0, 6520.0)],
-    0: [(2 / 3, 1 / 6), (2 / 3, 1 / 3), (7 / 9, 1 / 2)],
-    -1: [_NA, (0.852, 0.375), (0.997, 0.617)],
-    -2: [_NA, (1.079, 0.368), (1.033, 0.607)],
-    -3: [_NA, _NA, (1.053, 0.553)],
-    -4: [_NA, _NA, (1.302, 0.535)],
-}
-_TABLE3 = [(6.0, 4.0), (15.23, 12.0), (47.8, 40.0)]  # flicker PM, unmodified: b0 + b1 ln m
+# The sums themselves (eqs. 7-10 and Tables 1-3) are numba kernels in inertest.noise.kernels:
+# a dense tau grid needs one EDF per tau, and the basic sum has up to 100 lags of 5-7 terms.
 
 
 def edf_greenhall(alpha: int, d: int, m: int, terms: int, *, modified: bool,
@@ -140,48 +69,26 @@ def edf_greenhall(alpha: int, d: int, m: int, terms: int, *, modified: bool,
     m_terms = int(terms)
     if m_terms <= 1:
         return 1.0
-    if alpha + 2 * d <= 1:
+    if alpha + 2 * d <= 1 or alpha > 2:
         raise ValueError(f"alpha {alpha} is not defined for difference order {d}")
-    s = float(m) if overlapping else 1.0
-    j = int(min(m_terms, (d + 1) * s))
-    r = m_terms / s
-    if modified:  # case 1 (F = 1)
-        if j <= _J_MAX:
-            return (float(_sz(np.zeros(1), 1.0, alpha, d)[0]) ** 2 * m_terms
-                    / _basic_sum(j, m_terms, s, 1.0, alpha, d))
-        if r > d + 1:
-            a0, a1 = _TABLE1[alpha][d - 1]
-            return r / (a0 - a1 / r)
-        mp = _J_MAX / r
-        return (float(_sz(np.zeros(1), 1.0, alpha, d)[0]) ** 2 * _J_MAX
-                / _basic_sum(_J_MAX, _J_MAX, mp, 1.0, alpha, d))
-    if alpha == 2:  # case 4: exact
-        k_max = math.ceil(r) - 1
-        c0 = math.comb(2 * d, d)
-        ks = np.arange(1, min(k_max, d) + 1)
-        rho2 = np.array([math.comb(2 * d, d + int(k)) for k in ks], dtype=float) ** 2 / c0**2
-        return m_terms / (1.0 + 2.0 * float(np.sum((1.0 - ks / r) * rho2)))
-    if alpha <= 0:  # case 2
-        if j <= _J_MAX:
-            fp = float(m) if m * (d + 1) <= _J_MAX else math.inf
-            return (float(_sz(np.zeros(1), fp, alpha, d)[0]) ** 2 * m_terms
-                    / _basic_sum(j, m_terms, s, fp, alpha, d))
-        if r > d + 1:
-            a0, a1 = _TABLE2[alpha][d - 1]
-            return r / (a0 - a1 / r)
-        mp = _J_MAX / r
-        return (float(_sz(np.zeros(1), math.inf, alpha, d)[0]) ** 2 * _J_MAX
-                / _basic_sum(_J_MAX, _J_MAX, mp, math.inf, alpha, d))
-    # case 3: flicker phase noise, unmodified
-    b0, b1 = _TABLE3[d - 1]
-    if j <= _J_MAX:
-        return (float(_sz(np.zeros(1), float(m), 1, d)[0]) ** 2 * m_terms
-                / _basic_sum(j, m_terms, s, float(m), 1, d))
-    if r > d + 1:
-        a0, a1 = _TABLE2[1][d - 1]
-        return (b0 + b1 * math.log(m)) ** 2 * r / (a0 - a1 / r)
-    mp = _J_MAX / r
-    return (b0 + b1 * math.log(m)) ** 2 * _J_MAX / _basic_sum(_J_MAX, _J_MAX, mp, mp, 1, d)
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    return float(kernels.greenhall_edf(int(alpha), int(d), int(m), m_terms, bool(modified),
+                                       bool(overlapping)))
+
+
+def edf_greenhall_many(alpha: NDArray, d: int, m: NDArray, terms: NDArray, *, modified: bool,
+                       overlapping: bool) -> NDArray:
+    """:func:`edf_greenhall` at many taus at once: arrays ``alpha``, ``m``, ``terms`` [-]."""
+    al = np.ascontiguousarray(alpha, dtype=np.int64)
+    if np.any(al + 2 * d <= 1) or np.any(al > 2):
+        bad = int(al[(al + 2 * d <= 1) | (al > 2)][0])
+        raise ValueError(f"alpha {bad} is not defined for difference order {d}")
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    return kernels.greenhall_edf_many(al, int(d), np.ascontiguousarray(m, dtype=np.int64),
+                                      np.ascontiguousarray(terms, dtype=np.int64),
+                                      bool(modified), bool(overlapping))
 
 
 def edf_difference(alpha: int, d: int, m: int, terms: int, *, modified: bool,
@@ -214,43 +121,37 @@ class Lag1:
     """Running sums for the lag-1 autocorrelation of a long series fed in blocks.
 
     ``r1 = sum_{i<n-1} (z_i - zbar)(z_{i+1} - zbar) / sum_i (z_i - zbar)^2`` (Riley & Greenhall
-    2004 eq. 2). Values are shifted by the first one before summing, so a large offset does
-    not cost digits.
+    2004 eq. 2), for the series (``d = 0``) and its differences up to order ``dmax`` at once,
+    formed on the fly in one pass (a numba kernel: no differenced copies, no threaded BLAS).
+    Values are shifted by the first one before summing, so a large offset does not cost digits.
     """
 
-    def __init__(self) -> None:
-        self.n = 0
-        self.shift = 0.0
-        self.s1 = self.s2 = self.s11 = 0.0
-        self.first = self.last = 0.0
+    def __init__(self, dmax: int = 0) -> None:
+        self.state = np.zeros((dmax + 1, 8))
 
     def add(self, block: NDArray) -> None:
         """Append the next values of the series."""
-        if block.size == 0:
-            return
-        if self.n == 0:
-            self.shift = float(block[0])
-        v = block - self.shift
-        if self.n == 0:
-            self.first = float(v[0])
-        else:
-            self.s11 += self.last * float(v[0])
-        # einsum, not BLAS dot: no thread start-up per call, and deterministic order.
-        self.s1 += float(np.sum(v))
-        self.s2 += float(np.einsum("i,i->", v, v))
-        self.s11 += float(np.einsum("i,i->", v[:-1], v[1:]))
-        self.last = float(v[-1])
-        self.n += block.size
+        from inertest.noise import kernels  # numba: loaded on first use
 
-    def r1(self) -> float:
-        """Lag-1 autocorrelation (0 for a constant series)."""
-        n = self.n
-        mean = self.s1 / n
-        den = self.s2 - n * mean * mean
-        if not den > 0:
-            return 0.0
-        num = self.s11 - mean * (2.0 * self.s1 - self.first - self.last) + (n - 1) * mean * mean
-        return num / den
+        kernels.lag1_update(np.asarray(block, dtype=np.float64), self.state)
+
+    def r1(self, d: int = 0) -> float:
+        """Lag-1 autocorrelation of the d-th difference (0 for a constant series)."""
+        return r1_of_state(self.state[d])
+
+
+def r1_of_state(row: NDArray) -> float:
+    """Lag-1 autocorrelation from one row of running sums (see ``kernels.lag1_update``)."""
+    n = row[0]
+    if n < 1:
+        return 0.0
+    s1, s2, s11, first, last = (float(v) for v in row[2:7])
+    mean = s1 / n
+    den = s2 - n * mean * mean
+    if not den > 0:
+        return 0.0
+    num = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
+    return num / den
 
 
 def alpha_from_lag1(r1_by_d: list[float], *, phase: bool, alpha_min: int) -> int:
@@ -279,12 +180,9 @@ def lag1_alpha(y: NDArray, *, dmax: int = 2, alpha_min: int = -2) -> int | None:
     z = np.asarray(y, dtype=float)
     if z.size < MIN_ACF_AVERAGES:
         return None
-    r1s = []
-    for _ in range(dmax + 1):
-        acc = Lag1()
-        acc.add(z)
-        r1s.append(acc.r1())
-        z = np.diff(z)
+    acc = Lag1(dmax)
+    acc.add(z)
+    r1s = [acc.r1(d) for d in range(dmax + 1)]
     return alpha_from_lag1(r1s, phase=False, alpha_min=alpha_min)
 
 
@@ -341,14 +239,31 @@ def b1_alpha(ybar: NDArray, *, alpha_min: int = -2, rn: float | None = None,
     if n < 3:
         return None
     avar = float(np.sum(np.diff(y) ** 2)) / (2.0 * (n - 1))
-    if not avar > 0:
-        return 0
-    b1 = float(np.var(y, ddof=1)) / avar
+    return b1_decide(float(np.var(y, ddof=1)), avar, n, alpha_min=alpha_min, rn=rn, m=m)
+
+
+@functools.lru_cache(maxsize=256)
+def _b1_bounds(n: int, alpha_min: int) -> tuple[list[int], list[float]]:
+    """Exponents mu and the geometric-mean boundaries between their B1 values (n averages)."""
     mus = list(range(-2, _mu_of_alpha(alpha_min) + 1))
     theory = [b1_theory(n, mu) for mu in mus]
+    return mus, [math.sqrt(theory[i] * theory[i + 1]) for i in range(len(mus) - 1)]
+
+
+def b1_decide(var: float, avar: float, n: int, *, alpha_min: int = -2,
+              rn: float | None = None, m: int = 1) -> int:
+    """The decision of :func:`b1_alpha` from the sample variance and Allan variance of n averages.
+
+    ``var`` (ddof 1) and ``avar`` (non-overlapping) of the ``n >= 3`` frequency averages, in
+    any common unit; ``rn`` and ``m`` as in :func:`b1_alpha`.
+    """
+    if not avar > 0:
+        return 0
+    b1 = var / avar
+    mus, bounds = _b1_bounds(n, alpha_min)
     mu = mus[-1]
-    for i in range(len(mus) - 1):
-        if b1 < math.sqrt(theory[i] * theory[i + 1]):
+    for i, bound in enumerate(bounds):
+        if b1 < bound:
             mu = mus[i]
             break
     if mu != -2:

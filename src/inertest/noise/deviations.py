@@ -12,10 +12,11 @@ Conventions
 * A constant rate (a straight line of phase) is removed before the sums. Every statistic here is
   exactly invariant to it; removing it keeps the running sums small, so they do not lose digits.
 
-Records larger than memory: pass a read-only ``np.memmap``, any 1-D array-like that supports
-``len()`` and slicing (such as :class:`inertest.io.raw_samples.SampleFile`), or an array larger
-than :data:`STREAM_THRESHOLD`; the phase is then rebuilt chunk by chunk from checkpoints of the
-running sum and never held whole, with the same result as in memory.
+Records larger than memory: pass a read-only ``np.memmap`` or any 1-D array-like that supports
+``len()`` and slicing (such as :class:`inertest.io.raw_samples.SampleFile`); the phase is then
+rebuilt chunk by chunk from checkpoints of the running sum and never held whole, with the same
+result as in memory (to rounding). An ``np.ndarray`` stays in memory at any size (its phase
+costs 8 bytes per sample more) unless ``stream=True``.
 """
 
 from __future__ import annotations
@@ -29,14 +30,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import DataError, InputError
 from inertest.noise.confidence import (
+    _TOTDEV_BC,
     MIN_ACF_AVERAGES,
     ONE_SIGMA,
     Lag1,
     alpha_from_lag1,
     b1_alpha,
+    b1_decide,
     chi2_interval,
-    edf_greenhall,
-    edf_totdev,
+    edf_greenhall_many,
+    r1_of_state,
 )
 
 #: Statistics known, in the order reports list them.
@@ -53,10 +56,10 @@ _NAMES = {
 DATA_TYPES = ("rate", "angle")
 TAU_GRIDS = ("octave", "decade", "all")
 
-#: Arrays with more samples than this (or memory maps) are processed in chunks.
-STREAM_THRESHOLD = 1 << 25
 #: Samples per chunk when streaming.
 CHUNK = 1 << 20
+#: In memory, taus are summed in groups of about this many samples (one progress tick each).
+_GROUP_WORK = 1 << 24
 
 Progress = Callable[[int, int], None]
 
@@ -277,9 +280,9 @@ def phase_source(
             "100 for a useful tau range): record longer"
         )
     if stream is None:
-        # Memory maps and file-backed array-likes stream; so do very long arrays.
-        stream = isinstance(data, np.memmap) or not isinstance(data, np.ndarray) or (
-            n > STREAM_THRESHOLD)
+        # Memory maps and file-backed array-likes stream; arrays in memory stay in memory,
+        # at any size (the phase costs 8 bytes per sample more).
+        stream = isinstance(data, np.memmap) or not isinstance(data, np.ndarray)
     if data_type == "rate":
         from inertest.noise import kernels  # numba: loaded on first use
 
@@ -428,6 +431,19 @@ def _variance(statistic: str, ssq: float, m: int, n: int, tau0: float) -> float:
     return ssq / (6.0 * n * tau * tau)
 
 
+def _variances(statistic: str, ssq: NDArray, ms: NDArray, ns: NDArray,
+               tau0: float) -> NDArray:
+    """:func:`_variance` at many taus (the same arithmetic, element by element)."""
+    tau = ms * tau0
+    n = ns.astype(np.float64)
+    if statistic in ("adev", "oadev", "totdev"):
+        return ssq / (2.0 * n * tau * tau)
+    if statistic in ("mdev", "tdev"):
+        m = ms.astype(np.float64)
+        return ssq / (2.0 * m * m * n * tau * tau)
+    return ssq / (6.0 * n * tau * tau)
+
+
 def _decimated(src: _Phase, m: int, count: int):  # noqa: ANN202 - generator of blocks
     """Blocks of the decimated phase ``x[0], x[m], ..., x[count m]`` (bounded memory)."""
     npts = count + 1
@@ -446,40 +462,65 @@ def _family(statistic: str) -> str:
     return "hadamard" if statistic in ("hdev", "ohdev") else "allan"
 
 
-def _noise_type(src: _Phase, m: int, family: str) -> int | None:
+#: Marks a tau whose noise type cannot be identified (fewer than 3 averages).
+_NO_TYPE = 99
+
+
+def _noise_type(src: _Phase, m: int, family: str,
+                sums: dict[tuple[str, int], float] | None = None) -> int | None:
     """Noise type alpha at tau = m tau0 from the whole record (SP 1065 5.6).
 
     At least :data:`MIN_ACF_AVERAGES` averages: lag-1 autocorrelation of the decimated phase
     and its differences (Riley & Greenhall 2004; dmax 2 for the Allan family, 3 for Hadamard).
     Fewer: B1 ratio of the frequency averages, with R(n) = MVAR/AVAR between white and flicker
     phase noise (Stable32's method for short series). None when fewer than 3 averages.
+    ``sums`` caches the OADEV and MDEV sums of squares by (statistic, m) (in memory).
     """
+    from inertest.noise import kernels  # numba: loaded on first use
+
     count = (src.size - 1) // m
     dmax, alpha_min = (3, -4) if family == "hadamard" else (2, -2)
+    mem = isinstance(src, _MemoryPhase)
     if count >= MIN_ACF_AVERAGES:
-        accs = [Lag1() for _ in range(dmax + 1)]
-        carry: list[float | None] = [None] * dmax
-        for blk in _decimated(src, m, count):
-            z = np.asarray(blk, dtype=np.float64)
-            for k in range(dmax + 1):
-                accs[k].add(z)
-                if k == dmax or z.size == 0:
-                    break
-                prev = carry[k]
-                carry[k] = float(z[-1])
-                z = np.diff(z) if prev is None else np.diff(np.concatenate(([prev], z)))
-        return alpha_from_lag1([a.r1() for a in accs], phase=True, alpha_min=alpha_min)
-    xs = np.concatenate(list(_decimated(src, m, count)))
-    ybar = np.diff(xs)
-    alpha = b1_alpha(ybar, alpha_min=alpha_min)
+        if mem:
+            state = kernels.lag1_state_of(src.x, m, count, dmax + 1)
+        else:
+            acc = Lag1(dmax)
+            for blk in _decimated(src, m, count):
+                acc.add(blk)
+            state = acc.state
+        return alpha_from_lag1([r1_of_state(row) for row in state], phase=True,
+                               alpha_min=alpha_min)
+    if count < 3:
+        return None
+    if mem:
+        var, avar = kernels.b1_stats(src.x, m, count)
+        alpha = b1_decide(var, avar, count, alpha_min=alpha_min)
+    else:
+        xs = np.concatenate(list(_decimated(src, m, count)))
+        alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min)
     if alpha == 1:  # phase noise: R(n) tells white from flicker
         mm = min(m, src.size // 3)
-        tick = _no_tick
         n_mod, n_oa = _terms("mdev", mm, src.size), _terms("oadev", mm, src.size)
-        mvar = _variance("mdev", _sum_squares(src, "mdev", mm, n_mod, tick), mm, n_mod, 1.0)
-        avar = _variance("oadev", _sum_squares(src, "oadev", mm, n_oa, tick), mm, n_oa, 1.0)
-        if avar > 0:
-            alpha = b1_alpha(ybar, alpha_min=alpha_min, rn=mvar / avar, m=mm)
+        if mem:
+            one = np.array([mm], dtype=np.int64)
+            cache = {} if sums is None else sums
+            if ("mdev", mm) not in cache:
+                cache["mdev", mm] = float(kernels.modified_sums(src.x, one, np.array([n_mod]))[0])
+            if ("oadev", mm) not in cache:
+                cache["oadev", mm] = float(kernels.allan_sums(src.x, one, np.array([n_oa]),
+                                                              False)[0])
+            s_mod, s_oa = cache["mdev", mm], cache["oadev", mm]
+        else:
+            s_mod = _sum_squares(src, "mdev", mm, n_mod, _no_tick)
+            s_oa = _sum_squares(src, "oadev", mm, n_oa, _no_tick)
+        mvar = _variance("mdev", s_mod, mm, n_mod, 1.0)
+        avar_n = _variance("oadev", s_oa, mm, n_oa, 1.0)
+        if avar_n > 0:
+            if mem:
+                alpha = b1_decide(var, avar, count, alpha_min=alpha_min, rn=mvar / avar_n, m=mm)
+            else:
+                alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min, rn=mvar / avar_n, m=mm)
     return alpha
 
 
@@ -487,27 +528,66 @@ def _no_tick(k: int) -> None:
     return None
 
 
-def _edf(statistic: str, alpha: int, m: int, n: int, nx: int) -> float:
+def _edf_many(statistic: str, alpha: NDArray, ms: NDArray, ns: NDArray, nx: int) -> NDArray:
+    """EDF of one statistic at many taus (Greenhall's algorithm; TOTDEV: SP 1065 Table 11)."""
     if statistic == "totdev":
-        return edf_totdev(alpha, m, nx)
+        out = np.empty(ms.size)
+        ph = alpha >= 1
+        if ph.any():
+            out[ph] = edf_greenhall_many(alpha[ph], 2, ms[ph], nx - 2 * ms[ph], modified=False,
+                                         overlapping=True)
+        for a in (0, -1, -2):
+            sel = ~ph & (np.maximum(alpha, -2) == a)
+            b, c = _TOTDEV_BC[a]
+            out[sel] = b * nx / ms[sel] - c
+        return out
     d = 3 if statistic in ("hdev", "ohdev") else 2
-    return edf_greenhall(alpha, d, m, n, modified=statistic in ("mdev", "tdev"),
-                         overlapping=statistic not in ("adev", "hdev"))
+    return edf_greenhall_many(alpha, d, ms, ns, modified=statistic in ("mdev", "tdev"),
+                              overlapping=statistic not in ("adev", "hdev"))
 
 
-def _alpha_and_edf(statistic: str, alpha: int | None, m: int, n: int,
-                   nx: int) -> tuple[int, float]:
-    """Noise type and EDF at one tau.
+def _alpha_and_edf(statistic: str, alpha: NDArray, ms: NDArray, ns: NDArray,
+                   nx: int) -> tuple[NDArray, NDArray]:
+    """Noise types and EDFs at many taus.
 
-    When the type cannot be identified (fewer than 3 averages) the type of smallest EDF is
-    used, so the interval is the widest any noise type would give.
+    Where the type cannot be identified (fewer than 3 averages, ``alpha == _NO_TYPE``) the type
+    of smallest EDF is used, so the interval is the widest any noise type would give.
     """
-    if alpha is not None:
-        return alpha, _edf(statistic, alpha, m, n, nx)
-    lo = -4 if _family(statistic) == "hadamard" else -2
-    cands = [(_edf(statistic, a, m, n, nx), a) for a in range(lo, 3)]
-    e, a = min(cands)
-    return a, e
+    alpha = alpha.copy()
+    edf = np.empty(ms.size)
+    known = alpha != _NO_TYPE
+    if known.any():
+        edf[known] = _edf_many(statistic, alpha[known], ms[known], ns[known], nx)
+    if not known.all():
+        lo = -4 if _family(statistic) == "hadamard" else -2
+        cands = np.arange(lo, 3)
+        u = ~known
+        e = np.vstack([_edf_many(statistic, np.full(int(u.sum()), a), ms[u], ns[u], nx)
+                       for a in cands])
+        k = np.argmin(e, axis=0)  # ties: the smallest alpha, as min() over (edf, alpha)
+        edf[u] = e[k, np.arange(k.size)]
+        alpha[u] = cands[k]
+    return alpha, edf
+
+
+def _memory_sums(x: NDArray, statistic: str, ms: NDArray, ns: NDArray) -> NDArray:
+    """Sums of squares of one statistic at every tau of a phase record held in memory."""
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    if statistic in ("adev", "oadev"):
+        return kernels.allan_sums(x, ms, ns, statistic == "adev")
+    if statistic in ("hdev", "ohdev"):
+        return kernels.hadamard_sums(x, ms, ns, statistic == "hdev")
+    if statistic in ("mdev", "tdev"):
+        return kernels.modified_sums(x, ms, ns)
+    return kernels.total_sums(x, ms)
+
+
+def _work(statistic: str, m: int, nx: int) -> int:
+    """Work units (samples visited) of one statistic at one tau, for progress reports."""
+    if statistic == "totdev":
+        return nx
+    return _terms(statistic, m, nx) * (m if statistic in ("adev", "hdev") else 1)
 
 
 def deviations(
@@ -539,7 +619,7 @@ def deviations(
     progress : callable, optional
         Called as ``progress(done, total)`` with work units (samples processed).
     stream : bool, optional
-        Force the chunked path (default: for memory maps and records over 2**25 samples).
+        Force the chunked path (default: for memory maps and file-backed array-likes only).
     """
     unknown = [s for s in stats if s not in STATISTICS]
     if unknown or not stats:
@@ -552,10 +632,7 @@ def deviations(
     src = phase_source(data, rate, data_type, stream=stream)
     nx = src.size
     grids = {s: averaging_factors(taus, 1.0 / src.tau0, s, nx) for s in stats}
-    work = sum(
-        (nx if s == "totdev" else _terms(s, int(m), nx) * (int(m) if s in ("adev", "hdev") else 1))
-        for s in stats for m in grids[s]
-    )
+    work = sum(_work(s, int(m), nx) for s in stats for m in grids[s])
     done = [0]
 
     def tick(k: int) -> None:
@@ -564,21 +641,39 @@ def deviations(
             progress(min(done[0], work), work)
 
     alpha_cache: dict[tuple[int, str], int | None] = {}
+    sums: dict[tuple[str, int], float] = {}  # OADEV, MDEV sums by m, reused for R(n)
     out: dict[str, DeviationResult] = {}
     for s in stats:
-        ms = grids[s]
-        var = np.empty(ms.size)
-        ns = np.empty(ms.size, dtype=np.int64)
-        edf = np.empty(ms.size)
+        ms = np.asarray(grids[s], dtype=np.int64)
+        ns = np.array([_terms(s, int(m), nx) for m in ms], dtype=np.int64)
+        ssq = np.empty(ms.size)
+        if isinstance(src, _MemoryPhase):
+            # Taus in groups of about _GROUP_WORK samples: one kernel call per group, a
+            # progress tick after each.
+            i = 0
+            while i < ms.size:
+                j, w = i, 0
+                while j < ms.size and (j == i or w < _GROUP_WORK):
+                    w += _work(s, int(ms[j]), nx)
+                    j += 1
+                ssq[i:j] = _memory_sums(src.x, s, ms[i:j], ns[i:j])
+                tick(w)
+                i = j
+            if s in ("oadev", "mdev", "tdev"):
+                kind = "oadev" if s == "oadev" else "mdev"
+                sums.update({(kind, int(m)): float(v) for m, v in zip(ms, ssq, strict=True)})
+        else:
+            for i, m in enumerate(int(v) for v in ms):
+                ssq[i] = _sum_squares(src, s, m, int(ns[i]), tick)
+        var = _variances(s, ssq, ms, ns, src.tau0)
         alph = np.empty(ms.size, dtype=np.int64)
         for i, m in enumerate(int(v) for v in ms):
-            n = _terms(s, m, nx)
-            var[i] = _variance(s, _sum_squares(src, s, m, n, tick), m, n, src.tau0)
-            ns[i] = n
             key = (m, _family(s))
             if key not in alpha_cache:
-                alpha_cache[key] = _noise_type(src, m, key[1])
-            alph[i], edf[i] = _alpha_and_edf(s, alpha_cache[key], m, n, nx)
+                alpha_cache[key] = _noise_type(src, m, key[1], sums)
+            a = alpha_cache[key]
+            alph[i] = _NO_TYPE if a is None else a
+        alph, edf = _alpha_and_edf(s, alph, ms, ns, nx)
         lo, hi = chi2_interval(var, edf, confidence)
         t = ms * src.tau0
         dev, dlo, dhi = np.sqrt(var), np.sqrt(lo), np.sqrt(hi)

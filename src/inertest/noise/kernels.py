@@ -8,6 +8,7 @@ run the same arithmetic in the same order and give the same result.
 from __future__ import annotations
 
 import numba
+import numpy as np
 from numpy.typing import NDArray
 
 # fastmath lets LLVM vectorise the sums of squares (reassociation only); the inputs are checked
@@ -108,3 +109,319 @@ def sum_modified(
             c += (step - t) + s
         s = t
     return acc, s + c
+
+
+# --------------------------------------------------------------------------- whole-record sums
+# One call per statistic for a phase record held in memory: the per-tau Python overhead of a
+# dense tau grid (``taus="all"``: one tau per sample interval) is gone, and TOTDEV reads the
+# reflected phase by index instead of building two reflected copies of the record per tau.
+
+
+@numba.njit(cache=True, nogil=True)
+def allan_sums(x: NDArray, ms: NDArray, terms: NDArray, strided: bool) -> NDArray:
+    """Sums of squared second differences of ``x`` at each averaging factor ``ms[k]``.
+
+    ``terms[k]`` differences ``x[i+2m] - 2 x[i+m] + x[i]`` for ``i = 0, 1, ...`` (overlapping
+    Allan, SP 1065 eq. 11) or ``i = 0, m, 2m, ...`` (``strided``: non-overlapping, eq. 7).
+    """
+    out = np.empty(ms.size)
+    for k in range(ms.size):
+        m = ms[k]
+        if strided:
+            span = (terms[k] - 1) * m + 1
+            out[k] = sum_second_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span], m)
+        else:
+            n = terms[k]
+            out[k] = _ssq2(x[:n], x[m : m + n], x[2 * m : 2 * m + n])
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def hadamard_sums(x: NDArray, ms: NDArray, terms: NDArray, strided: bool) -> NDArray:
+    """Sums of squared third differences (Hadamard, SP 1065 eqs. 17-18), as :func:`allan_sums`."""
+    out = np.empty(ms.size)
+    for k in range(ms.size):
+        m = ms[k]
+        if strided:
+            span = (terms[k] - 1) * m + 1
+            out[k] = sum_third_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span],
+                                    x[3 * m : 3 * m + span], m)
+        else:
+            n = terms[k]
+            out[k] = _ssq3(x[:n], x[m : m + n], x[2 * m : 2 * m + n], x[3 * m : 3 * m + n])
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def modified_sums(x: NDArray, ms: NDArray, terms: NDArray) -> NDArray:
+    """Sums of squared window sums of second differences (modified Allan, SP 1065 eq. 14).
+
+    The same recursion as :func:`sum_modified`, over the whole record at once.
+    """
+    out = np.empty(ms.size)
+    for k in range(ms.size):
+        m = ms[k]
+        n = terms[k]
+        s = second_diff_sum(x[:m], x[m : 2 * m], x[2 * m : 3 * m])
+        acc, s = sum_modified(x[: n - 1], x[m : m + n - 1], x[2 * m : 2 * m + n - 1],
+                              x[3 * m : 3 * m + n - 1], s, n)
+        out[k] = acc
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _reflected(x: NDArray, t: int) -> float:
+    """``x*[t]`` of SP 1065 eq. 25: the phase reflected about both end points."""
+    last = x.shape[0] - 1
+    if t < 0:
+        return 2.0 * x[0] - x[-t]
+    if t > last:
+        return 2.0 * x[last] - x[2 * last - t]
+    return x[t]
+
+
+@numba.njit(cache=True, nogil=True)
+def total_sums(x: NDArray, ms: NDArray) -> NDArray:
+    """TOTVAR sums ``sum_{i=1}^{N-2} (x*[i-m] - 2 x[i] + x*[i+m])^2`` (SP 1065 eq. 25).
+
+    The reflected phase ``x*`` is read by index; no copy of the record is made.
+    """
+    nx = x.shape[0]
+    out = np.empty(ms.size)
+    for k in range(ms.size):
+        m = ms[k]
+        lo = min(max(1, m), nx - 1)  # i >= lo: no reflection at the start
+        hi = max(lo, nx - 1 - m)  # i < hi: no reflection at the end
+        s = 0.0
+        for i in range(1, lo):
+            d = _reflected(x, i - m) - 2.0 * x[i] + _reflected(x, i + m)
+            s += d * d
+        if hi > lo:
+            s += _ssq2(x[lo - m : hi - m], x[lo:hi], x[lo + m : hi + m])
+        for i in range(max(lo, hi), nx - 1):
+            d = _reflected(x, i - m) - 2.0 * x[i] + _reflected(x, i + m)
+            s += d * d
+        out[k] = s
+    return out
+
+
+# --------------------------------------------------------------------------- lag-1 noise type
+# State of one differenced series, per difference order d (row d of a (dmax + 1, 8) array):
+# count, shift (its first value), sum v, sum v^2, sum v_i v_{i+1}, first v, last v, last raw value
+# (v = value - shift). The differences are formed on the fly, so no differenced copy is made.
+LAG1_FIELDS = 8
+
+
+@numba.njit(cache=True, nogil=True)
+def lag1_update(z: NDArray, state: NDArray) -> None:
+    """Feed the next values ``z`` of a series into the lag-1 sums of its differences.
+
+    ``state`` has one row per difference order (see ``LAG1_FIELDS``), updated in place; row 0
+    is the series itself, row d its d-th difference (as ``np.diff`` d times). Riley & Greenhall
+    (2004) eq. 2 needs only these running sums.
+    """
+    orders = state.shape[0]
+    for i in range(z.shape[0]):
+        val = z[i]
+        for d in range(orders):
+            row = state[d]
+            if row[0] == 0.0:
+                row[1] = val
+                v = 0.0
+                row[5] = v
+            else:
+                v = val - row[1]
+                row[4] += row[6] * v
+            row[2] += v
+            row[3] += v * v
+            row[6] = v
+            prev = row[7]
+            had = row[0] > 0.0
+            row[7] = val
+            row[0] += 1.0
+            if not had:
+                break  # the next order starts with the next value
+            val = val - prev
+
+
+@numba.njit(cache=True, nogil=True)
+def lag1_state_of(x: NDArray, m: int, count: int, orders: int) -> NDArray:
+    """Lag-1 sums of ``x[0], x[m], ..., x[count m]`` and its differences (whole record)."""
+    state = np.zeros((orders, LAG1_FIELDS))
+    lag1_update(x[: count * m + 1 : m], state)
+    return state
+
+
+@numba.njit(cache=True, nogil=True)
+def b1_stats(x: NDArray, m: int, count: int) -> tuple[float, float]:
+    """Sample variance (ddof 1) and non-overlapping Allan variance of the frequency averages.
+
+    ``ybar_k = x[(k+1) m] - x[k m]`` for ``k < count`` (SP 1065 5.6.2; the B1 ratio is their
+    quotient, so the common factor ``1/tau`` is left out).
+    """
+    s = 0.0
+    for k in range(count):
+        s += x[(k + 1) * m] - x[k * m]
+    mean = s / count
+    ss = 0.0
+    for k in range(count):
+        d = x[(k + 1) * m] - x[k * m] - mean
+        ss += d * d
+    a = 0.0
+    for k in range(count - 1):
+        d = (x[(k + 2) * m] - x[(k + 1) * m]) - (x[(k + 1) * m] - x[k * m])
+        a += d * d
+    return ss / (count - 1), a / (2.0 * (count - 1))
+
+
+# --------------------------------------------------------------------------- Greenhall EDF
+
+
+@numba.njit(cache=True, nogil=True)
+def _sw(t: float, alpha: int) -> float:
+    a = abs(t)
+    lg = np.log(a) if a > 0.0 else 0.0
+    if alpha == 2:
+        return -a
+    if alpha == 1:
+        return a * a * lg
+    if alpha == 0:
+        return a**3
+    if alpha == -1:
+        return -(a**4) * lg
+    if alpha == -2:
+        return -(a**5)
+    if alpha == -3:
+        return a**6 * lg
+    return a**7
+
+
+@numba.njit(cache=True, nogil=True)
+def _sx(t: float, f: float, alpha: int) -> float:
+    if np.isinf(f):
+        return _sw(t, alpha + 2)
+    h = 1.0 / f
+    return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
+
+
+_BINOM = np.array([[1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                   [1.0, 2.0, 1.0, 0.0, 0.0, 0.0, 0.0],
+                   [1.0, 4.0, 6.0, 4.0, 1.0, 0.0, 0.0],
+                   [1.0, 6.0, 15.0, 20.0, 15.0, 6.0, 1.0]])  # C(2d, k), d = 0 .. 3
+
+
+@numba.njit(cache=True, nogil=True)
+def greenhall_sz(t: float, f: float, alpha: int, d: int) -> float:
+    """Greenhall & Riley (2003) eq. (9): autocovariance of the d-th difference at lag t."""
+    out = _BINOM[d, d] * _sx(t, f, alpha)
+    sign = -1.0
+    for k in range(1, d + 1):
+        out = out + sign * _BINOM[d, d + k] * (_sx(t - k, f, alpha) + _sx(t + k, f, alpha))
+        sign = -sign
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def greenhall_basic_sum(j: int, m_terms: float, s: float, f: float, alpha: int,
+                        d: int) -> float:
+    """Greenhall & Riley (2003) eq. (10), the basic sum, summed lag by lag."""
+    mid = 0.0
+    for k in range(1, j):
+        v = greenhall_sz(k / s, f, alpha, d)
+        mid += (1.0 - k / m_terms) * v * v
+    e = greenhall_sz(j / s, f, alpha, d)
+    z = greenhall_sz(0.0, f, alpha, d)
+    return z * z + 2.0 * mid + (1.0 - j / m_terms) * e * e
+
+
+_NAN = np.nan
+# Greenhall & Riley (2003) Tables 1 and 2, indexed [2 - alpha, d - 1, (a0, a1)]; Table 3 [d - 1].
+_TABLE1 = np.array([
+    [[2 / 3, 1 / 3], [7 / 9, 1 / 2], [22 / 25, 2 / 3]],
+    [[0.840, 0.345], [0.997, 0.616], [1.141, 0.843]],
+    [[1.079, 0.368], [1.033, 0.607], [1.184, 0.848]],
+    [[_NAN, _NAN], [1.048, 0.534], [1.180, 0.816]],
+    [[_NAN, _NAN], [1.302, 0.535], [1.175, 0.777]],
+    [[_NAN, _NAN], [_NAN, _NAN], [1.194, 0.703]],
+    [[_NAN, _NAN], [_NAN, _NAN], [1.489, 0.702]],
+])
+_TABLE2 = np.array([
+    [[3 / 2, 1 / 2], [35 / 18, 1.0], [231 / 100, 3 / 2]],
+    [[78.6, 25.2], [790.0, 410.0], [9950.0, 6520.0]],
+    [[2 / 3, 1 / 6], [2 / 3, 1 / 3], [7 / 9, 1 / 2]],
+    [[_NAN, _NAN], [0.852, 0.375], [0.997, 0.617]],
+    [[_NAN, _NAN], [1.079, 0.368], [1.033, 0.607]],
+    [[_NAN, _NAN], [_NAN, _NAN], [1.053, 0.553]],
+    [[_NAN, _NAN], [_NAN, _NAN], [1.302, 0.535]],
+])
+_TABLE3 = np.array([[6.0, 4.0], [15.23, 12.0], [47.8, 40.0]])
+_J_MAX = 100
+
+
+@numba.njit(cache=True, nogil=True)
+def greenhall_edf(alpha: int, d: int, m: int, terms: int, modified: bool,
+                  overlapping: bool) -> float:
+    """EDF by Greenhall & Riley (2003), cases 1-4 (see :func:`confidence.edf_greenhall`).
+
+    The caller has checked ``alpha + 2 d > 1``.
+    """
+    m_terms = terms
+    if m_terms <= 1:
+        return 1.0
+    s = float(m) if overlapping else 1.0
+    j = int(min(float(m_terms), (d + 1) * s))
+    r = m_terms / s
+    if modified:  # case 1 (F = 1)
+        if j <= _J_MAX:
+            z = greenhall_sz(0.0, 1.0, alpha, d)
+            return z * z * m_terms / greenhall_basic_sum(j, m_terms, s, 1.0, alpha, d)
+        if r > d + 1:
+            a0 = _TABLE1[2 - alpha, d - 1, 0]
+            a1 = _TABLE1[2 - alpha, d - 1, 1]
+            return r / (a0 - a1 / r)
+        mp = _J_MAX / r
+        z = greenhall_sz(0.0, 1.0, alpha, d)
+        return z * z * _J_MAX / greenhall_basic_sum(_J_MAX, _J_MAX, mp, 1.0, alpha, d)
+    if alpha == 2:  # case 4: exact
+        k_max = int(np.ceil(r)) - 1
+        c0 = _BINOM[d, d]
+        acc = 0.0
+        for k in range(1, min(k_max, d) + 1):
+            rho = _BINOM[d, d + k] / c0
+            acc += (1.0 - k / r) * (rho * rho)
+        return m_terms / (1.0 + 2.0 * acc)
+    if alpha <= 0:  # case 2
+        if j <= _J_MAX:
+            fp = float(m) if m * (d + 1) <= _J_MAX else np.inf
+            z = greenhall_sz(0.0, fp, alpha, d)
+            return z * z * m_terms / greenhall_basic_sum(j, m_terms, s, fp, alpha, d)
+        if r > d + 1:
+            a0 = _TABLE2[2 - alpha, d - 1, 0]
+            a1 = _TABLE2[2 - alpha, d - 1, 1]
+            return r / (a0 - a1 / r)
+        mp = _J_MAX / r
+        z = greenhall_sz(0.0, np.inf, alpha, d)
+        return z * z * _J_MAX / greenhall_basic_sum(_J_MAX, _J_MAX, mp, np.inf, alpha, d)
+    # case 3: flicker phase noise, unmodified
+    b0 = _TABLE3[d - 1, 0]
+    b1 = _TABLE3[d - 1, 1]
+    if j <= _J_MAX:
+        z = greenhall_sz(0.0, float(m), 1, d)
+        return z * z * m_terms / greenhall_basic_sum(j, m_terms, s, float(m), 1, d)
+    lm = b0 + b1 * np.log(m)
+    if r > d + 1:
+        a0 = _TABLE2[1, d - 1, 0]
+        a1 = _TABLE2[1, d - 1, 1]
+        return lm * lm * r / (a0 - a1 / r)
+    mp = _J_MAX / r
+    return lm * lm * _J_MAX / greenhall_basic_sum(_J_MAX, _J_MAX, mp, mp, 1, d)
+
+
+@numba.njit(cache=True, nogil=True)
+def greenhall_edf_many(alpha: NDArray, d: int, m: NDArray, terms: NDArray, modified: bool,
+                       overlapping: bool) -> NDArray:
+    """:func:`greenhall_edf` for arrays of ``alpha``, ``m`` and ``terms`` (one per tau)."""
+    out = np.empty(m.size)
+    for k in range(m.size):
+        out[k] = greenhall_edf(alpha[k], d, m[k], terms[k], modified, overlapping)
+    return out
