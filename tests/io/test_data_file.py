@@ -57,3 +57,11 @@ def test_parquet_text_nulls_become_empty(tmp_path):
     assert read_table(p)["m"].tolist() == ["a", "", "b", "a"]
     pq.write_table(pa.table({"m": pa.array(["a", None, "b"]).dictionary_encode()}), p)
     assert read_table(p)["m"].tolist() == ["a", "", "b"]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_columns_are_writable(tmp_path, suffix):
+    p = write_table(tmp_path / f"d{suffix}", {"a": np.arange(3.0), "b": np.arange(3)})
+    back = read_table(p)
+    back["a"][0] = np.nan
+    back["b"][0] = 7.0

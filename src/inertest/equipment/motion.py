@@ -19,7 +19,7 @@ Conventions
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -28,6 +28,37 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.earth import Site, earth_rate_enu, specific_force_enu
 from inertest.errors import InputError
+
+
+def run_starts(*columns: NDArray) -> NDArray[np.intp]:
+    """Index of the first row of each run of rows equal in every column, shape (k,).
+
+    Test data come in runs (the readings of one position, one after another), so that a
+    per-row function of the labels need only be evaluated once per run.
+    """
+    n = columns[0].shape[0]
+    change = np.zeros(n, dtype=bool)
+    change[:1] = True
+    for c in columns:
+        change[1:] |= c[1:] != c[:-1]
+    return np.flatnonzero(change)
+
+
+def per_run(fn: Callable[..., NDArray], *columns: NDArray) -> NDArray:
+    """``fn(*columns)`` for a row-wise ``fn``, evaluated on the first row of each run only.
+
+    Equal to ``fn(*columns)`` whenever ``fn`` maps equal rows to equal results (labels).
+    """
+    starts = run_starts(*columns)
+    lengths = np.diff(np.append(starts, columns[0].shape[0]))
+    return np.repeat(fn(*(c[starts] for c in columns)), lengths, axis=0)
+
+
+def unique_by_runs(values: NDArray) -> tuple[NDArray, NDArray[np.intp]]:
+    """``np.unique(values, return_inverse=True)`` of a 1-d array, sorting only its runs."""
+    starts = run_starts(values)
+    uniq, inv = np.unique(values[starts], return_inverse=True)
+    return uniq, np.repeat(inv, np.diff(np.append(starts, values.shape[0])))
 
 
 @dataclass(frozen=True)
@@ -123,8 +154,7 @@ class StaticPositions:
 
     def inputs_of_rows(self, labels: ArrayLike) -> Inputs:
         """Inputs of every data row, by its position label, shape (n,)."""
-        lab = np.asarray(labels).astype(str)
-        uniq, inv = np.unique(lab, return_inverse=True)
+        uniq, inv = unique_by_runs(np.asarray(labels).astype(str, copy=False))
         parts = [self.inputs(str(u)) for u in uniq]
         C = np.stack([p.C_ni[0] for p in parts])[inv]
         w = np.stack([p.omega_i[0] for p in parts])[inv]

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu, polar_axis_enu, specific_force_enu
-from inertest.equipment.motion import StaticPositions
+from inertest.equipment.motion import StaticPositions, per_run
 from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD, G0
@@ -121,8 +121,9 @@ def position_labels(mounting: ArrayLike, angle_deg: ArrayLike) -> NDArray[np.str
     ndarray of str, shape (n,)
     """
     a = np.atleast_1d(np.asarray(angle_deg, dtype=float))
-    m = np.broadcast_to(np.asarray(mounting).astype(str), a.shape)
-    return np.char.add(np.char.add(m, "@"), np.char.mod("%.9g", np.mod(a, 360.0) + 0.0))
+    m = np.broadcast_to(np.asarray(mounting).astype(str, copy=False), a.shape)
+    return per_run(lambda mr, ar: np.char.add(np.char.add(mr, "@"), np.char.mod(
+        "%.9g", np.mod(ar, 360.0) + 0.0)), m, a)
 
 
 def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPositions:

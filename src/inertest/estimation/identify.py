@@ -15,7 +15,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.linalg
 import scipy.optimize
-import scipy.signal
 import scipy.special
 import scipy.stats
 from numpy.typing import ArrayLike, NDArray
@@ -310,22 +309,33 @@ def _units(A: NDArray[np.float64], y: NDArray[np.float64], groups: ArrayLike | N
         idx = np.arange(n, dtype=np.intp)
         return _Units(index=idx, labels=None, counts=np.ones(n), first=idx, last=idx, y=y, A=A,
                       n_rows=n)
-    labels_row = np.asarray(groups).astype(str)
+    labels_row = np.asarray(groups).astype(str, copy=False)
     if labels_row.shape != (n,):
         raise InputError(f"groups has shape {labels_row.shape}; give one label per row ({n})")
-    uniq, first, inv = np.unique(labels_row, return_index=True, return_inverse=True)
+    # np.unique over the runs of equal labels only (the readings of a position come together).
+    change = np.ones(n, dtype=bool)
+    change[1:] = labels_row[1:] != labels_row[:-1]
+    starts = np.flatnonzero(change)
+    lengths = np.diff(np.append(starts, n))
+    uniq, first_run, inv_run = np.unique(labels_row[starts], return_index=True,
+                                         return_inverse=True)
+    first = starts[first_run]
     order = np.argsort(first, kind="stable")  # units in time order
     rank_of = np.empty_like(order)
     rank_of[order] = np.arange(order.size)
-    index = rank_of[inv]
+    index = np.repeat(rank_of[inv_run], lengths)
     counts = np.bincount(index).astype(float)
     last = np.zeros(order.size, dtype=np.intp)
-    np.maximum.at(last, index, np.arange(n))
+    np.maximum.at(last, rank_of[inv_run], starts + lengths - 1)
     ybar = np.bincount(index, y) / counts
     Abar = np.stack([np.bincount(index, A[:, j], minlength=order.size) for j in
                      range(A.shape[1])], axis=1) / counts[:, None]
-    scale = max(float(np.max(np.abs(A))), 1e-300)
-    if groups is not None and np.max(np.abs(A - Abar[index])) > 1e-9 * scale:
+    # Column by column: no temporary of the whole design.
+    scale = max(max((float(np.max(np.abs(A[:, j]))) for j in range(A.shape[1])), default=0.0),
+                1e-300)
+    spread = max((float(np.max(np.abs(A[:, j] - Abar[index, j]))) for j in range(A.shape[1])),
+                 default=0.0)
+    if groups is not None and spread > 1e-9 * scale:
         # The design varies inside a group: the labels are not positions; use the readings.
         return _units(A, y, None)
     return _Units(index=index, labels=tuple(uniq[order].tolist()), counts=counts,
@@ -370,6 +380,8 @@ def _rw_unit_kernel(u: _Units) -> NDArray[np.float64]:
 
 def _ar1_apply(v: NDArray[np.float64], rho: float) -> NDArray[np.float64]:
     """``K v`` for the AR(1) correlation ``K[i, k] = rho^|i - k|`` (two first-order filters)."""
+    import scipy.signal  # here: its import takes longer than most fits
+
     fwd = scipy.signal.lfilter([1.0], [1.0, -rho], v, axis=0)
     bwd = scipy.signal.lfilter([1.0], [1.0, -rho], v[::-1], axis=0)[::-1]
     return fwd + bwd - v

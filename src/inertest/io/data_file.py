@@ -72,7 +72,9 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     for name in list(pending):
         col = pending.pop(name)
         if pa.types.is_integer(col.type) or pa.types.is_floating(col.type):
-            out[name] = col.to_numpy(zero_copy_only=False).astype(float, copy=False)
+            a = col.to_numpy(zero_copy_only=False)
+            # A copy only when needed: ints, or a read-only view of a single Arrow chunk.
+            out[name] = a.astype(float, copy=not a.flags.writeable)
         elif pa.types.is_null(col.type):
             out[name] = np.full(len(col), np.nan)
         else:

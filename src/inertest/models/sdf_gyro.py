@@ -52,9 +52,14 @@ def drift_regressors(f_ios_g: ArrayLike) -> NDArray[np.float64]:
     if f.ndim != 2 or f.shape[1] != 3:
         raise InputError(f"specific force must have shape (n, 3), got {f.shape}")
     fi, fo, fs = f[:, 0], f[:, 1], f[:, 2]
-    return np.column_stack(
-        [np.ones_like(fi), fi, fo, fs, fi * fo, fo * fs, fs * fi, fi * fi, fo * fo, fs * fs]
-    )
+    out = np.empty((f.shape[0], 10))  # filled in place: no temporary columns
+    out[:, 0] = 1.0
+    out[:, 1:4] = f
+    np.multiply(fi, fo, out=out[:, 4])
+    np.multiply(fo, fs, out=out[:, 5])
+    np.multiply(fs, fi, out=out[:, 6])
+    np.multiply(f, f, out=out[:, 7:10])
+    return out
 
 
 def drift(f_ios_g: ArrayLike, coefficients: ArrayLike) -> NDArray[np.float64]:

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
+from inertest.equipment.motion import unique_by_runs
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
@@ -195,7 +196,7 @@ def fit(
     mounting, angle_deg = cols["mounting"], cols["angle_deg"]
     site, inst = plan.site, plan.instrument
     _check_latitude(site.latitude_rad)
-    unknown = sorted(set(mounting) - set(table.MOUNTINGS))
+    unknown = sorted(set(unique_by_runs(mounting)[0].tolist()) - set(table.MOUNTINGS))
     if unknown:
         raise DataError(
             f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from inertest.equipment.motion import StaticPositions
+from inertest.equipment.motion import StaticPositions, unique_by_runs
 from inertest.estimation.identify import NoiseFit, identify_with_noise
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
@@ -42,8 +42,12 @@ def row_inputs(
     rate_in_rad_s : ndarray, shape (n,)
         Inertial angular rate on the input axis I [rad/s] (the Earth rate at rest).
     """
-    inputs = motion.inputs_of_rows(labels)
-    return inputs.f_i / G0, inputs.omega_i[:, 0]
+    # The inputs of each position once, then spread over its rows (no per-row attitude).
+    uniq, inv = unique_by_runs(np.asarray(labels).astype(str, copy=False))
+    parts = [motion.inputs_of_rows(np.array([u])) for u in uniq]
+    f = np.concatenate([p.f_i for p in parts]).reshape(-1, 3)
+    w = np.concatenate([p.omega_i[:, 0] for p in parts])
+    return (f / G0)[inv], w[inv]
 
 
 def identify_drift(

@@ -32,6 +32,9 @@ def require_columns(
             a = np.asarray(data[c], dtype=float)
         except (TypeError, ValueError):
             raise DataError(f'column "{c}" must be numeric') from None
+        if np.all(np.abs(a) <= MAX_READING):  # one pass for good data (NaN compares False)
+            out[c] = a
+            continue
         bad = np.flatnonzero(~np.isfinite(a))
         if bad.size:
             raise DataError(
@@ -46,7 +49,7 @@ def require_columns(
             )
         out[c] = a
     for c in text:
-        out[c] = np.asarray(data[c]).astype(str)
+        out[c] = np.asarray(data[c]).astype(str, copy=False)
     lengths = {c: len(a) for c, a in out.items()}
     n = next(iter(lengths.values()))
     if any(v != n for v in lengths.values()):
