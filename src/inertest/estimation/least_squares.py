@@ -256,7 +256,7 @@ def _scaled_r_factor(
             w = 1.0 / sigma[start:stop]
             np.multiply(a, w[:, None], out=work[m:, :p])
             np.multiply(b, w, out=work[m:, p])
-        R = np.linalg.qr(work, mode="r")
+        R = np.asarray(np.linalg.qr(work, mode="r"))
     scale = _column_scale(np.linalg.norm(R[:, :p], axis=0))
     return R[:p, :p] / scale, R[:p, p].copy(), scale
 
