@@ -98,3 +98,11 @@ def test_system_gyro_misalignment_in_urad_by_triad_convention(capsys):
     m = out["imu"]["gyro_misalignment"]
     assert m["unit"] == "rad" and abs(m["value"][0][1] - 5e-6) < 1e-20
     assert m["value"][1][0] == 0.0
+
+
+def test_scheme_choices_are_the_studys():
+    # The command spells the schemes out so that --help does not load the study (start-up).
+    from inertest.cli import modulation as cli_modulation
+    from inertest.studies import rotation_modulation as rm
+
+    assert cli_modulation._SCHEMES == rm.SCHEMES

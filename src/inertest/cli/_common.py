@@ -9,9 +9,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
-from rich.console import Console
-from rich.markup import escape
-from rich.table import Table
 
 from inertest.cli import safe_line
 from inertest.errors import InputError, OutputPathError
@@ -19,6 +16,7 @@ from inertest.io.atomic import check_outputs, target_file
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
+    from rich.console import Console
 
 
 def echo_json(obj: object) -> None:
@@ -44,6 +42,9 @@ def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[objec
     if sum(widths) + 3 * len(widths) + 1 > console.width:
         _print_stacked(title, hdr, cells)
         return
+    from rich.markup import escape
+    from rich.table import Table
+
     # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
     table = Table(title=escape(safe_line(title)), title_justify="left")
     for i, h in enumerate(hdr):
@@ -56,6 +57,8 @@ def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[objec
 
 def _console() -> Console:
     """A console as wide as ``$COLUMNS`` or the terminal; 200 columns for piped output."""
+    from rich.console import Console  # rich loads only when a table is printed
+
     console = Console(soft_wrap=True)
     if not console.is_terminal and not os.environ.get("COLUMNS", "").isdigit():
         console = Console(soft_wrap=True, width=200)

@@ -10,15 +10,6 @@ from inertest.cli._common import check_paths, echo_json, print_table
 from inertest.errors import PlanError
 from inertest.io.atomic import write_text
 from inertest.io.plan_file import read_toml
-from inertest.procedures.centrifuge_nine_position import fit_inputs
-from inertest.report.centrifuge_study import (
-    UNCERTAINTY_HEADER,
-    error_header,
-    error_rows,
-    study_page,
-    uncertainty_rows,
-)
-from inertest.studies import centrifuge_study as cs
 
 
 @click.command("centrifuge-study")
@@ -37,6 +28,18 @@ def centrifuge_study(plan_file: Path, as_json: bool, report: Path | None,
     PLAN is a TOML file (see examples/centrifuge/study.toml): site, machine, noise, true
     coefficients and one [errors.KEY] table per machine error studied alone.
     """
+    # The study, the procedure and the report (scipy, numba, matplotlib) load only here, so
+    # that --help starts at once.
+    from inertest.procedures.centrifuge_nine_position import fit_inputs
+    from inertest.report.centrifuge_study import (
+        UNCERTAINTY_HEADER,
+        error_header,
+        error_rows,
+        study_page,
+        uncertainty_rows,
+    )
+    from inertest.studies import centrifuge_study as cs
+
     if monte_carlo is not None and (monte_carlo < 0 or monte_carlo == 1):
         raise click.BadParameter("give 0 (no Monte Carlo) or at least 2 repetitions",
                                  param_hint="--monte-carlo")

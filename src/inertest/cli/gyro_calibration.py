@@ -8,32 +8,25 @@ starts from a calibration JSON, e.g. the output of ``inertest fit PLAN DATA --js
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
 
-from inertest.api import load_data, load_plan
 from inertest.cli._common import check_paths, echo_json, print_table
-from inertest.equipment.rate_table import axis_index, triad_attitude
 from inertest.errors import InputError, PlanError
-from inertest.io.atomic import target_directory
-from inertest.io.calibration_file import load_calibration
-from inertest.io.data_file import write_table
-from inertest.io.plan_file import load_truth
-from inertest.models import triad
-from inertest.models.triad import ImuCalibration, TriadCalibration
 from inertest.plan import Plan
-from inertest.procedures import navigation_calibration as nav
-from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit
-from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
-from inertest.procedures.gyro_triad_rotation import truth_model
-from inertest.report.gyro_triad import navigation_page
-from inertest.results import envelope, instrument_block, site_block
+
+if TYPE_CHECKING:
+    from inertest.models.triad import TriadCalibration
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
 def _rotation_plan(path: Path) -> Plan:
+    from inertest.api import load_plan
+    from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
+
     p = load_plan(path)
     if p.kind != ROTATION_KIND:
         raise PlanError(
@@ -59,6 +52,14 @@ def _rotation_plan(path: Path) -> Plan:
 def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: float,
                  noise: float, seed: int | None) -> None:
     """Simulate navigation-mode turns of PLAN (each rotation, each direction) sample by sample."""
+    # The procedures, scipy and the report load only when a command runs (fast --help).
+    from inertest.equipment.rate_table import axis_index, triad_attitude
+    from inertest.io.data_file import write_table
+    from inertest.io.plan_file import load_truth
+    from inertest.procedures import navigation_calibration as nav
+    from inertest.procedures.gyro_rate_table import raw_rate_per_si
+    from inertest.procedures.gyro_triad_rotation import truth_model
+
     check_paths([output], [plan, truth])
     p = _rotation_plan(plan)
     if not rate_hz > 0 or not rest_s >= 0 or not noise >= 0:
@@ -82,6 +83,10 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
 
 
 def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
+    from inertest.io.calibration_file import load_calibration
+    from inertest.procedures.gyro_rate_table import raw_rate_unit
+    from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
+
     gyro = load_calibration(path, what="initial calibration").gyroscope
     if gyro is None:
         raise InputError(f'initial calibration {path} has no "gyroscope" block; use the output '
@@ -111,6 +116,15 @@ def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
 def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, no_bias: bool,
                   max_iterations: int, as_json: bool, report_dir: Path | None) -> None:
     """Refine the gyro calibration by navigating through the 360-degree turns in DATA."""
+    from inertest.api import load_data
+    from inertest.io.atomic import target_directory
+    from inertest.models import triad
+    from inertest.models.triad import ImuCalibration
+    from inertest.procedures import navigation_calibration as nav
+    from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit
+    from inertest.report.gyro_triad import navigation_page
+    from inertest.results import envelope, instrument_block, site_block
+
     check_paths([report_dir], [plan, data, initial])
     p = _rotation_plan(plan)
     if max_iterations < 1:

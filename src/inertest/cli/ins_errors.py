@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 import numpy as np
@@ -17,31 +17,15 @@ from inertest.cli._common import (
     print_table,
     save_figure,
 )
-from inertest.ins.covariance import RandomSources, propagate_covariance
-from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
-from inertest.ins.propagation import (
-    SourceResponses,
-    characteristic_periods,
-    source_responses,
-)
-from inertest.ins.scenario import InsScenario, scenario_from_mapping, seed_scenario
-from inertest.io.atomic import write_text
-from inertest.io.plan_file import read_toml
-from inertest.report.html import page
-from inertest.report.ins_errors import (
-    DISPLAY_UNITS,
-    closed_form_rows,
-    final_rows,
-    ins_error_sections,
-    periods_rows,
-    responses_figure,
-)
-from inertest.results import envelope
 from inertest.units import (
     DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S,
     DEG_PER_SQRT_H_TO_RAD_PER_SQRT_S,
     M_PER_S_PER_SQRT_H_TO_M_PER_S_PER_SQRT_S,
 )
+
+if TYPE_CHECKING:
+    from inertest.ins.propagation import SourceResponses
+    from inertest.ins.scenario import InsScenario
 
 #: CLI list options -> (TOML quantity, unit suffix, count).
 _LIST_OPTIONS = {
@@ -131,6 +115,22 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
             run[key] = value
     if "latitude_deg" not in site:
         raise click.UsageError("give --latitude DEG (or --scenario FILE, or --example)")
+    # The INS numerics, scipy and the report (matplotlib) load only when the command runs.
+    from inertest.ins.covariance import RandomSources, propagate_covariance
+    from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
+    from inertest.ins.propagation import characteristic_periods, source_responses
+    from inertest.ins.scenario import scenario_from_mapping
+    from inertest.io.atomic import write_text
+    from inertest.report.html import page
+    from inertest.report.ins_errors import (
+        DISPLAY_UNITS,
+        final_rows,
+        ins_error_sections,
+        periods_rows,
+        responses_figure,
+    )
+    from inertest.results import envelope
+
     scenario = scenario_from_mapping(doc, source=str(scenario_file or "command line"))
     for opt, value in (("--gyro-arw-deg-sqrt-h", gyro_arw_deg_sqrt_h),
                        ("--accel-vrw-m-s-sqrt-h", accel_vrw_m_s_sqrt_h),
@@ -194,10 +194,14 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
 def _base_document(scenario_file: Path | None, example: bool) -> dict[str, Any]:
     if scenario_file is not None and example:
         raise click.UsageError("give either --scenario FILE or --example, not both")
+    from inertest.io.plan_file import read_toml
+
     if scenario_file is not None:
         doc = read_toml(scenario_file, "scenario")
         return {k: (dict(v) if isinstance(v, dict) else v) for k, v in doc.items()}
     if example:
+        from inertest.ins.scenario import seed_scenario
+
         sc = seed_scenario()
         return _document_of(sc)
     return {}
@@ -221,6 +225,8 @@ def _document_of(sc: InsScenario) -> dict[str, Any]:
 def _closed_form_table(scenario: InsScenario, resp: SourceResponses) -> list[list[str]]:
     # Imported here: sympy takes ~1 s to import, and every inertest command imports this module.
     from inertest.ins.closed_forms import closed_forms, fit_constant_and_secular
+    from inertest.ins.propagation import characteristic_periods
+    from inertest.report.ins_errors import closed_form_rows
 
     forms = closed_forms(coriolis=scenario.site.coriolis)
     mags = np.concatenate([scenario.u, scenario.x0])

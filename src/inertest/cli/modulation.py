@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -15,22 +16,6 @@ from inertest.cli._common import (
     print_table,
     save_figure,
 )
-from inertest.ins.error_model import SIGN_CONVENTION, InsSite
-from inertest.io.atomic import write_text
-from inertest.models import triad
-from inertest.report.html import page
-from inertest.report.modulation import (
-    SYSTEM_RESIDUAL_HEADER,
-    SYSTEM_SUMMARY_HEADER,
-    component_figure,
-    system_figure,
-    system_residual_rows,
-    system_sections,
-    system_summary_rows,
-)
-from inertest.results import envelope
-from inertest.studies import rotation_modulation as rm
-from inertest.studies import stator_modulation as sm
 from inertest.units import (
     DEG_PER_H_TO_RAD_PER_S,
     DEG_PER_S_TO_RAD_PER_S,
@@ -38,6 +23,13 @@ from inertest.units import (
     MICRO_G_TO_M_PER_S2,
     PPM_TO_RATIO,
 )
+
+if TYPE_CHECKING:
+    from inertest.studies.rotation_modulation import ImuErrors
+
+#: The rotation schemes of :data:`inertest.studies.rotation_modulation.SCHEMES`, spelt out so
+#: that the studies, scipy and matplotlib load only when a command runs (a test checks them).
+_SCHEMES = ("none", "single-axis", "four-position", "sixteen-position")
 
 
 @click.group()
@@ -79,6 +71,10 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
               house_rate_deg_s: str, house_sine_deg_s: float, house_sine_hz: float, seed: int,
               as_json: bool, plot: Path | None) -> None:
     """Stator rotation of a suspended gyro (seed 001): residual drift with and without it."""
+    from inertest.report.modulation import component_figure
+    from inertest.results import envelope
+    from inertest.studies import stator_modulation as sm
+
     check_paths([plot], [])
     figure_format(plot)
     k = DEG_PER_H_TO_RAD_PER_S
@@ -139,7 +135,7 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
 @click.option("--hours", type=float, default=24.0, show_default=True, help="Simulated span [h].")
 @click.option("--step", "step_s", type=float, default=60.0, show_default=True,
               help="Output step [s] (the propagation is exact; the step only samples it).")
-@click.option("--scheme", type=click.Choice(rm.SCHEMES), default="single-axis",
+@click.option("--scheme", type=click.Choice(_SCHEMES), default="single-axis",
               show_default=True, help="Rotation scheme (ignored with --compare).")
 @click.option("--rate-deg-s", type=float, default=6.0, show_default=True,
               help="Rotation rate [deg/s]: continuous rotation, or the turns between positions.")
@@ -178,6 +174,20 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
            scale_factor_ppm: str, accel_scale_factor_ppm: str, gyro_misalignment_urad: str,
            compare: bool, as_json: bool, plot: Path | None, report: Path | None) -> None:
     """IMU on a rotating mount in a static-base INS: navigation errors with and without it."""
+    from inertest.ins.error_model import SIGN_CONVENTION, InsSite
+    from inertest.io.atomic import write_text
+    from inertest.report.html import page
+    from inertest.report.modulation import (
+        SYSTEM_RESIDUAL_HEADER,
+        SYSTEM_SUMMARY_HEADER,
+        system_figure,
+        system_residual_rows,
+        system_sections,
+        system_summary_rows,
+    )
+    from inertest.results import envelope
+    from inertest.studies import rotation_modulation as rm
+
     figure_format(plot)
     check_paths([plot, report], [])
     if not (np.isfinite(hours) and hours > 0):
@@ -228,7 +238,10 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
 
 
 def _imu_errors(drift: str, trend: str, bias: str, sf: str, asf: str,
-                mis: str) -> rm.ImuErrors:
+                mis: str) -> ImuErrors:
+    from inertest.models import triad
+    from inertest.studies import rotation_modulation as rm
+
     vec = lambda text, name: np.array(parse_float_list(text, name=name, count=3))  # noqa: E731
     off = parse_float_list(mis, name="--gyro-misalignment-urad", count=6)
     gyro = triad.TriadErrors.from_engineering(
@@ -243,7 +256,7 @@ def _imu_errors(drift: str, trend: str, bias: str, sf: str, asf: str,
         * DEG_PER_H_TO_RAD_PER_S / HOUR_TO_S)
 
 
-def _imu_json(imu: rm.ImuErrors) -> dict:
+def _imu_json(imu: ImuErrors) -> dict:
     return {
         "gyro_drift": {"value": imu.gyro_drift.tolist(), "unit": "rad/s"},
         "gyro_drift_rate": {"value": imu.gyro_drift_rate.tolist(), "unit": "rad/s^2"},
