@@ -1,14 +1,38 @@
-"""The campaign report in a real headless browser (Debian's Chromium driven by Playwright)."""
+"""Every report kind in a real headless browser (Debian's Chromium driven by Playwright).
+
+References nobody here wrote: Chromium's layout (no horizontal overflow at a 1200 px viewport,
+no console errors, every table and figure rendered), Chromium's own print to PDF, and poppler's
+``pdfinfo`` (page size in points: ISO 216 A4 is 210 x 297 mm = 595 x 842 pt) and ``pdftoppm``
+(each page rendered, none blank).
+"""
 
 import os
+import re
 import shutil
+import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from inertest.cli import main
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "build" / "test-artifacts"
+
+#: Procedure kind -> (plan folder, truth file relative to it, noise) of the examples.
+FITS = {
+    "polar-tumble": ("polar_tumble", "truth.toml", 0.002),
+    "local-level-tumble": ("local_level_tumble", "../polar_tumble/truth.toml", 0.002),
+    "gyro-rate-table": ("gyro_rate_table", "truth.toml", 2.0),
+    "gyro-triad-rotation": ("gyro_triad_rotation", "truth.toml", 30.0),
+    "ferraris": ("ferraris", "truth.toml", 0.0),
+    "triad-multiposition": ("triad_multiposition", "truth.toml", 2.0),
+    "accelerometer-multipoint": ("accelerometer_multipoint", "truth.toml", 1e-6),
+    "centrifuge-nine-position": ("centrifuge", "truth.toml", 3.3e-8),
+    "servo-table": ("servo_table", "truth.toml", 0.5),
+}
+VIEWPORT_PX = 1200
+A4_PT = (595, 842)
 
 
 def _chromium() -> str:
@@ -19,48 +43,132 @@ def _chromium() -> str:
 
 
 @pytest.fixture
-def report(tmp_path, examples_dir):
+def reports(tmp_path, examples_dir):
+    """Every report kind, written by the command line as a user would: {name: index.html}."""
+    tmp = tmp_path / "reports"
+    lab = examples_dir / "lab" / "equipment.toml"
+    out = {}
+    for kind, (folder, truth, noise) in FITS.items():
+        plan = examples_dir / folder / "plan.toml"
+        data = tmp / f"{folder}.csv"
+        assert main(["simulate", str(plan), "--truth", str(plan.parent / truth), "-o",
+                     str(data), "--noise", str(noise), "--seed", "3"]) == 0
+        assert main(["fit", str(plan), str(data), "--no-store", "--equipment", str(lab),
+                     "--report", str(tmp / kind)]) == 0
+        out[f"fit {kind}"] = tmp / kind / "index.html"
+    # history: a report whose instrument has two stored runs
     plan = examples_dir / "polar_tumble" / "plan.toml"
-    truth = examples_dir / "polar_tumble" / "truth.toml"
-    db = tmp_path / "h.db"
+    db = tmp / "h.db"
     for i in range(2):
-        data = tmp_path / f"d{i}.csv"
-        main(["simulate", str(plan), "--truth", str(truth), "-o", str(data), "--noise", "0.002",
-              "--seed", str(i)])
-        main(["fit", str(plan), str(data), "--db", str(db), "--report", str(tmp_path / "rep"),
-              "--tested-at", f"2026-0{i + 1}-01"])
-    return tmp_path / "rep" / "index.html"
+        data = tmp / f"hist{i}.csv"
+        main(["simulate", str(plan), "--truth", str(plan.parent / "truth.toml"), "-o",
+              str(data), "--noise", "0.002", "--seed", str(10 + i)])
+        assert main(["fit", str(plan), str(data), "--db", str(db), "--equipment", str(lab),
+                     "--report", str(tmp / "history"), "--tested-at", f"2026-0{i + 1}-01"]) == 0
+    out["history"] = tmp / "history" / "index.html"
+    assert main(["demo", "--examples", str(examples_dir), "--report", str(tmp / "demo")]) == 0
+    out["demo"] = tmp / "demo" / "index.html"
+    rng = np.random.default_rng(4)
+    rate = 1e-4 * rng.standard_normal(20_000) + np.cumsum(1e-6 * rng.standard_normal(20_000))
+    np.save(tmp / "g.npy", rate)
+    assert main(["allan", str(tmp / "g.npy"), "--rate", "50", "--stats", "adev,oadev,mdev,tdev,hdev,ohdev",
+                 "--report", str(tmp / "allan" / "index.html")]) == 0
+    out["allan"] = tmp / "allan" / "index.html"
+    assert main(["centrifuge-study", str(examples_dir / "centrifuge" / "study.toml"),
+                 "--monte-carlo", "0", "--report", str(tmp / "cs" / "index.html")]) == 0
+    out["centrifuge-study"] = tmp / "cs" / "index.html"
+    assert main(["modulation", "system", "--hours", "6", "--compare", "--rate-deg-s", "10",
+                 "--dwell-s", "30", "--report", str(tmp / "mod" / "index.html")]) == 0
+    out["modulation"] = tmp / "mod" / "index.html"
+    assert main(["ins-errors", "--example", "--report", str(tmp / "ins" / "index.html")]) == 0
+    out["ins-errors"] = tmp / "ins" / "index.html"
+    return out
+
+
+def _pdf_pages(pdf: Path) -> list[tuple[float, float]]:
+    info = subprocess.run(["pdfinfo", "-f", "1", "-l", "999", str(pdf)], capture_output=True,
+                          text=True, check=True).stdout
+    return [(float(w), float(h)) for w, h in
+            re.findall(r"Page\s+\d+ size:\s+([\d.]+) x ([\d.]+) pts", info)]
+
+
+def _blank_pages(pdf: Path, folder: Path) -> list[int]:
+    """Pages that pdftoppm renders with nothing darker than light grey (1-based)."""
+    subprocess.run(["pdftoppm", "-gray", "-r", "24", str(pdf), str(folder / "p")], check=True)
+    blank = []
+    for k, f in enumerate(sorted(folder.glob("p-*.pgm"), key=lambda p: int(p.stem[2:])), 1):
+        raw = f.read_bytes()
+        # binary PGM: "P5\n<w> <h>\n<max>\n" then w*h bytes
+        header = re.match(rb"P5\s+(\d+)\s+(\d+)\s+(\d+)\s", raw)
+        w, h = int(header.group(1)), int(header.group(2))
+        pixels = np.frombuffer(raw[header.end():header.end() + w * h], dtype=np.uint8)
+        if not (pixels < 200).any():
+            blank.append(k)
+    return blank
 
 
 @pytest.mark.slow
-def test_report_renders_without_console_errors(report):
+def test_every_report_kind_fits_1200px_renders_and_prints_on_a4(reports, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api")
     exe = _chromium()
-    errors = []
+    if not (shutil.which("pdfinfo") and shutil.which("pdftoppm")):
+        pytest.skip("no poppler-utils: apt-get install poppler-utils (.ci/services installs it)")
+    from inertest.report.pdf import html_to_pdf
+
+    found = {}
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(
             executable_path=exe,
             args=["--no-sandbox", "--disable-gpu", "--disable-background-networking",
                   "--disable-component-update", "--disable-sync", "--no-first-run"])
-        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page = browser.new_page(viewport={"width": VIEWPORT_PX, "height": 900})
+        errors: list[str] = []
         page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
         page.on("pageerror", lambda e: errors.append(str(e)))
-        page.goto(report.as_uri())
-        images = page.eval_on_selector_all(
-            "img", "els => els.map(e => [e.complete, e.naturalWidth])")
-        n_tables = page.locator("table").count()
-        title = page.title()
         ARTIFACTS.mkdir(parents=True, exist_ok=True)
-        page.screenshot(path=str(ARTIFACTS / "campaign-report.png"), full_page=True)
+        for name, html in reports.items():
+            errors.clear()
+            page.goto(html.as_uri())
+            source = html.read_text(encoding="utf-8")
+            found[name] = {
+                "errors": list(errors),
+                "scroll_width": page.evaluate("document.documentElement.scrollWidth"),
+                "tables_in_source": source.count("<table"),
+                "tables": page.eval_on_selector_all(
+                    "table", "els => els.filter(e => e.getBoundingClientRect().width > 0)"
+                    ".length"),
+                "figures_in_source": source.count("<img"),
+                "figures": page.eval_on_selector_all(
+                    "img", "els => els.filter(e => e.complete && e.naturalWidth > 100 && "
+                    "e.getBoundingClientRect().width > 100).length"),
+            }
+            page.screenshot(path=str(ARTIFACTS / f"report-{name.replace(' ', '-')}.png"),
+                            full_page=True)
         browser.close()
-    assert errors == []
-    assert len(images) == 2 and all(c and w > 300 for c, w in images)
-    assert n_tables >= 5
-    assert "polar-tumble" in title
+    for name, f in found.items():
+        assert f["errors"] == [], name
+        assert f["scroll_width"] <= VIEWPORT_PX, (name, f["scroll_width"])
+        assert f["tables"] == f["tables_in_source"] >= 2, (name, f)
+        assert f["figures"] == f["figures_in_source"], (name, f)
+    # figures a user expects in each kind (at least)
+    for name in ("demo", "allan", "modulation", "ins-errors", "history", "fit polar-tumble"):
+        assert found[name]["figures"] >= 1, name
+    assert found["history"]["figures"] > found["fit polar-tumble"]["figures"]
+
+    for name, html in reports.items():
+        pdf = tmp_path / "pdf" / f"{name.replace(' ', '-')}.pdf"
+        pdf.parent.mkdir(exist_ok=True)
+        html_to_pdf(html, pdf)
+        pages = _pdf_pages(pdf)
+        assert pages, name
+        assert all((round(w), round(h)) == A4_PT for w, h in pages), (name, pages)
+        folder = tmp_path / "pdf" / pdf.stem
+        folder.mkdir()
+        assert _blank_pages(pdf, folder) == [], name
 
 
 @pytest.mark.slow
-def test_pdf_export(tmp_path, examples_dir):
+def test_pdf_export_from_the_command_line(tmp_path, examples_dir):
     _chromium()
     plan = examples_dir / "polar_tumble" / "plan.toml"
     data = tmp_path / "d.csv"

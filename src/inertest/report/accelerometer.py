@@ -62,19 +62,23 @@ def multipoint_sections(
     four = Section(f"{title}: Fourier analysis per mounting", [])
     if result.fourier:
         names = ["B0", "S1", "C1", "S2", "C2", "S3", "C3"]
-        rows = [[m, *(f"{v['harmonics'][n]:.6g}" for n in names)]  # type: ignore[index]
+        sig = fourier_stds(result)
+        rows = [[m, *(fmt(v["harmonics"][n], sig[m][n]) for n in names)]  # type: ignore[index]
                 for m, v in result.fourier.items()]
-        four.parts.append(table_html(["mounting", *(f"{n} [{result.output_unit}]" for n in names)],
-                                     rows))
+        four.parts.append(table_html(
+            ["mounting", *(f"{n} ± std [{result.output_unit}]" for n in names)], rows,
+            caption="Fourier terms of the position means per mounting; std from the fit's "
+                    "residual scatter of the position means"))
         for m, v in result.fourier.items():
             cf = {**v.get("coefficients", {}), **v.get("combinations", {})}  # type: ignore[dict-item]
             if cf:
-                four.parts.append(paragraph(f"Closed forms of mounting {m} (IEEE Std 1293 "
-                                            "multipoint): K1 = (C1 − 3 C3)/γ, K3 = 4 C3/(K1 γ³), "
-                                            "misalignment from S1, cross-coupling from S2:"))
+                stds = closed_form_stds(v, sig[m])  # type: ignore[arg-type]
                 four.parts.append(table_html(
-                    ["quantity", "value", "unit"],
-                    [[k, f"{x['value']:.6g}", x["unit"]] for k, x in cf.items()]))
+                    ["quantity", "value ± std", "unit"],
+                    [[k, fmt(x["value"], stds.get(k)), x["unit"]] for k, x in cf.items()],
+                    caption=f"Closed forms of mounting {m} (IEEE Std 1293 multipoint): "
+                            "K1 = (C1 − 3 C3)/γ, K3 = 4 C3/(K1 γ³), misalignment from S1, "
+                            "cross-coupling from S2"))
     else:
         four.parts.append(paragraph("No mounting has 8+ equally spaced positions over 360 deg; "
                                     "the Fourier closed forms do not apply.", note=True))
@@ -84,6 +88,58 @@ def multipoint_sections(
     for msg in result.messages:
         four.parts.append(paragraph("Warning: " + msg, note=True))
     return [sec, four]
+
+
+def fourier_stds(result: AccelerometerMultipointResult) -> dict[str, dict[str, float]]:
+    """Standard uncertainty of each Fourier term per mounting [output unit].
+
+    From the result's own residuals: ``s_e`` is the scatter of the position means about the
+    fitted model (degrees of freedom: positions less the fitted quantities); for ``N`` equally
+    spaced positions ``u(B0) = s_e / sqrt(N)`` and ``u(Sk) = u(Ck) = s_e sqrt(2/N)`` (the
+    discrete Fourier sums of independent position means).
+    """
+    resid = np.asarray(result.output, dtype=float) - np.asarray(result.fitted, dtype=float)
+    keys = np.char.add(np.asarray(result.mounting).astype(str),
+                       np.char.mod("|%.9f", np.asarray(result.angle_deg, dtype=float) % 360.0))
+    labels, inv = np.unique(keys, return_inverse=True)
+    means = np.bincount(inv, weights=resid) / np.bincount(inv)
+    ident = result.identification
+    p = len(ident.coefficients) + len(ident.combinations)
+    dof = max(labels.size - p, 1)
+    s_e = float(np.sqrt(np.sum(means**2) / dof))
+    out = {}
+    for m in result.fourier:
+        n = int(np.unique(np.asarray(result.angle_deg)[np.asarray(result.mounting) == m]
+                          % 360.0).size)
+        out[m] = {"B0": s_e / np.sqrt(n),
+                  **{f"{t}{k}": s_e * np.sqrt(2.0 / n) for t in "SC" for k in (1, 2, 3)}}
+    return out
+
+
+def closed_form_stds(v: Mapping[str, Mapping], s: Mapping[str, float]) -> dict[str, float]:
+    """Standard uncertainties of the closed forms of one mounting by first-order propagation.
+
+    The Fourier terms are independent (orthogonal sums), and the relative uncertainty of K1 is
+    neglected in the ratios (it is far below that of the small terms divided by it).
+    """
+    h = v["harmonics"]
+    coeff = v.get("coefficients", {})
+    if "K1" not in coeff:
+        return {}
+    k1 = float(coeff["K1"]["value"])
+    g = (h["C1"] - 3 * h["C3"]) / k1               # gamma, as the closed form used it
+    u = 1e-6
+    out = {"K1": float(np.hypot(s["C1"], 3 * s["C3"]) / g),
+           "K3": 4 * s["C3"] / (abs(k1) * g**3) / u}
+    for name in coeff:
+        if name in ("dO", "dP"):
+            out[name] = s["S1"] / (abs(k1) * g) / u
+        elif name in ("KIP", "KIO"):
+            out[name] = 2 * s["S2"] / (abs(k1) * g**2) / u
+    for name in v.get("combinations", {}):
+        out[name] = (s["B0"] / abs(k1) / u if name.startswith("K0")
+                     else 2 * s["C2"] / (abs(k1) * g**2) / u)
+    return out
 
 
 def triad_residual_figure(result: TriadMultipositionResult):

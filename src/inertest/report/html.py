@@ -39,7 +39,9 @@ pre { padding: 0.5em; overflow-x: auto; font-size: 0.85em; max-width: 100%; }
   body { max-width: none; margin: 0; padding: 0; font-size: 9pt; }
   h2 { break-after: avoid; page-break-after: avoid; }
   figure, .tw, table { break-inside: avoid; page-break-inside: avoid; }
-  .tw { overflow: visible; } td { white-space: normal; overflow-wrap: anywhere; }
+  .tw { overflow: visible; }
+  table { width: 100%; table-layout: fixed; font-size: 8pt; }
+  th, td { padding: 0.15em 0.3em; white-space: normal; overflow-wrap: anywhere; }
   pre { white-space: pre-wrap; }
   img { max-height: 240mm; }
 }
@@ -137,7 +139,7 @@ def page(title: str, sections: Sequence[Section], *, subtitle: str = "",
         rows = [["report", title],
                 ["generated (UTC)", f"{datetime.now(UTC):%Y-%m-%d %H:%M}"],
                 ["software", f"inertest {software_version()}"], *identity]
-        sections = [Section("Identity", [table_html(["item", "value"], rows,
+        sections = [Section("Identity", [table_html(["item", "value"], rows, left_columns=2,
                                                     caption="What, when and with what")]),
                     *sections]
     body = "".join(

@@ -104,10 +104,11 @@ def identity_section(title: str, doc: Mapping[str, Any], *,
     rows += [list(r) for r in extra_rows if str(r[0]) not in have]
     if software_version is not None and "software" not in have:
         rows.append(["software", f"inertest {software_version}"])
-    sec = Section(title, [table_html(["item", "value"], rows, caption="Identity of the test")])
+    sec = Section(title, [table_html(["item", "value"], rows, left_columns=2,
+                                     caption="Identity of the test")])
     eq = equipment_rows(doc)
     if eq:
-        sec.parts.append(table_html(EQUIPMENT_HEADER, eq, left_columns=5,
+        sec.parts.append(table_html(EQUIPMENT_HEADER, eq, left_columns=len(EQUIPMENT_HEADER),
                                     caption="Test equipment and its calibration status"))
     for w in equipment_warnings(doc):
         sec.parts.append(paragraph("Warning: " + w, note=True))
