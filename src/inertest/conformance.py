@@ -124,6 +124,8 @@ class Verdict:
         Estimate [unit] (the result's unit).
     expanded : float
         Expanded uncertainty U [unit].
+    coverage_factor : float
+        The k of U (the budget's Welch-Satterthwaite k, or 2 for the Type A alone).
     u_source : str
         ``"budget"`` (Type A and B, k from the budget) or ``"type A only, k = 2"``.
     limit : str
@@ -141,11 +143,13 @@ class Verdict:
     limit: str
     clause: str
     verdict: str
+    coverage_factor: float = 2.0
 
     def to_dict(self) -> dict[str, object]:
         """JSON form."""
         return {"quantity": self.quantity, "value": self.value, "unit": self.unit,
-                "expanded_uncertainty": self.expanded, "uncertainty_source": self.u_source,
+                "expanded_uncertainty": self.expanded, "coverage_factor": self.coverage_factor,
+                "uncertainty_source": self.u_source,
                 "limit": self.limit, "clause": self.clause, "verdict": self.verdict}
 
 
@@ -308,9 +312,9 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
         value, std, unit = q[lim.quantity]
         if budget is not None and lim.quantity in budget.quantities:
             b = budget.quantities[lim.quantity]
-            U, src = b.expanded, f"budget, k = {b.coverage_factor:.2f}"
+            U, k, src = b.expanded, b.coverage_factor, f"budget, k = {b.coverage_factor:.2f}"
         else:
-            U, src = 2.0 * std, "type A only, k = 2"
+            U, k, src = 2.0 * std, 2.0, "type A only, k = 2"
         try:
             x, u = convert(value, unit, lim.unit), convert(U, unit, lim.unit)
         except UnitError:
@@ -325,6 +329,7 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
             verdict = decide(x, u, lower=lim.minimum, upper=lim.maximum,
                              rule=spec.decision_rule)
         out.append(Verdict(quantity=lim.quantity, value=value, unit=unit, expanded=U,
-                           u_source=src, limit=lim.text(), clause=lim.clause, verdict=verdict))
+                           u_source=src, limit=lim.text(), clause=lim.clause, verdict=verdict,
+                           coverage_factor=k))
     return Conformance(spec_name=spec.name, decision_rule=spec.decision_rule,
                        rule=DECISION_RULES[spec.decision_rule], verdicts=tuple(out))

@@ -1,0 +1,113 @@
+"""Verdicts against a specification and the uncertainty budget, as tables (report and terminal).
+
+Built from the envelope's ``conformance`` block (:meth:`inertest.conformance.Conformance.
+to_dict`) and ``uncertainty_budget`` block (:meth:`inertest.budget.UncertaintyBudget.to_dict`),
+so the terminal, the JSON and the HTML report say the same. Values and uncertainties are rounded
+by :func:`~inertest.report.rounding.round_to_uncertainty` (JCGM 100:2008, GUM 7.2.6); a Type-B
+contribution is printed to two significant digits in the quantity's unit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from inertest.report.html import Section, paragraph, table_html
+from inertest.report.rounding import format_number, round_to_uncertainty
+
+#: Header of the verdict table.
+VERDICT_HEADER = ["quantity", "value ± U (k)", "limit", "clause", "verdict"]
+
+
+def _value_pm(value: float, expanded: float, unit: str, k: float | None) -> str:
+    v, u = round_to_uncertainty(float(value), float(expanded))
+    kk = "" if k is None else f" (k = {float(k):.2f})"
+    return f"{v} ± {u} {unit}{kk}" if u and u != "0" else f"{v} {unit}{kk}"
+
+
+def verdict_rows(conformance: Mapping[str, Any]) -> list[list[str]]:
+    """``[quantity, value ± U (k), limit, clause, verdict]`` per limited quantity."""
+    rows = []
+    for v in conformance.get("verdicts") or []:
+        rows.append([str(v["quantity"]),
+                     _value_pm(v["value"], v["expanded_uncertainty"], str(v["unit"]),
+                               v.get("coverage_factor")),
+                     str(v["limit"]), str(v["clause"]), str(v["verdict"])])
+    return rows
+
+
+def budget_table(budget: Mapping[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """Header and rows of one result's budget: Type A, each Type B, combined, k, U per quantity.
+
+    Each Type-B column holds the source's signed contribution ``c_i u_i`` (GUM 5.1.3) in the
+    quantity's unit; the source's own standard uncertainty is in the column header.
+    """
+    quantities: Mapping[str, Any] = budget.get("quantities") or {}
+    sources: list[tuple[str, str]] = []
+    for q in quantities.values():
+        for c in q.get("type_b") or []:
+            label = f"{c['source']} (u = {float(c['u']):g} {c['u_unit']})"
+            if (c["source"], label) not in sources:
+                sources.append((c["source"], label))
+    header = ["quantity", "unit", "value", "Type A std (dof)",
+              *(f"Type B: {lab}" for _, lab in sources),
+              "combined std", "k", "U (expanded)"]
+    rows = []
+    for name, q in quantities.items():
+        unit = str(q["unit"])
+        uc, big_u = float(q["combined_std"]), float(q["expanded"])
+        value, _ = round_to_uncertainty(float(q["value"]), uc)
+        ta = q.get("type_a") or {}
+        contrib = {c["source"]: float(c["contribution"]) for c in q.get("type_b") or []}
+        scale = max([abs(x) for x in contrib.values()] + [uc, 0.0])
+        rows.append([
+            name, unit, value,
+            f"{format_number(float(ta.get('std', 0.0)), digits=2)} ({ta.get('dof', '-')})",
+            *(format_number(contrib[s], scale=scale, digits=2) if s in contrib else "-"
+              for s, _ in sources),
+            round_to_uncertainty(uc, uc)[1],
+            f"{float(q['coverage_factor']):.2f}",
+            round_to_uncertainty(big_u, big_u)[1],
+        ])
+    return header, rows
+
+
+def budget_notes(budget: Mapping[str, Any]) -> list[str]:
+    """The budget's assumptions and the lab-file entries that do not apply, as sentences."""
+    notes = [f"Assumption: {a}." for a in budget.get("assumptions") or []]
+    notes += [f"Not applied: {n}." for n in budget.get("not_applicable") or []]
+    p = budget.get("coverage_probability")
+    if p is not None:
+        notes.append(f"U = k × combined std, k = t-factor for a coverage probability of "
+                     f"{100 * float(p):.2f} % with the Welch-Satterthwaite effective degrees of "
+                     "freedom (JCGM 100:2008, GUM G.4.1, G.6.6).")
+    return notes
+
+
+def conformance_sections(
+    doc: Mapping[str, Any], *, title: str = "Conformance and uncertainty budget"
+) -> list[Section]:
+    """The verdict table and the budget table of an envelope (none when it has neither block)."""
+    budget = doc.get("uncertainty_budget")
+    conf = doc.get("conformance")
+    if not budget and not conf:
+        return []
+    sec = Section(title, [])
+    if conf:
+        sec.parts.append(table_html(
+            VERDICT_HEADER, verdict_rows(conf), left_columns=1,
+            caption=f"Verdicts against {conf.get('spec', 'the specification')} "
+                    f"(overall: {conf.get('overall', '-')})"))
+        sec.parts.append(paragraph(f"Decision rule: {conf.get('rule', '')}.", note=True))
+    if budget:
+        header, rows = budget_table(budget)
+        sec.parts.append(table_html(header, rows, left_columns=2,
+                                    caption="Uncertainty budget (Type A, Type B, combined, "
+                                            "expanded U), each in the quantity's unit"))
+        for n in budget_notes(budget):
+            sec.parts.append(paragraph(n, note=True))
+    return [sec]
+
+
+__all__ = ["VERDICT_HEADER", "budget_notes", "budget_table", "conformance_sections",
+           "verdict_rows"]
