@@ -1,28 +1,46 @@
-"""``inertest noise`` through ``main(argv)``: the real PSINS recording against allantools,
-Kalibr yaml, comparison, gaps, JSON, outputs never overwritten."""
+"""``inertest noise`` through ``main(argv)``: the real PSINS recording (shipped xz-compressed in
+examples/noise) against allantools, Kalibr yaml, comparison, gaps, CSV/Parquet/HDF5 tables,
+compressed PSINS text, JSON, outputs never overwritten."""
 
 from __future__ import annotations
 
+import gzip
+import hashlib
 import json
+import lzma
 import math
 from pathlib import Path
 
 import allantools
+import h5py
 import numpy as np
 import pyarrow as pa
 import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
 import pytest
 import yaml
 
 from inertest.cli import main
 
-PSINS = Path(__file__).parents[2] / ".." / "shared" / "realdata" / "psins" / "lasergyro.imu"
+PSINS = Path(__file__).parents[2] / "examples" / "noise" / "lasergyro.imu.xz"
+#: SHA-256 of data/lasergyro.imu at PSINS commit c1706f1 (as in ../shared/realdata/psins).
+PSINS_SHA256 = "5de921e75f690c91ce6b7d3e811e547e050c4f1d000f648f537a59521206ba4d"
+
+
+def _psins_text() -> str:
+    return lzma.decompress(PSINS.read_bytes()).decode("ascii")
+
+
+def test_shipped_psins_file_is_the_source_file_byte_for_byte():
+    assert hashlib.sha256(lzma.decompress(PSINS.read_bytes())).hexdigest() == PSINS_SHA256
+    assert (PSINS.parent / "LICENSE").is_file()
+    assert PSINS.stat().st_size < 800_000
 
 
 def _psins_rates_by_hand() -> tuple[np.ndarray, float]:
     """The PSINS increments as rates, without inertest: LSB 0.1 arcsec, 125 ug*s (PSINS ug =
     1e-6 x 9.7803267714 m/s^2), interval 10 ms, from the file's three parameter lines."""
-    rows = [ln for ln in PSINS.read_text().splitlines()
+    rows = [ln for ln in _psins_text().splitlines()
             if ln.strip() and not ln.startswith("%")]
     params = np.array([[float(v) for v in r.split()] for r in rows[:3]])
     dt = params[1, 4] * 1e-3
@@ -32,7 +50,6 @@ def _psins_rates_by_hand() -> tuple[np.ndarray, float]:
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not PSINS.exists(), reason="shared/realdata not beside the checkout")
 def test_psins_six_channels_yaml_agrees_with_the_allantools_curve(tmp_path, capsys):
     out = tmp_path / "imu.yaml"
     assert main(["noise", str(PSINS), "--kalibr", str(out), "--json"]) == 0
@@ -144,3 +161,100 @@ def test_report_folder_of_someone_else_refused_before_any_work(tmp_path, capsys)
     assert main(["noise", str(data), "--report", str(folder), "--kalibr", str(out)]) == 2
     assert "did not write" in capsys.readouterr().err
     assert not out.exists() and sorted(p.name for p in folder.iterdir()) == ["mine.txt"]
+
+
+def _psins_excerpt(n: int) -> str:
+    """The shipped recording's header and first ``n`` samples."""
+    lines = _psins_text().splitlines(keepends=True)
+    head = [i for i, ln in enumerate(lines) if not ln.startswith("%")][3]  # 3 parameter lines
+    return "".join(lines[:head + n])
+
+
+def _result_without_notes(doc: dict) -> dict:
+    res = doc["result"]
+    return {k: v for k, v in res.items() if k != "messages"}
+
+
+def test_gz_and_xz_psins_read_like_the_plain_file(tmp_path, capsys):
+    text = _psins_excerpt(6000)
+    plain = tmp_path / "excerpt.imu"
+    plain.write_text(text)
+    (tmp_path / "excerpt.imu.gz").write_bytes(gzip.compress(text.encode()))
+    (tmp_path / "excerpt.imu.xz").write_bytes(lzma.compress(text.encode()))
+    docs = {}
+    for name in ("excerpt.imu", "excerpt.imu.gz", "excerpt.imu.xz"):
+        assert main(["noise", str(tmp_path / name), "--json"]) == 0
+        docs[name] = json.loads(capsys.readouterr().out)
+    ref = _result_without_notes(docs["excerpt.imu"])
+    assert len(ref["channels"]) == 6 and ref["rate_hz"] == 100.0
+    for name in ("excerpt.imu.gz", "excerpt.imu.xz"):
+        assert _result_without_notes(docs[name]) == ref
+        assert any("decompression" in m for m in docs[name]["messages"])
+
+
+def test_broken_or_compressed_table_refused_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "cut.imu.xz"
+    bad.write_bytes(lzma.compress(_psins_excerpt(500).encode())[:300])  # a cut download
+    assert main(["noise", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "cut.imu.xz is not a readable .xz file" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    table = tmp_path / "imu.csv.gz"
+    table.write_bytes(gzip.compress(b"t,gyro_x\n0,1\n"))
+    for extra in ([], ["--format", "csv"]):
+        assert main(["noise", str(table), *extra]) == 2
+        err = capsys.readouterr().err
+        assert "decompress it" in err and "Traceback" not in err
+
+
+def _kalibr_columns(n: int, rate: float, seed: int) -> dict[str, np.ndarray]:
+    """Kalibr's discrete model per axis: white N/sqrt(dt) plus a random-walk bias K sqrt(dt);
+    gyro in deg/s, accelerometer in g (g0), time in s."""
+    g = np.random.default_rng(seed)
+    dt = 1.0 / rate
+    cols = {"time": np.arange(n) * dt}
+    for prefix, density, walk, unit in (("gyro", 2e-3, 2e-5, 180 / math.pi),
+                                        ("acc", 4e-3, 1e-4, 1 / 9.80665)):
+        for a in "xyz":
+            y = (density / math.sqrt(dt) * g.standard_normal(n)
+                 + np.cumsum(walk * math.sqrt(dt) * g.standard_normal(n)))
+            cols[f"{prefix}_{a}"] = y * unit
+    return cols
+
+
+def test_parquet_and_hdf5_tables_read_like_csv_and_psd_white_level(tmp_path, capsys):
+    rate, n = 100.0, 60_000
+    cols = _kalibr_columns(n, rate, seed=19)
+    pacsv.write_csv(pa.table(cols), tmp_path / "imu.csv")
+    pq.write_table(pa.table(cols), tmp_path / "imu.parquet")
+    with h5py.File(tmp_path / "imu.h5", "w") as fh:
+        for k, v in cols.items():
+            fh.create_dataset(k, data=v)
+    docs = {}
+    for name in ("imu.csv", "imu.parquet", "imu.h5"):
+        assert main(["noise", str(tmp_path / name), "--gyro-unit", "deg/s", "--accel-unit", "g",
+                     "--json"]) == 0
+        docs[name] = json.loads(capsys.readouterr().out)["result"]
+    csv = docs["imu.csv"]
+    assert list(csv["channels"]) == ["gyro_x", "gyro_y", "gyro_z", "acc_x", "acc_y", "acc_z"]
+    for name in ("imu.parquet", "imu.h5"):
+        for ch, c in docs[name]["channels"].items():
+            # CSV text round-trips floats exactly (shortest repr), so all three agree closely.
+            np.testing.assert_allclose(c["oadev"]["dev"], csv["channels"][ch]["oadev"]["dev"],
+                                       rtol=1e-12)
+    for ch, c in docs["imu.h5"]["channels"].items():
+        si = cols[ch] * (math.pi / 180 if ch.startswith("gyro") else 9.80665)
+        _, dev, _, _ = allantools.oadev(si, rate=rate, data_type="freq",
+                                        taus=np.array(c["oadev"]["tau"]))
+        np.testing.assert_allclose(c["oadev"]["dev"], dev, rtol=1e-9)
+        density = 2e-3 if ch.startswith("gyro") else 4e-3
+        fit = c["kalibr"]["noise_density"]
+        assert fit["status"] == "fitted"
+        assert abs(fit["value"] - density) <= 3 * fit["std"]
+        # PSD white level on the flat part (f > 1 Hz; the random walk's 2 K^2/(2 pi f)^2 is
+        # < 1e-4 of it there): one-sided S1 = 2 N^2 (IEEE 952 Annex C two-sided S = N^2).
+        f = np.array(c["psd"]["freq_hz"])
+        p = np.array(c["psd"]["value"])
+        flat = p[f > 1.0]
+        assert math.sqrt(float(np.mean(flat)) / 2) == pytest.approx(density, rel=0.02)
+        assert math.sqrt(float(np.mean(flat)) / 2) == pytest.approx(fit["value"], rel=0.05)

@@ -17,14 +17,23 @@ sampling-interval [ms] g [m/s^2]``, ``gf_x gf_y gf_z [arcsec] af_x af_y af_z [ug
 significant bits), then one line per sample of integer increments dtheta_x,y,z dv_x,y,z (and
 an optional time [s]). Rates are increment x LSB / interval. The toolbox's micro-g is
 1e-6 x its ``glv.g0`` = :data:`PSINS_G0` = 9.7803267714 m/s^2 (``glvf.m``), not 1e-6 g0.
+
+Compressed PSINS files (``.gz``, ``.xz``; :data:`COMPRESSIONS`) are read transparently with the
+standard library; the format is that of the name without the compression suffix
+(``lasergyro.imu.xz`` is PSINS text). Nothing is decompressed to disk, so a digest of the data
+is that of the file given. Tables are not read compressed: Parquet and HDF5 compress inside.
 """
 
 from __future__ import annotations
 
+import gzip
+import lzma
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -38,6 +47,8 @@ from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, RATE_UNITS
 PSINS_G0 = 9.7803267714
 FORMATS = ("auto", "csv", "parquet", "hdf5", "psins")
 TIME_UNITS = ("auto", "s", "ns")
+#: Compression suffixes read transparently (PSINS text only) -> opener of the standard library.
+COMPRESSIONS: dict[str, Callable[..., Any]] = {".gz": gzip.open, ".xz": lzma.open}
 _TABLE_SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet",
                    **{s: "hdf5" for s in HDF5_SUFFIXES}}
 _TIME_NAMES = ("t", "time", "timestamp", "time_s", "t_s", "%time", "field.header.stamp",
@@ -91,16 +102,43 @@ def _split(text: str | None) -> list[str] | None:
     return names or None
 
 
-def detect_format(path: Path) -> str:
-    """``csv``, ``parquet``, ``hdf5`` by suffix, else ``psins`` when the text looks like it."""
-    fmt = _TABLE_SUFFIXES.get(path.suffix.lower())
-    if fmt is not None:
-        return fmt
+def _compression(path: Path) -> str | None:
+    """The compression suffix of ``path`` (``.gz``, ``.xz``), or None."""
+    suffix = path.suffix.lower()
+    return suffix if suffix in COMPRESSIONS else None
+
+
+def _read_text_lines(path: Path, count: int | None = None) -> list[str]:
+    """Lines of a text file, plain or compressed (:data:`COMPRESSIONS`); ``count`` from the top."""
+    comp = _compression(path)
+    opener = COMPRESSIONS[comp] if comp is not None else open
     try:
-        with path.open("r", encoding="utf-8", errors="replace") as fh:
-            head = [fh.readline() for _ in range(40)]
-    except OSError:
-        raise
+        fh: IO[str]
+        with opener(path, "rt", encoding="utf-8", errors="replace") as fh:
+            if count is None:
+                return fh.readlines()
+            return [fh.readline() for _ in range(count)]
+    except (gzip.BadGzipFile, lzma.LZMAError, EOFError) as exc:
+        raise DataError(f"{path} is not a readable {comp} file ({exc or 'truncated'}); "
+                        f"check the download, or give the file uncompressed") from None
+
+
+def detect_format(path: Path) -> str:
+    """``csv``, ``parquet``, ``hdf5`` by suffix, else ``psins`` when the text looks like it.
+
+    A compression suffix (``.gz``, ``.xz``) is looked through: ``x.imu.xz`` is judged by its
+    content, ``x.csv.gz`` is refused (tables are not read compressed).
+    """
+    comp = _compression(path)
+    inner = path.with_suffix("") if comp is not None else path
+    fmt = _TABLE_SUFFIXES.get(inner.suffix.lower())
+    if fmt is not None:
+        if comp is not None:
+            raise InputError(f"{path.name}: a compressed {fmt} table is not read; decompress it "
+                             f"(e.g. {'gunzip' if comp == '.gz' else 'unxz'} {path.name}) or "
+                             "save it as Parquet, which compresses inside")
+        return fmt
+    head = _read_text_lines(path, 40)
     lines = [h.strip() for h in head if h.strip()]
     if lines and (lines[0].startswith("%") or all(
             len(h.split()) in (6, 7) for h in lines[:6] if not h.startswith("%"))):
@@ -112,8 +150,8 @@ def detect_format(path: Path) -> str:
 def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
     """Read a PSINS text IMU file (module docstring); rates in rad/s and m/s^2."""
     p = Path(path)
-    with p.open("r", encoding="utf-8", errors="replace") as fh:
-        lines = [ln for ln in fh if ln.strip() and not ln.lstrip().startswith("%")]
+    lines = [ln for ln in _read_text_lines(p)
+             if ln.strip() and not ln.lstrip().startswith("%")]
     if len(lines) < 4:
         raise DataError(f"{p}: a PSINS file has three parameter lines and then samples; found "
                         f"{len(lines)} non-comment lines")
@@ -144,6 +182,8 @@ def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
     t = None if d.shape[1] == 6 else d[:, 6] - d[0, 6]
     notes = (f"PSINS: interval {interval_ms:g} ms, gyro LSB {lsb[:3]} arcsec, accelerometer LSB "
              f"{lsb[3:]} ug*s (ug = 1e-6 x {PSINS_G0} m/s^2); increments / interval = rates",)
+    if _compression(p) is not None:
+        notes += (f"read through {p.suffix} decompression (in memory)",)
     return ImuRecording(t, gyro, accel, ("gyro_x", "gyro_y", "gyro_z"),
                         ("accel_x", "accel_y", "accel_z"), 1e3 / interval_ms, "psins", notes)
 
@@ -231,7 +271,7 @@ def read_imu_recording(
     Parameters
     ----------
     path : path
-        CSV, Parquet, HDF5 table, or PSINS text file.
+        CSV, Parquet, HDF5 table, or PSINS text file (also ``.gz`` / ``.xz`` compressed).
     fmt : {"auto", "csv", "parquet", "hdf5", "psins"}
         File format; ``auto`` by suffix, else by content (PSINS).
     time_column : str, optional
@@ -257,6 +297,9 @@ def read_imu_recording(
     if accel_unit not in ACCEL_UNITS:
         raise UnitError(f"unknown --accel-unit {accel_unit!r}; use one of "
                         f"{', '.join(ACCEL_UNITS)}")
+    if fmt not in ("auto", "psins") and _compression(p) is not None:
+        raise InputError(f"--format {fmt}: {p.name} is compressed and tables are not read "
+                         "compressed; decompress it, or save it as Parquet (compressed inside)")
     if fmt == "auto":
         fmt = detect_format(p)
     if fmt == "psins":
