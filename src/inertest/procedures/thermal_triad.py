@@ -17,6 +17,12 @@ coefficient differences ``d^T (C_heat + C_cool)^-1 d`` (chi-square with ``degree
 decides whether it is significant (p below ``alpha / number of coefficients``, Bonferroni over
 the twelve coefficients, so the family false-alarm rate is ``alpha``).
 
+The fitted laws are exported as a :class:`TriadThermalModel` (JSON of plain numbers, format
+:data:`MODEL_FORMAT_VERSION`) that corrects a recording at each row's temperature, per the triad
+model's convention ``raw = K (I + M) (u + B)`` (:mod:`inertest.models.triad`)::
+
+    u = (I + M(T))^-1 K(T)^-1 raw - B(T)          [m/s^2]
+
 Data columns: ``temperature_c`` [degC], ``branch`` (``heating`` or ``cooling``), ``position``,
 ``output_x``, ``output_y``, ``output_z`` [output unit], optional ``step`` (the temperature step
 of each row; default: a new step where the branch changes or the temperature jumps by more
@@ -26,7 +32,7 @@ than 1 degC between consecutive rows) and
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
 
@@ -36,11 +42,17 @@ from scipy import stats
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
+from inertest.models import triad
 from inertest.plan import Plan
 from inertest.procedures import triad_multiposition as tmp
 from inertest.results import envelope
 
 KIND = "thermal-triad"
+#: ``kind`` and format version of the model file written by ``thermal triad --model-out``.
+MODEL_KIND = "thermal-triad-model"
+MODEL_FORMAT_VERSION = 1
+#: Rows corrected at a time by :meth:`TriadThermalModel.compensate` (bounds the temporaries).
+CHUNK_ROWS = 65536
 BRANCHES = ("heating", "cooling")
 #: Temperature jump between consecutive rows that starts a new step [degC].
 STEP_JUMP_C = 1.0
@@ -101,6 +113,33 @@ class CoefficientLaw:
             "chi2": self.chi2, "dof": self.dof, "p_value": self.p_value,
         }
 
+    def to_model_dict(self) -> dict[str, object]:
+        """:meth:`to_dict` plus what :meth:`from_model_dict` needs to rebuild the law."""
+        return {"unit": self.unit, "t_ref_c": self.t_ref_c, "degree": self.degree,
+                "uses_rate": self.uses_rate, **self.to_dict()}
+
+    @classmethod
+    def from_model_dict(cls, name: str, d: Mapping[str, object]) -> CoefficientLaw:
+        """Inverse of :meth:`to_model_dict`; errors name the coefficient and the key."""
+        try:
+            degree = int(d["degree"])  # type: ignore[call-overload]
+            uses_rate = bool(d["uses_rate"])
+            names = [f"a{k}" for k in range(degree + 1)] + (["r"] if uses_rate else [])
+            terms = d["terms"]
+            coef = np.array([float(terms[n]["value"]) for n in names])  # type: ignore[index]
+            cov = np.asarray(d["covariance"], dtype=float)
+            law = cls(name, str(d["unit"]), float(d["t_ref_c"]), degree,  # type: ignore[arg-type]
+                      uses_rate, coef, cov, float(d.get("chi2", np.nan)),  # type: ignore[arg-type]
+                      int(d.get("dof", 0)), float(d.get("p_value", np.nan)))  # type: ignore[call-overload, arg-type]
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"law {name} of the triad thermal model is malformed ({exc!r}); "
+                             "write it again with inertest thermal triad --model-out") from None
+        if cov.shape != (coef.size, coef.size) or not (np.all(np.isfinite(coef))
+                                                       and np.all(np.isfinite(cov))):
+            raise InputError(f"law {name}: covariance must be a finite {coef.size}x{coef.size} "
+                             "matrix and the coefficients finite")
+        return law
+
 
 @dataclass(frozen=True)
 class Hysteresis:
@@ -140,6 +179,196 @@ class Hysteresis:
 
 
 @dataclass(frozen=True)
+class TriadThermalModel:
+    """The triad's K(T), M(T), B(T) laws, ready to correct a recording.
+
+    Attributes
+    ----------
+    laws : dict of CoefficientLaw
+        ``K_x..K_z`` [scale unit], ``M_ij`` [urad], ``B_x..B_z`` [mg, input-referred].
+    raw_unit : str
+        Unit of the raw output (the plan's ``output_unit``).
+    scale : ScaleUnit
+        How ``K`` is reported (:func:`inertest.models.triad.scale_unit`).
+    temperature_range_c : tuple of float
+        Step temperatures of the fit [degC] (min, max): the valid range.
+    rate_range_c_per_min : tuple of float or None
+        Step temperature rates [degC/min] (min, max) when the laws have a rate term.
+    serial : str
+    sensor : str
+        ``"accelerometer"`` (the multi-position procedure calibrates accelerometer triads).
+
+    Notes
+    -----
+    Correction of a row at temperature ``T`` (triad model of seed 003, eq. (1),
+    ``raw = K (I + M) (u + B)``)::
+
+        u = (I + M(T))^-1 K(T)^-1 raw - B(T)            [SI: m/s^2]
+
+    Its standard uncertainty from the laws' covariances, to first order and with the laws
+    taken as independent (each is fitted on its own), with ``w = K^-1 raw`` and
+    ``v = (I + M)^-1 w``: ``var u_i = (w_i s(K_i) / K_i)^2 + sum_j (v_j s(M_ij))^2 +
+    s(B_i)^2``.
+    """
+
+    laws: dict[str, CoefficientLaw]
+    raw_unit: str
+    scale: triad.ScaleUnit
+    temperature_range_c: tuple[float, float]
+    rate_range_c_per_min: tuple[float, float] | None = None
+    serial: str = ""
+    sensor: str = "accelerometer"
+
+    kind: ClassVar[str] = MODEL_KIND
+
+    def __post_init__(self) -> None:
+        missing = [n for n in triad.parameter_names() if n not in self.laws]
+        if missing:
+            raise InputError(f"triad thermal model lacks the law(s) {', '.join(missing)}")
+
+    @property
+    def uses_rate(self) -> bool:
+        """Whether the laws need the temperature rate [degC/min]."""
+        return any(law.uses_rate for law in self.laws.values())
+
+    @property
+    def unit(self) -> str:
+        """SI unit of the corrected output."""
+        return triad.INPUT_SI_UNITS[self.sensor]
+
+    def out_of_range(self, temperature_c: ArrayLike, rate_c_per_min: ArrayLike | None = None
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Distance of each row outside the valid range: temperature [degC], rate [degC/min].
+
+        Zero inside the range.
+        """
+        t = np.atleast_1d(np.asarray(temperature_c, dtype=float))
+        lo, hi = self.temperature_range_c
+        dt = np.maximum(lo - t, 0.0) + np.maximum(t - hi, 0.0)
+        dr = None
+        if rate_c_per_min is not None and self.rate_range_c_per_min is not None:
+            r = np.broadcast_to(np.asarray(rate_c_per_min, dtype=float), t.shape)
+            rlo, rhi = self.rate_range_c_per_min
+            dr = np.maximum(rlo - r, 0.0) + np.maximum(r - rhi, 0.0)
+        return dt, dr
+
+    def compensate(self, raw: ArrayLike, temperature_c: ArrayLike,
+                   rate_c_per_min: ArrayLike | None = None
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Corrected input and its standard uncertainty at each row's temperature.
+
+        Parameters
+        ----------
+        raw : array_like, shape (n, 3)
+            Raw output [raw_unit].
+        temperature_c, rate_c_per_min : array_like, shape (n,)
+            Temperature [degC] (and rate [degC/min] when the laws use it) of each row.
+
+        Returns
+        -------
+        u, std : ndarray, shape (n, 3)
+            Corrected input and its standard uncertainty from the laws [SI, :attr:`unit`].
+            Rows are processed :data:`CHUNK_ROWS` at a time.
+        """
+        r = np.asarray(raw, dtype=float)
+        if r.ndim != 2 or r.shape[1] != 3:
+            raise InputError(f"raw triad output must have shape (n, 3), got {r.shape}")
+        t = np.asarray(temperature_c, dtype=float).reshape(-1)
+        if t.size != r.shape[0]:
+            raise InputError(f"{t.size} temperatures for {r.shape[0]} rows")
+        if self.uses_rate and rate_c_per_min is None:
+            raise InputError("these laws have a rate term: give the temperature rate "
+                             "[degC/min] (CLI: --time-column)")
+        rate = (None if rate_c_per_min is None
+                else np.broadcast_to(np.asarray(rate_c_per_min, dtype=float), t.shape))
+        _, b_si = triad.bias_unit(self.sensor)
+        u = np.empty_like(r)
+        std = np.empty_like(r)
+        for a in range(0, t.size, CHUNK_ROWS):
+            sl = slice(a, a + CHUNK_ROWS)
+            tc, rc = t[sl], None if rate is None else rate[sl]
+
+            def at(name: str, tc: NDArray = tc, rc: NDArray | None = rc
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+                return self.laws[name].predict(tc, rc)
+
+            K = np.column_stack([at(n)[0] for n in triad.SCALE_NAMES]) * self.scale.si_per_unit
+            sK = np.column_stack([at(n)[1] for n in triad.SCALE_NAMES]) * self.scale.si_per_unit
+            IM = np.broadcast_to(np.eye(3), (tc.size, 3, 3)).copy()
+            sM = np.zeros((tc.size, 3, 3))
+            for name, (i, j) in zip(triad.MISALIGNMENT_NAMES, triad.OFF_DIAGONAL, strict=True):
+                v, s = at(name)
+                IM[:, i, j] = v * triad.MICRORAD_TO_RAD
+                sM[:, i, j] = s * triad.MICRORAD_TO_RAD
+            B = np.column_stack([at(n)[0] for n in triad.BIAS_NAMES]) * b_si
+            sB = np.column_stack([at(n)[1] for n in triad.BIAS_NAMES]) * b_si
+            w = r[sl] * self.scale.raw_si_per_raw / K
+            v = np.linalg.solve(IM, w[:, :, None])[:, :, 0]
+            u[sl] = v - B
+            std[sl] = np.sqrt((w * sK / K) ** 2 + np.einsum("nij,nj->ni", sM**2, v**2)
+                              + sB**2)
+        return u, std
+
+    def to_dict(self) -> dict[str, object]:
+        """Versioned JSON document: laws with covariance and units, ranges, serial."""
+        return {
+            "kind": MODEL_KIND,
+            "format_version": MODEL_FORMAT_VERSION,
+            "serial": self.serial,
+            "sensor": self.sensor,
+            "raw_unit": self.raw_unit,
+            "output_unit": self.unit,
+            "scale_unit": {"unit": self.scale.unit, "si_per_unit": self.scale.si_per_unit,
+                           "raw_si_per_raw": self.scale.raw_si_per_raw,
+                           "nominal": self.scale.nominal},
+            "model": "raw = K (I + M) (u + B); K [scale unit], M [urad], B [mg] each a "
+                     "polynomial in (T - T_ref) [degC] (+ r dT/dt [degC/min])",
+            "compensation": "u = (I + M(T))^-1 K(T)^-1 (raw * raw_si_per_raw / si_per_unit) "
+                            "- B(T) * 9.80665e-3  [m/s^2]",
+            "inputs": ["temperature_c"] + (["temperature_rate_c_per_min"] if self.uses_rate
+                                           else []),
+            "valid_range": {
+                "temperature_c": list(self.temperature_range_c),
+                "temperature_rate_c_per_min": (None if self.rate_range_c_per_min is None
+                                               else list(self.rate_range_c_per_min)),
+            },
+            "laws": {n: law.to_model_dict() for n, law in self.laws.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, object]) -> TriadThermalModel:
+        """Inverse of :meth:`to_dict`; errors name the key and the fix."""
+        if d.get("kind") != MODEL_KIND:
+            raise InputError(f'not a triad thermal model (kind "{d.get("kind")}", expected '
+                             f'"{MODEL_KIND}")')
+        version = d.get("format_version")
+        if version != MODEL_FORMAT_VERSION:
+            raise InputError(f"triad thermal model format_version {version!r} is not "
+                             f"{MODEL_FORMAT_VERSION}; write it again with this inertest")
+        try:
+            su = d["scale_unit"]
+            scale = triad.ScaleUnit(str(su["unit"]), float(su["si_per_unit"]),  # type: ignore[index]
+                                    float(su["raw_si_per_raw"]),  # type: ignore[index]
+                                    None if su.get("nominal") is None  # type: ignore[union-attr]
+                                    else float(su["nominal"]))  # type: ignore[index]
+            vr = d["valid_range"]
+            trange = tuple(float(x) for x in vr["temperature_c"])  # type: ignore[index]
+            rr = vr.get("temperature_rate_c_per_min")  # type: ignore[union-attr]
+            rrange = None if rr is None else tuple(float(x) for x in rr)
+            laws_doc = d["laws"]
+            laws = {str(n): CoefficientLaw.from_model_dict(str(n), v)
+                    for n, v in laws_doc.items()}  # type: ignore[union-attr]
+            return cls(laws=laws, raw_unit=str(d["raw_unit"]), scale=scale,
+                       temperature_range_c=trange,  # type: ignore[arg-type]
+                       rate_range_c_per_min=rrange,  # type: ignore[arg-type]
+                       serial=str(d.get("serial", "")),
+                       sensor=str(d.get("sensor", "accelerometer")))
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise InputError(f"malformed triad thermal model ({exc!r}); write it again with "
+                             "inertest thermal triad --model-out") from None
+
+
+@dataclass(frozen=True)
 class ThermalTriadResult:
     """Outcome of :func:`fit_triad_thermal`.
 
@@ -171,8 +400,23 @@ class ThermalTriadResult:
     alpha: float
     serial: str = ""
     messages: tuple[str, ...] = ()
+    raw_unit: str = ""
+    scale: triad.ScaleUnit | None = None
 
     kind: ClassVar[str] = KIND
+
+    def model(self) -> TriadThermalModel:
+        """The laws as a :class:`TriadThermalModel` (valid over the step temperatures)."""
+        if self.scale is None:
+            raise InputError("this result does not know the triad's units; fit it with "
+                             "fit_triad_thermal")
+        uses_rate = any(law.uses_rate for law in self.laws.values())
+        t, r = self.step_temperature_c, self.step_rate_c_per_min
+        return TriadThermalModel(
+            laws=dict(self.laws), raw_unit=self.raw_unit, scale=self.scale,
+            temperature_range_c=(float(t.min()), float(t.max())),
+            rate_range_c_per_min=(float(r.min()), float(r.max())) if uses_rate else None,
+            serial=self.serial)
 
     def coefficients_at(self, temperature_c: float, rate_c_per_min: float = 0.0
                         ) -> dict[str, tuple[float, float]]:
@@ -363,7 +607,10 @@ def fit_triad_thermal(
     return ThermalTriadResult(
         step_temperature_c=t_step, step_rate_c_per_min=r_step, step_branch=b_step.astype(str),
         step_values=vals, step_stds=sds, units=units, laws=laws, hysteresis=hysteresis,
-        alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages))
+        alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages),
+        raw_unit=plan.instrument.output_unit,
+        scale=triad.scale_unit(plan.instrument.output_unit, "accelerometer").with_nominal(
+            getattr(plan.procedure, "nominal_scale_factor", None)))
 
 
 def _law(name: str, unit: str, t_ref: float, degree: int, use_rate: bool,
@@ -375,3 +622,57 @@ def _law(name: str, unit: str, t_ref: float, degree: int, use_rate: bool,
     pval = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
     return CoefficientLaw(name, unit, t_ref, degree, use_rate, lf.x, lf.covariance, chi2, dof,
                           pval)
+
+
+def simulate_triad_thermal(
+    plan: Plan,
+    laws: Mapping[str, Sequence[float]],
+    *,
+    t_ref_c: float,
+    temperatures_c: ArrayLike,
+    branches: Sequence[str] = BRANCHES,
+    noise: float = 0.0,
+    rng: np.random.Generator | int | None = None,
+) -> dict[str, NDArray]:
+    """Chamber data of a virtual accelerometer triad whose K, M, B follow known laws.
+
+    Parameters
+    ----------
+    plan : Plan
+        A ``triad-multiposition`` plan (positions and samples per position of each step).
+    laws : mapping
+        ``name: (a_0, a_1, ...)`` of ``a_0 + a_1 (T - t_ref_c) + ...`` in engineering units
+        (``K_i`` [scale unit], ``M_ij`` [urad], ``B_i`` [mg]); absent names keep the
+        :func:`inertest.procedures.triad_multiposition.simulate` defaults.
+    t_ref_c : float
+        Reference temperature of the laws [degC].
+    temperatures_c : array_like
+        Step temperatures of the heating branch [degC]; the cooling branch runs them backwards.
+    branches : sequence of {"heating", "cooling"}
+    noise : float
+        White noise per reading [output unit].
+    rng : Generator, int or None
+
+    Returns
+    -------
+    dict of ndarray
+        The columns of :func:`fit_triad_thermal`: ``step``, ``temperature_c``, ``branch``,
+        ``position``, ``output_x``, ``output_y``, ``output_z``.
+    """
+    unknown = sorted(set(branches) - set(BRANCHES))
+    if unknown:
+        raise InputError(f"branches {', '.join(unknown)}: use heating and/or cooling")
+    gen = np.random.default_rng(rng)
+    temps = np.atleast_1d(np.asarray(temperatures_c, dtype=float))
+    parts: list[dict[str, NDArray]] = []
+    for b in branches:
+        for T in temps if b == "heating" else temps[::-1]:
+            truth = {n: float(np.polyval(np.asarray(c, dtype=float)[::-1], T - t_ref_c))
+                     for n, c in laws.items()}
+            d = tmp.simulate(plan, truth, noise=noise, rng=gen)
+            n = len(d["position"])
+            parts.append({"step": np.full(n, len(parts)), "temperature_c": np.full(n, T),
+                          "branch": np.full(n, b), **d})
+    if not parts:
+        raise InputError("give at least one temperature and one branch")
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
