@@ -41,9 +41,11 @@ from inertest.lab import (
     select_equipment,
 )
 from inertest.plan import Plan
-from inertest.results import with_test
+from inertest.results import with_blocks
 
 if TYPE_CHECKING:
+    from inertest.budget import UncertaintyBudget
+    from inertest.conformance import Conformance, Spec
     from inertest.store import HistoryStore
 
 PathLike = str | os.PathLike[str]
@@ -78,6 +80,11 @@ class RunOutcome:
     test : dict or None
         The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
         equipment with calibration status, environment, software version, data SHA-256.
+    budget : UncertaintyBudget or None
+        Type A and Type B per quantity (:func:`inertest.budget.uncertainty_budget`), when a lab
+        file or a specification was given.
+    conformance : Conformance or None
+        Verdicts against the specification (:func:`inertest.conformance.verdicts`).
     """
 
     result: Any
@@ -89,12 +96,15 @@ class RunOutcome:
     report: Path | None = None
     warnings: tuple[str, ...] = field(default=())
     test: dict[str, Any] | None = None
+    budget: UncertaintyBudget | None = None
+    conformance: Conformance | None = None
 
     def to_dict(self) -> dict[str, object]:
-        """The result envelope with its ``test`` block (``inertest fit --json``)."""
-        from inertest.results import with_test
-
-        return with_test(self.result.to_dict(), self.test)
+        """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
+        return with_blocks(
+            self.result.to_dict(), test=self.test,
+            uncertainty_budget=None if self.budget is None else self.budget.to_dict(),
+            conformance=None if self.conformance is None else self.conformance.to_dict())
 
 
 def run(
@@ -108,6 +118,7 @@ def run(
     tested_at: datetime | None = None,
     allow_duplicate: bool = False,
     equipment: PathLike | Mapping[str, Equipment] | None = None,
+    spec: PathLike | Spec | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -135,7 +146,16 @@ def run(
     equipment : path or mapping, optional
         The lab equipment file (:func:`inertest.lab.read_equipment`) or its records: the plan's
         ``[test] equipment`` ids are resolved against it (an unknown id is an error naming both
-        files) and an overdue calibration on the test date becomes a warning.
+        files) and an overdue calibration on the test date becomes a warning. With it, the
+        uncertainty budget is computed: Type A of the fit, and Type B of each item's ``type_b``
+        entries and of the site gravity, propagated through the procedure's model
+        (:func:`inertest.budget.uncertainty_budget`, JCGM 100:2008 GUM 5.1).
+    spec : path or Spec, optional
+        An instrument specification (:func:`inertest.conformance.read_spec`, see
+        ``examples/specs``): the budget is computed (gravity only without a lab file) and each
+        limited quantity gets a verdict under the spec's ILAC-G8 decision rule, its guard band
+        the budget's expanded uncertainty U. Budget and verdicts go into the envelope (JSON,
+        stored run) and the report.
 
     Returns
     -------
@@ -155,14 +175,18 @@ def run(
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     lab, lab_source = _lab(equipment)
+    used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:  # an unknown id fails before any work
-        select_equipment(lab, p.test.equipment, plan_source=_source("plan", plan_path),
-                         lab_source=lab_source)
+        used = select_equipment(lab, p.test.equipment, plan_source=_source("plan", plan_path),
+                                lab_source=lab_source)
+    spec_doc = _spec(spec)
     d = data if isinstance(data, Mapping) else load_data(data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=sigma)
     messages = tuple(str(w.message) for w in caught)
+    budget, conformance = (judge(p, result, used, spec_doc)
+                           if lab is not None or spec_doc is not None else (None, None))
     when = _utc(tested_at) if tested_at is not None else datetime.now(UTC)
     digest = file_sha256(data_path) if data_path is not None else columns_sha256(d)
     plan_text = plan_path.read_text(encoding="utf-8") if plan_path is not None else repr(p)
@@ -171,7 +195,41 @@ def run(
             data_path, d, digest), tested_at=when, store=store, report_dir=report_dir, pdf=pdf,
         allow_duplicate=allow_duplicate, warnings_=messages,
         inputs=[x for x in (plan_path, data_path) if x is not None], lab=lab,
-        lab_source=lab_source, plan_source=_source("plan", plan_path))
+        lab_source=lab_source, plan_source=_source("plan", plan_path), budget=budget,
+        conformance=conformance)
+
+
+def judge(plan: Plan, result: Any, equipment: Sequence[Equipment], spec: Spec | None
+          ) -> tuple[UncertaintyBudget, Conformance | None]:
+    """The result's uncertainty budget and, with a spec, its verdicts (budget's U as guard band).
+
+    Raises
+    ------
+    SpecError
+        A limited quantity the result does not have, or a limit unit that cannot express it;
+        raised before anything is written.
+    """
+    from inertest.budget import uncertainty_budget
+    from inertest.conformance import verdicts
+
+    if spec is not None:  # a misnamed quantity fails before the budget's simulations
+        spec.check_quantities(_quantity_names(result))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the budget's noise-free refits warn about nothing real
+        budget = uncertainty_budget(plan, result, equipment)
+    return budget, None if spec is None else verdicts(result, spec, budget)
+
+
+def _quantity_names(result: Any) -> list[str]:
+    return [*result.coefficients, *(c.name for c in result.combinations)]
+
+
+def _spec(spec: PathLike | Spec | None) -> Spec | None:
+    if spec is None:
+        return None
+    from inertest.conformance import Spec, read_spec
+
+    return spec if isinstance(spec, Spec) else read_spec(spec)
 
 
 def _source(what: str, path: Path | None) -> str:
@@ -205,8 +263,14 @@ def file_run(
     lab: Mapping[str, Equipment] | None = None,
     lab_source: str = "the lab file",
     plan_source: str = "the plan",
+    budget: UncertaintyBudget | None = None,
+    conformance: Conformance | None = None,
 ) -> RunOutcome:
-    """Report and store an already computed result, as one transaction (see :func:`run`)."""
+    """Report and store an already computed result, as one transaction (see :func:`run`).
+
+    ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
+    report.
+    """
     from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
@@ -215,7 +279,10 @@ def file_run(
                           lab_source=lab_source)
     used = [lab[i] for i in plan.test.equipment] if lab is not None and plan.test else []
     warnings_ = [*warnings_, *overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))]
-    envelope_doc = with_test(result.to_dict(), test)
+    envelope_doc = with_blocks(
+        result.to_dict(), test=test,
+        uncertainty_budget=None if budget is None else budget.to_dict(),
+        conformance=None if conformance is None else conformance.to_dict())
     own_store = store is True or isinstance(store, str)
     db: HistoryStore | None
     if store is False or store is None:
@@ -251,7 +318,7 @@ def file_run(
                 history = summarize_runs(sorted([*earlier_runs, record],
                                                 key=lambda r: r.tested_at))
             html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
-                                history, test)
+                                history, test, envelope_doc)
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -276,7 +343,7 @@ def file_run(
             result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
             stored_run=None if record is None else record.run_uuid,
             database=None if db is None else db.display_url, report=report_path,
-            warnings=tuple(warnings_), test=test)
+            warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance)
     finally:
         if db is not None and own_store:
             db.close()
@@ -284,7 +351,8 @@ def file_run(
 
 def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[str, object],
                  tested_at: datetime, version: str, history: list,
-                 test: Mapping[str, Any] | None = None) -> str:
+                 test: Mapping[str, Any] | None = None,
+                 doc: Mapping[str, Any] | None = None) -> str:
     from inertest.report.campaign import campaign_page
 
     inst = plan.instrument
@@ -295,7 +363,9 @@ def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[
         site={"latitude [deg]": f"{plan.site.latitude_deg:.6f}",
               "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
         plan_text=plan_text, data=data_summary, tested_at=tested_at,
-        software_version=version, history=history, test=test)
+        software_version=version, history=history, test=test,
+        uncertainty_budget=None if doc is None else doc.get("uncertainty_budget"),
+        conformance=None if doc is None else doc.get("conformance"))
 
 
 def _data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:

@@ -65,17 +65,24 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               help="File a data file that is already stored for this instrument and procedure.")
 @click.option("--equipment", "equipment", type=_FILE, default=None,
               help="Lab equipment file (TOML): identities, calibration due dates and Type-B "
-              "uncertainties of the equipment the plan's [test] table names.")
+              "uncertainties of the equipment the plan's [test] table names; adds the "
+              "uncertainty budget (Type A and Type B, k, U).")
+@click.option("--spec", "spec", type=_FILE, default=None,
+              help="Instrument specification (TOML, see examples/specs): a verdict per limited "
+              "quantity under its ILAC-G8 decision rule, with the uncertainty budget.")
 def fit(
     plan: Path, data: Path, sigma: float | None, as_json: bool, report_dir: Path | None,
     pdf: bool, no_store: bool, db: str | None, tested_at: datetime | None,
-    allow_duplicate: bool, equipment: Path | None,
+    allow_duplicate: bool, equipment: Path | None, spec: Path | None,
 ) -> None:
     """Identify the coefficients of the test in PLAN from the readings in DATA.
 
     The run is stored in the history database unless --no-store; with --report, the report
     includes the instrument's history. Fit, report and store are one transaction: when any
-    step fails, nothing is stored or written.
+    step fails, nothing is stored or written. With --equipment or --spec the uncertainty
+    budget (GUM: Type A of the fit, Type B of the equipment and site gravity, k, U) is in the
+    terminal, JSON, report and stored run; with --spec also a verdict per limited quantity.
+    The exit status does not depend on the verdicts: read "overall" in the JSON.
     """
     if pdf and report_dir is None:
         raise click.UsageError("--pdf needs --report DIR")
@@ -83,18 +90,40 @@ def fit(
         plain_text_figures()
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
-              allow_duplicate=allow_duplicate, equipment=equipment)
+              allow_duplicate=allow_duplicate, equipment=equipment, spec=spec)
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
         echo_json(out.to_dict())
         return
-    print_identity(out.to_dict(), warn=False)
+    doc = out.to_dict()
+    print_identity(doc, warn=False)
     print_result(out.result)
+    print_conformance(doc)
     if out.stored_run is not None:
         click.echo(safe_line(f"stored run of {out.plan.instrument.serial} in {out.database}"))
     if out.report is not None:
         click.echo(f"report: {out.report}")
+
+
+def print_conformance(doc: Mapping[str, object]) -> None:
+    """Terminal tables of the envelope's uncertainty budget and verdicts (when present)."""
+    from inertest.report.conformance import (
+        VERDICT_HEADER,
+        budget_notes,
+        budget_table,
+        verdict_rows,
+    )
+
+    budget, conf = doc.get("uncertainty_budget"), doc.get("conformance")
+    if isinstance(budget, Mapping):
+        print_table("uncertainty budget (each in the quantity's unit)", *budget_table(budget))
+        for n in budget_notes(budget):
+            click.echo(safe_line(n))
+    if isinstance(conf, Mapping):
+        print_table(f"verdicts against {conf.get('spec')} (overall: {conf.get('overall')})",
+                    VERDICT_HEADER, verdict_rows(conf))
+        click.echo(safe_line(f"decision rule: {conf.get('rule')}"))
 
 
 def print_result(result, truth: Mapping[str, float] | None = None) -> None:

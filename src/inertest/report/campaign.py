@@ -12,6 +12,7 @@ from datetime import datetime
 from typing import Any
 
 from inertest.estimation.trend import QuantityHistory
+from inertest.report.conformance import conformance_sections
 from inertest.report.history import history_figure, history_rows
 from inertest.report.html import Section, figure_html, page, paragraph, preformatted, table_html
 from inertest.report.identity import identity_section
@@ -30,6 +31,8 @@ def campaign_page(
     history: Sequence[tuple[QuantityHistory, Sequence[datetime]]] = (),
     truth: Mapping[str, float] | None = None,
     test: Mapping[str, Any] | None = None,
+    uncertainty_budget: Mapping[str, Any] | None = None,
+    conformance: Mapping[str, Any] | None = None,
 ) -> str:
     """The complete HTML report of one fit.
 
@@ -48,6 +51,9 @@ def campaign_page(
     test : mapping, optional
         The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
         equipment and its calibration status, environment.
+    uncertainty_budget, conformance : mapping, optional
+        The envelope's blocks of the same names: a verdict table and a budget table
+        (:func:`inertest.report.conformance.conformance_sections`) after the result.
     """
     serial = str(instrument.get("serial") or "unnamed instrument")
     doc = result.to_dict()
@@ -59,7 +65,9 @@ def campaign_page(
         ["tested at (UTC)", f"{tested_at:%Y-%m-%d %H:%M:%S}"]], software_version=software_version)
     plan = Section("Plan", [preformatted(plan_text)])
     data_sec = Section("Data", [table_html(["item", "value"], [[k, v] for k, v in data.items()])])
-    sections = [head, plan, data_sec, *result_sections(result, truth, title="Result")]
+    sections = [head, plan, data_sec, *result_sections(result, truth, title="Result"),
+                *conformance_sections({"uncertainty_budget": uncertainty_budget,
+                                       "conformance": conformance})]
     shown = [(h, t) for h, t in history if h.values.size >= 2]
     if shown:
         hist = Section(f"History of {serial}", [])

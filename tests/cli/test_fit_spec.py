@@ -1,0 +1,93 @@
+"""`inertest fit --spec --equipment`: verdicts and the uncertainty budget in the JSON envelope,
+the terminal, the report and the stored run (issue 20)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from inertest.cli import main
+from inertest.store import HistoryStore
+
+
+@pytest.fixture
+def tumble(tmp_path, examples_dir):
+    plan = examples_dir / "polar_tumble" / "plan.toml"
+    data = tmp_path / "tumble.csv"
+    assert main(["simulate", str(plan), "--truth", str(examples_dir / "polar_tumble" /
+                 "truth.toml"), "-o", str(data), "--noise", "0.002", "--seed", "3"]) == 0
+    return plan, data
+
+
+def test_fit_spec_equipment_json_has_budget_and_verdicts(tumble, examples_dir, capsys):
+    plan, data = tumble
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--json", "--no-store",
+                 "--equipment", str(examples_dir / "lab" / "equipment.toml"),
+                 "--spec", str(examples_dir / "specs" / "floated_gyro.toml")]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    keys = list(doc)
+    assert keys.index("result") < keys.index("uncertainty_budget") < keys.index("conformance")
+    budget = doc["uncertainty_budget"]
+    ident = doc["identification"]
+    di = budget["quantities"]["DI"]
+    # Type A is the fit's std; the combined std is the root sum of squares (GUM 5.1.2)
+    assert di["type_a"]["std"] == ident["coefficients"]["DI"]["std"]
+    rss = math.sqrt(di["type_a"]["std"] ** 2 + sum(c["contribution"] ** 2
+                                                   for c in di["type_b"]))
+    assert di["combined_std"] == pytest.approx(rss, rel=1e-12)
+    assert di["expanded"] == pytest.approx(di["coverage_factor"] * rss, rel=1e-12)
+    sources = {c["source"] for c in di["type_b"]}
+    # the plan names RT-02 and GRAV-01: tilt and encoder angle of the table, measured gravity
+    assert sources == {"RT-02 tilt_urad", "RT-02 angle_arcsec", "GRAV-01 gravity_mgal"}
+    assert any("rate_ppm" in n for n in budget["not_applicable"])
+    assert any("independent" in a for a in budget["assumptions"])
+    conf = doc["conformance"]
+    assert "ILAC-G8" in conf["rule"]
+    assert [v["quantity"] for v in conf["verdicts"]] == ["DI", "DO", "DS"]
+    for v in conf["verdicts"]:
+        assert v["expanded_uncertainty"] == pytest.approx(
+            budget["quantities"][v["quantity"]]["expanded"])
+        assert v["coverage_factor"] == pytest.approx(
+            budget["quantities"][v["quantity"]]["coverage_factor"])
+        # truth DI 0.85, DO -0.62, DS 0.31 deg/h/g: inside by far more than U
+        assert v["verdict"] == "pass"
+    assert conf["overall"] == "pass"
+
+
+def test_fit_spec_terminal_report_and_store(tumble, examples_dir, tmp_path, capsys):
+    plan, data = tumble
+    db, rep = tmp_path / "h.db", tmp_path / "rep"
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--db", str(db), "--report", str(rep),
+                 "--spec", str(examples_dir / "specs" / "floated_gyro.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "verdicts against Example spec, navigation-grade floated gyro" in out
+    assert "decision rule: ILAC-G8" in out
+    assert "uncertainty budget" in out
+    html = (rep / "index.html").read_text(encoding="utf-8")
+    assert "Conformance and uncertainty budget" in html and "IEEE Std 517-1974" in html
+    assert "Type B: site gravity" in html  # the plan's gravity is the normal formula
+    store = HistoryStore(str(db))
+    try:
+        (run,) = store.runs("FG-0417", procedure="polar-tumble")
+    finally:
+        store.close()
+    assert run.result["conformance"]["overall"] == "pass"
+    assert "DI" in run.result["uncertainty_budget"]["quantities"]
+
+
+def test_fit_spec_naming_an_unknown_quantity_is_a_clean_error(tumble, tmp_path, capsys):
+    plan, data = tumble
+    spec = tmp_path / "spec.toml"
+    spec.write_text('[[limit]]\nquantity = "DX"\nmax_abs = 1.0\nunit = "deg/h/g"\n'
+                    'clause = "IEEE Std 517-1974"\n')
+    db, rep = tmp_path / "h.db", tmp_path / "rep"
+    capsys.readouterr()
+    assert main(["fit", str(plan), str(data), "--db", str(db), "--report", str(rep),
+                 "--spec", str(spec)]) != 0
+    err = capsys.readouterr().err
+    assert 'quantity "DX" is not in the result' in err and "Traceback" not in err
+    assert not rep.exists() and not db.exists()
