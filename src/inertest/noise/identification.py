@@ -203,8 +203,9 @@ def simulate_noise(
     Q: white angle noise of standard deviation Q (SP 1065: AVAR = 3 sigma_x^2 / tau^2);
     N: white rate noise N/sqrt(tau0); K: random walk with steps K sqrt(tau0); R: ramp R t;
     B: flicker noise synthesised in the frequency domain with one-sided PSD h/f, h = B^2/pi, so
-    that AVAR = 2 ln2 h = (2 ln2/pi) B^2 (synthesised over 2n samples, first n kept, to avoid the
-    periodicity of the FFT).
+    that AVAR = 2 ln2 h = (2 ln2/pi) B^2 (synthesised over at least 2n samples, first n kept, to
+    avoid the periodicity of the FFT; the length is ``scipy.fft.next_fast_len(2n)``, so a prime
+    n costs no more than a round one).
     """
     g = np.random.default_rng(rng)
     tau0 = 1.0 / rate
@@ -219,7 +220,9 @@ def simulate_noise(
         x = q * g.standard_normal(n + 1)
         y += np.diff(x) / tau0
     if b > 0:
-        m = 2 * n
+        from scipy.fft import next_fast_len
+
+        m = next_fast_len(2 * n, real=True)  # 2n padded to a 5-smooth length: N = 999,983
         f = np.fft.rfftfreq(m, tau0)
         amp = np.zeros_like(f)
         amp[1:] = np.sqrt((b * b / math.pi) / f[1:] * m / (4.0 * tau0))
