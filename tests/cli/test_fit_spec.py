@@ -91,3 +91,20 @@ def test_fit_spec_naming_an_unknown_quantity_is_a_clean_error(tumble, tmp_path, 
     err = capsys.readouterr().err
     assert 'quantity "DX" is not in the result' in err and "Traceback" not in err
     assert not rep.exists() and not db.exists()
+
+
+def test_demo_report_shows_a_budget_per_result_and_verdicts_where_a_spec_is_named(
+        tmp_path, examples_dir):
+    import tomllib
+
+    from inertest.demo import run_campaign, write_campaign_report
+
+    campaign = tomllib.loads((examples_dir / "demo.toml").read_text())["test"]
+    tests = run_campaign(examples_dir / "demo.toml")
+    html = write_campaign_report(tests, tmp_path / "rep").read_text(encoding="utf-8")
+    assert html.count("conformance and uncertainty budget") == len(campaign)
+    assert html.count("Verdicts against") == sum("spec" in t for t in campaign) >= 8
+    for t in tests:
+        doc = t.to_dict()
+        assert doc["uncertainty_budget"]["quantities"]
+        assert ("conformance" in doc) == (t.conformance is not None)
