@@ -460,25 +460,37 @@ def integrate_rotation(rate: NDArray[np.float64], dt: NDArray[np.float64]) -> Ro
     return r[0]
 
 
+def motion_rotations(
+    S_g: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
+    dt: NDArray[np.float64], spans: list[tuple[int, int]],
+) -> list[Rotation]:
+    """``C_k`` of every motion from the calibrated rates ``S_g^-1 (raw - b_g)``."""
+    Sinv = np.linalg.inv(S_g)
+    return [integrate_rotation((gyr[i0:i1 + 1] - b_g) @ Sinv.T, dt[i0:i1]) for i0, i1 in spans]
+
+
 def transport_residuals(
     S_g: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
     dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64],
 ) -> NDArray[np.float64]:
     """``C_k^T u_k - u_{k+1}`` for every motion k (flattened, 3 per motion) [1]."""
-    Sinv = np.linalg.inv(S_g)
-    out = np.empty((len(spans), 3))
-    for k, (i0, i1) in enumerate(spans):
-        w = (gyr[i0:i1 + 1] - b_g) @ Sinv.T
-        C = integrate_rotation(w, dt[i0:i1])
-        out[k] = C.inv().apply(up[k]) - up[k + 1]
-    return out.ravel()
+    rots = motion_rotations(S_g, b_g, gyr, dt, spans)
+    return np.concatenate([C.inv().apply(up[k]) - up[k + 1] for k, C in enumerate(rots)])
 
 
 def fit_gyroscope(
     S0: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
-    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64],
+    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64], *,
+    cov_up: NDArray[np.float64] | None = None, cov_b: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
-    """``S_g`` [raw SI per rad/s], its covariance (9x9), residuals, cond (Tedaldi Sec. III-B)."""
+    """``S_g`` [raw SI per rad/s], its covariance (9x9), residuals, cond (Tedaldi Sec. III-B).
+
+    Covariance ``A (s_w^2 I + J_u C_u J_u^T) A^T + A_b C_b A_b^T`` with ``A = (J^T J)^-1 J^T``:
+    the gyro noise ``s_w^2`` from the residuals less the part the gravity directions explain
+    (``cov_up`` (m, 3, 3): noise of each ``u_k``; ``J_u`` exact: ``C_k^T`` and ``-I``, so
+    neighbouring residuals share ``u_{k+1}``), and the initial-period bias noise ``cov_b``
+    (3,) through ``A_b = -A dr/db``.
+    """
     def resid(x: NDArray) -> NDArray:
         return transport_residuals(x.reshape(3, 3), b_g, gyr, dt, spans, up)
 
@@ -491,9 +503,35 @@ def fit_gyroscope(
             f"the {len(spans)} turns between static attitudes do not determine the gyro scale "
             f"factors and misalignments (condition number {cond:.3g}): turn the IMU about all "
             "three axes between the attitudes")
+    S_g = sol.x.reshape(3, 3)
+    N = np.linalg.pinv(J.T @ J)
+    A = N @ J.T
+    n_r = J.shape[0]
+    Sig_u = np.zeros((n_r, n_r))
+    if cov_up is not None:
+        rots = motion_rotations(S_g, b_g, gyr, dt, spans)
+        Ju = np.zeros((n_r, 3 * len(up)))
+        for k, C in enumerate(rots):
+            Ju[3 * k:3 * k + 3, 3 * k:3 * k + 3] = C.inv().as_matrix()
+            Ju[3 * k:3 * k + 3, 3 * k + 3:3 * k + 6] = -np.eye(3)
+        Cu = np.zeros((3 * len(up), 3 * len(up)))
+        for k in range(len(up)):
+            Cu[3 * k:3 * k + 3, 3 * k:3 * k + 3] = cov_up[k]
+        Sig_u = Ju @ Cu @ Ju.T
+    R = np.eye(n_r) - J @ A
     dof = 2 * len(spans) - 9
-    s2 = float(sol.fun @ sol.fun) / dof if dof > 0 else 0.0
-    return sol.x.reshape(3, 3), s2 * np.linalg.pinv(J.T @ J), sol.fun, cond
+    rr = float(sol.fun @ sol.fun) - float(np.trace(R @ Sig_u @ R.T))
+    s2 = max(rr, 0.0) / dof if dof > 0 else 0.0
+    cov = A @ (s2 * np.eye(n_r) + Sig_u) @ A.T
+    if cov_b is not None:
+        Jb = np.empty((n_r, 3))
+        for i in range(3):
+            h = np.zeros(3)
+            h[i] = max(1e-6, 1e-3 * float(np.sqrt(cov_b[i])))
+            Jb[:, i] = (transport_residuals(S_g, b_g + h, gyr, dt, spans, up) - sol.fun) / h[i]
+        Ab = -A @ Jb
+        cov = cov + Ab @ np.diag(cov_b) @ Ab.T
+    return S_g, cov, sol.fun, cond
 
 
 def _angles_deg(res: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -580,7 +618,15 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     # nominal gyro: the plan's scale guess [count/(deg/s)] in raw SI, or 1 for a physical unit
     k_g0 = 1.0 if spec.gyr_scale_guess is None else spec.gyr_scale_guess * sg.si_per_unit
     S_g0 = np.eye(3) * k_g0
-    S_g, cov_sg, r_g, _ = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up)
+    # noise of each gravity direction: the interval mean's noise through S_a^-1, across u
+    cov_up = np.empty((m, 3, 3))
+    Sa_inv = np.linalg.inv(S_a)
+    for k, (a, b) in enumerate(iv):
+        P = (np.eye(3) - np.outer(up[k], up[k])) / np.linalg.norm(u_cal[k])
+        L = P @ Sa_inv
+        cov_up[k] = L @ np.diag(acc[a:b].var(axis=0, ddof=1) / (b - a)) @ L.T
+    S_g, cov_sg, r_g, _ = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up, cov_up=cov_up,
+                                        cov_b=var_bg)
     p_g = triad.stack_parameters(S_g, b_g)
     cov_g = np.zeros((12, 12))
     cov_g[:9, :9] = cov_sg
