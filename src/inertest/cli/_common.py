@@ -45,10 +45,16 @@ def print_table(title: str, header: Sequence[str], rows: Sequence[Sequence[objec
     from rich.markup import escape
     from rich.table import Table
 
+    # Columns as wide as their widest cell; spare width goes to headers that would wrap.
+    spare = console.width - (sum(widths) + 3 * len(widths) + 1)
+    for i, h in enumerate(hdr):
+        extra = min(max(len(h) - widths[i], 0), spare)
+        widths[i] += extra
+        spare -= extra
     # Escape rich markup: units such as "[deg/h]" would otherwise be read as style tags.
     table = Table(title=escape(safe_line(title)), title_justify="left")
     for i, h in enumerate(hdr):
-        table.add_column(escape(h), justify="left" if i == 0 else "right", min_width=widths[i],
+        table.add_column(escape(h), justify="left" if i == 0 else "right", width=widths[i],
                          overflow="fold")
     for r in cells:
         table.add_row(*(escape(v) for v in r))
