@@ -22,3 +22,9 @@ def test_demo_prints_truth_vs_estimate_and_writes_report(tmp_path, examples_dir,
     assert html.count("data:image/png;base64,") >= len(campaign)
     for test in campaign:
         assert (rep / f"{test['plan'].split('/')[0]}.csv").exists()
+    # [[noise]]: the real PSINS recording, six channels, figures and the Kalibr yaml beside it.
+    for entry in tomllib.loads((examples_dir / "demo.toml").read_text()).get("noise", []):
+        assert entry["title"] in out and "accel_z" in out
+        assert f"{entry['title']}: accel_z: Allan deviation and PSD" in html
+        stem = entry["data"].split("/")[-1].split(".")[0]
+        assert "gyroscope_noise_density:" in (rep / f"{stem}_imu.yaml").read_text()

@@ -8,7 +8,7 @@ import click
 
 from inertest.cli._common import print_identity
 from inertest.cli.procedure import print_result
-from inertest.demo import find_examples, run_campaign, write_campaign_report
+from inertest.demo import find_examples, run_campaign, run_noise, write_campaign_report
 
 
 @click.command()
@@ -25,5 +25,14 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         click.echo(f"\n{t.title} ({t.plan_path}; noise {t.noise:g} per reading, seed {t.seed})")
         print_identity(t.to_dict())
         print_result(t.result, truth=t.truth_deg_h)
-    index = write_campaign_report(tests, report_dir)
+    noise = run_noise(folder / "demo.toml")
+    for n in noise:
+        from inertest.cli._common import print_table
+        from inertest.report.imu_noise import summary_rows
+
+        click.echo(f"\n{n.title} ({n.data_path}; real recording)")
+        h, r = summary_rows(n.result)
+        print_table("noise per channel: Kalibr noise density N and random walk K (< : upper "
+                    "bound), IEEE 952 bias instability B", h, r)
+    index = write_campaign_report(tests, report_dir, noise=noise)
     click.echo(f"\nreport: {index}")
