@@ -14,6 +14,12 @@ CAL.json may instead be a thermal model (``inertest thermal fit --model-out``): 
 ``<column>_correction_std``, the standard uncertainty of the correction propagated from the
 coefficient covariance. Rows outside the model's temperature (or rate) range are refused, or
 with ``--extrapolate`` compensated with a warning that gives the distance.
+
+CAL.json may also be a triad thermal model (``inertest thermal triad --model-out``): each row of
+the raw columns (``--columns x,y,z``, default ``output_x,output_y,output_z``) is corrected with
+K, M, B at its temperature, ``u = (I + M(T))^-1 K(T)^-1 raw - B(T)``, into ``--acc-unit``;
+``<column>_correction_std`` is the correction's standard uncertainty from the laws' covariance.
+The same range check and ``--extrapolate`` apply.
 """
 
 from __future__ import annotations
@@ -28,7 +34,13 @@ from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import is_hdf5
-from inertest.io.thermal_model import is_thermal_model, load_thermal_model, read_json_object
+from inertest.io.thermal_model import (
+    is_thermal_model,
+    is_triad_thermal_model,
+    load_thermal_model,
+    load_triad_thermal_model,
+    read_json_object,
+)
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -61,7 +73,8 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
               help="Thermal model using the rate: column of the time [s].")
 @click.option("--columns", "thermal_columns", default=None,
               help="Thermal model: comma-separated columns to compensate (default: bias_deg_h "
-              "or scale_factor, by the model's quantity).")
+              "or scale_factor, by the model's quantity; output_x,output_y,output_z for a "
+              "triad thermal model).")
 @click.option("--extrapolate", is_flag=True,
               help="Thermal model: compensate rows outside the valid range (with a warning).")
 def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_columns: str,
@@ -73,6 +86,10 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     if is_thermal_model(doc):
         _apply_thermal(calibration, data, output, temperature_column, time_column,
                        thermal_columns, extrapolate)
+        return
+    if is_triad_thermal_model(doc):
+        _apply_triad_thermal(calibration, data, output, temperature_column, time_column,
+                             thermal_columns, extrapolate, acc_unit)
         return
     if temperature_column is not None or thermal_columns is not None:
         raise click.UsageError(f"{calibration} is a triad calibration, not a thermal model: "
@@ -131,7 +148,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
 def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_column: str | None,
                    time_column: str, columns: str | None, extrapolate: bool) -> None:
     """Compensate the thermal model's quantity in DATA; write OUTPUT with the uncertainty."""
-    from inertest.procedures.thermal_compensation import QUANTITIES, temperature_rate
+    from inertest.procedures.thermal_compensation import QUANTITIES
 
     model = load_thermal_model(model_path)
     if temperature_column is None:
@@ -141,38 +158,10 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
             else [QUANTITIES[model.quantity][0]])
     table = read_table(data)
     need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
-    missing = [c for c in need if c not in table]
-    if missing:
-        hint = ("--temperature-column, --columns" + (", --time-column" if model.uses_rate
-                                                     else ""))
-        raise DataError(f"{data} lacks column(s) {', '.join(missing)} (found: "
-                        f"{', '.join(table)}); name them with {hint}")
-    try:
-        arr = {c: np.asarray(table[c], dtype=float) for c in need}
-    except (TypeError, ValueError):
-        raise DataError(f"columns {', '.join(need)} of {data} must be numeric") from None
-    for c, a in arr.items():
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise DataError(f'column "{c}" of {data} has NaN/inf (first at data row '
-                            f"{bad[0] + 1}); repair or remove those rows")
+    arr = _read_numeric(data, table, need, "--temperature-column, --columns"
+                        + (", --time-column" if model.uses_rate else ""))
     temp = arr[temperature_column]
-    rate = None
-    if model.uses_rate:
-        rate = temperature_rate(np.zeros(temp.size, dtype=int), arr[time_column], temp)
-    dt, dr = model.out_of_range(temp, rate)
-    outside = [f"{int(np.count_nonzero(dt))} row(s) up to {np.max(dt):.3g} degC outside the "
-               f"temperature range {model.temperature_range_c[0]:.4g} to "
-               f"{model.temperature_range_c[1]:.4g} degC"] if np.any(dt > 0) else []
-    if dr is not None and np.any(dr > 0):
-        lo, hi = model.rate_range_c_per_min  # type: ignore[misc]
-        outside.append(f"{int(np.count_nonzero(dr))} row(s) up to {np.max(dr):.3g} degC/min "
-                       f"outside the rate range {lo:.3g} to {hi:.3g} degC/min")
-    if outside and not extrapolate:
-        raise DataError(f"{data}: {'; '.join(outside)} of the model; nothing written. Use data "
-                        "inside the range, refit over a wider range, or --extrapolate")
-    for line in outside:
-        click.echo(f"warning: extrapolating the thermal model: {line}", err=True)
+    rate = _rate_and_range_check(model, data, temp, arr.get(time_column), extrapolate)
     out = dict(table)
     units: dict[str, str] = {}
     unit = "deg/h" if model.quantity == "bias" else ""
@@ -189,3 +178,81 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
     what = "bias removed" if model.quantity == "bias" else "divided by the scale factor"
     click.echo(f"wrote {temp.size} compensated rows ({', '.join(cols)}: {what}, "
                f"{model.model_type} model) to {output}")
+
+
+def _read_numeric(data: Path, table: dict, need: list[str], hint: str) -> dict[str, np.ndarray]:
+    """The columns ``need`` of ``table`` as finite floats; errors name the column and row."""
+    missing = [c for c in need if c not in table]
+    if missing:
+        raise DataError(f"{data} lacks column(s) {', '.join(missing)} (found: "
+                        f"{', '.join(table)}); name them with {hint}")
+    try:
+        arr = {c: np.asarray(table[c], dtype=float) for c in need}
+    except (TypeError, ValueError):
+        raise DataError(f"columns {', '.join(need)} of {data} must be numeric") from None
+    for c, a in arr.items():
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise DataError(f'column "{c}" of {data} has NaN/inf (first at data row '
+                            f"{bad[0] + 1}); repair or remove those rows")
+    return arr
+
+
+def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarray | None,
+                          extrapolate: bool) -> np.ndarray | None:
+    """The temperature rate [degC/min] if the model uses it; rows out of range refused.
+
+    With ``extrapolate`` they are warned about (with the distance) instead.
+    """
+    from inertest.procedures.thermal_compensation import temperature_rate
+
+    rate = None
+    if model.uses_rate:
+        rate = temperature_rate(np.zeros(temp.size, dtype=int), time_s, temp)
+    dt, dr = model.out_of_range(temp, rate)
+    outside = [f"{int(np.count_nonzero(dt))} row(s) up to {np.max(dt):.3g} degC outside the "
+               f"temperature range {model.temperature_range_c[0]:.4g} to "
+               f"{model.temperature_range_c[1]:.4g} degC"] if np.any(dt > 0) else []
+    if dr is not None and np.any(dr > 0):
+        lo, hi = model.rate_range_c_per_min
+        outside.append(f"{int(np.count_nonzero(dr))} row(s) up to {np.max(dr):.3g} degC/min "
+                       f"outside the rate range {lo:.3g} to {hi:.3g} degC/min")
+    if outside and not extrapolate:
+        raise DataError(f"{data}: {'; '.join(outside)} of the model; nothing written. Use data "
+                        "inside the range, refit over a wider range, or --extrapolate")
+    for line in outside:
+        click.echo(f"warning: extrapolating the thermal model: {line}", err=True)
+    return rate
+
+
+def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
+                         temperature_column: str | None, time_column: str,
+                         columns: str | None, extrapolate: bool, acc_unit: str) -> None:
+    """Correct the raw triad columns of DATA with K, M, B at each row's temperature."""
+    model = load_triad_thermal_model(model_path)
+    if temperature_column is None:
+        raise click.UsageError(f"{model_path} is a triad thermal model: name the temperature "
+                               "column with --temperature-column")
+    cols = _columns(columns or "output_x,output_y,output_z", "--columns")
+    table = read_table(data)
+    need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
+    arr = _read_numeric(data, table, need, "--temperature-column, --columns x,y,z"
+                        + (", --time-column" if model.uses_rate else ""))
+    temp = arr[temperature_column]
+    rate = _rate_and_range_check(model, data, temp, arr.get(time_column), extrapolate)
+    u, std = model.compensate(np.column_stack([arr[c] for c in cols]), temp, rate)
+    hdf5 = is_hdf5(output)
+    out: dict[str, np.ndarray] = {}
+    units: dict[str, str] = {}
+    for name, values in table.items():
+        if name not in cols:
+            out[name] = values
+            continue
+        k = cols.index(name)
+        for col, v in ((name, u[:, k]), (f"{name}_correction_std", std[:, k])):
+            key = col if hdf5 else f"{col} [{acc_unit}]"
+            out[key] = accel_from_si(v, acc_unit)
+            units[key] = acc_unit
+    write_table(output, out, units)
+    click.echo(f"wrote {temp.size} corrected rows ({', '.join(cols)} -> {acc_unit}, K, M, B at "
+               f"each row's temperature) to {output}")

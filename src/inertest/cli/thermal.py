@@ -12,6 +12,7 @@ from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
 from inertest.io.thermal_model import write_thermal_model
 from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
+from inertest.report.rounding import format_with_std
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -171,20 +172,40 @@ def _store(result, data: Path, serial: str, db: str | None, *, argv_text: str):
 @click.option("--sigma", type=float, default=None,
               help="Known noise per reading [output unit] (default: from each step).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@click.option("--model-out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the K, M, B laws (JSON with covariance, units, valid range) for "
+              "inertest apply.")
+@click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
+              default=None, help="Write a self-contained HTML report into this folder.")
 def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | None,
-          sigma: float | None, as_json: bool) -> None:
+          sigma: float | None, as_json: bool, model_out: Path | None,
+          report_dir: Path | None) -> None:
     """Triad K, M, B against temperature from multi-position data at several temperatures.
 
     PLAN is a triad-multiposition plan; DATA has the columns temperature_c, branch
     (heating/cooling), position, output_x, output_y, output_z (optional step,
     temperature_rate_c_per_min). Hysteresis between heating and cooling is tested per
-    coefficient.
+    coefficient. --model-out writes the laws; inertest apply MODEL DATA --temperature-column
+    T corrects a recording with them at each row's temperature.
     """
     from inertest.api import load_plan
     from inertest.procedures.thermal_triad import fit_triad_thermal
 
+    check_paths([model_out, report_dir], [plan, data])
     result = fit_triad_thermal(load_plan(plan), read_table(data), degree=degree,
                                use_rate=use_rate, sigma=sigma, t_ref_c=t_ref_c)
+    model = result.model() if model_out is not None else None
+    if report_dir is not None:
+        from inertest.report.html import page
+        from inertest.report.thermal import triad_thermal_sections
+
+        html = page("Triad calibration against temperature",
+                    triad_thermal_sections(result, title="K, M, B against temperature"),
+                    subtitle=f"plan: {plan}; data: {data}")
+        with target_directory(report_dir, inputs=[plan, data]) as tmp:
+            (tmp / "index.html").write_text(html, encoding="utf-8")
+    if model is not None and model_out is not None:
+        write_thermal_model(model_out, model)
     if as_json:
         echo_json(result.to_dict())
         return
@@ -196,13 +217,73 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         s = np.sqrt(np.diag(law.covariance))
         u = law.unit
         h = result.hysteresis.get(n)
-        rows.append([n, f"{law.coefficients[0]:.6g} ± {s[0]:.2g} {u}",
-                     (f"{law.coefficients[1]:.3g} ± {s[1]:.2g} {u}/degC" if degree >= 1
+        rows.append([n, format_with_std(law.coefficients[0], s[0], u),
+                     (format_with_std(law.coefficients[1], s[1], f"{u}/degC") if degree >= 1
                       else "-"),
-                     "-" if h is None else f"{h.max_difference:.3g} ± {h.std:.2g} {u} at "
+                     "-" if h is None else f"{format_with_std(h.max_difference, h.std, u)} at "
                      f"{h.at_temperature_c:.0f} degC",
                      "-" if h is None else ("SIGNIFICANT" if h.significant else "no")])
     print_table(f"triad against temperature ({len(result.step_temperature_c)} steps)",
                 header, rows)
     for m in result.messages:
         click.echo(f"warning: {m}", err=True)
+    if report_dir is not None:
+        click.echo(f"report: {report_dir / 'index.html'}")
+    if model is not None:
+        lo, hi = model.temperature_range_c
+        click.echo(f"model: {model_out} (K, M, B laws of degree {degree}; valid {lo:.4g} to "
+                   f"{hi:.4g} degC)")
+
+
+@thermal.command(name="triad-simulate")
+@click.argument("plan", type=_FILE)
+@click.argument("laws", type=_FILE)
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Data file to write (.csv, .parquet, .h5).")
+@click.option("--t-min-c", type=float, default=-40.0, show_default=True)
+@click.option("--t-max-c", type=float, default=60.0, show_default=True)
+@click.option("--step-c", type=float, default=10.0, show_default=True,
+              help="Temperature step of the chamber [degC].")
+@click.option("--branches", type=click.Choice(["both", "heating", "cooling"]), default="both",
+              show_default=True)
+@click.option("--noise", type=float, default=0.0, show_default=True,
+              help="White noise per reading [plan output unit].")
+@click.option("--seed", type=int, default=None, help="Random seed for the noise.")
+def triad_simulate(plan: Path, laws: Path, output: Path, t_min_c: float, t_max_c: float,
+                   step_c: float, branches: str, noise: float, seed: int | None) -> None:
+    """Chamber steps of a virtual accelerometer triad whose K, M, B follow the laws in LAWS.
+
+    LAWS is TOML: t_ref_c = 20.0 and a [laws] table, name = [a0, a1, ...] for
+    a0 + a1 (T - t_ref_c) + ... (K_i [scale unit], M_ij [urad], B_i [mg]). The output has the
+    columns of inertest thermal triad.
+    """
+    from inertest.api import load_plan
+    from inertest.io.plan_file import read_toml
+    from inertest.models.triad import parameter_names
+    from inertest.procedures.thermal_triad import simulate_triad_thermal
+
+    check_paths([output], [plan, laws])
+    if step_c <= 0 or t_max_c < t_min_c:
+        raise click.BadParameter("need --step-c > 0 and --t-max-c >= --t-min-c",
+                                 param_hint="--step-c")
+    doc = read_toml(laws, "laws")
+    table = doc.get("laws")
+    if not isinstance(table, dict) or not isinstance(doc.get("t_ref_c"), int | float):
+        raise click.UsageError(f"{laws} needs t_ref_c = <degC> and a [laws] table of "
+                               "name = [a0, a1, ...]")
+    unknown = sorted(set(table) - set(parameter_names()))
+    bad = [k for k, v in table.items()
+           if not (isinstance(v, list) and v and all(isinstance(x, int | float) for x in v))]
+    if unknown or bad:
+        raise click.UsageError(f"{laws}: " + "; ".join(
+            ([f"unknown law(s) {', '.join(unknown)} (known: {', '.join(parameter_names())})"]
+             if unknown else [])
+            + ([f"{', '.join(bad)} must be lists of numbers [a0, a1, ...]"] if bad else [])))
+    temps = np.arange(t_min_c, t_max_c + 0.5 * step_c, step_c)
+    data = simulate_triad_thermal(
+        load_plan(plan), table, t_ref_c=float(doc["t_ref_c"]), temperatures_c=temps,
+        branches=("heating", "cooling") if branches == "both" else (branches,), noise=noise,
+        rng=seed)
+    write_table(output, data, {"temperature_c": "degC"})
+    click.echo(f"wrote {len(data['step'])} rows ({int(data['step'].max()) + 1} temperature "
+               f"steps) to {output}")

@@ -1,4 +1,8 @@
-"""Figure and report section of the temperature compensation (seed 003, BP network)."""
+"""Figures and report sections of temperature compensation and of a triad against temperature.
+
+Seed 003: the scalar polynomial / BP-network compensation, and the triad K, M, B laws in
+temperature with the heating/cooling hysteresis table.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from inertest.procedures.thermal_compensation import ThermalResult
+from inertest.procedures.thermal_triad import ThermalTriadResult
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.rounding import format_with_std
 
 _LABEL = {"scale_factor": "scale factor error", "bias": "bias"}
 
@@ -98,4 +104,97 @@ def thermal_sections(result: ThermalResult, *, title: str) -> list[Section]:
         sec.parts.append(paragraph(m, note=True))
     sec.parts.append(figure_html(thermal_figure(result),
                                  f"{_LABEL[result.quantity]} against temperature, and residuals"))
+    return [sec]
+
+
+def triad_thermal_figure(result: ThermalTriadResult) -> Figure:
+    """Each coefficient's per-step estimates ± std (heating, cooling) and its fitted law."""
+    names = list(result.laws)
+    ncol = 3
+    nrow = -(-len(names) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(11, 2.3 * nrow + 0.6), squeeze=False)
+    t = result.step_temperature_c
+    lo, hi = float(t.min()), float(t.max())
+    grid = np.linspace(lo, hi, 121)
+    rate = float(np.mean(result.step_rate_c_per_min))
+    for ax, n in zip(axes.ravel(), names, strict=False):
+        law = result.laws[n]
+        for branch, colour, marker in (("heating", "C3", "^"), ("cooling", "C0", "v")):
+            sel = result.step_branch == branch
+            if np.any(sel):
+                ax.errorbar(t[sel], result.step_values[n][sel], yerr=result.step_stds[n][sel],
+                            fmt=marker, ms=4, color=colour, lw=0.8, capsize=2, label=branch)
+        v, sd = law.predict(grid, np.full(grid.size, rate))
+        ax.plot(grid, v, "-", color="k", lw=1.0, label="law")
+        ax.fill_between(grid, v - sd, v + sd, color="0.6", alpha=0.35, lw=0)
+        ax.set_title(f"{n} [{law.unit}]", fontsize=9)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[len(names):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("temperature [degC]", fontsize=8)
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def triad_law_rows(result: ThermalTriadResult) -> tuple[list[str], list[list[str]]]:
+    """Header and rows: each coefficient's law terms (value ± std unit) and its chi-square."""
+    first = next(iter(result.laws.values()))
+    terms = [f"a{k}" for k in range(first.degree + 1)] + (["r"] if first.uses_rate else [])
+    dt = f"(T - {first.t_ref_c:g} degC)"
+    header = ["coefficient", *("a0 (at T_ref)" if k == "a0" else f"a1 per {dt}" if k == "a1"
+                                else f"{k} per {dt}^{k[1:]}" if k != "r"
+                                else "r per dT/dt [degC/min]" for k in terms),
+              "chi2 / dof", "p"]
+    rows = []
+    for n, law in result.laws.items():
+        doc = law.to_dict()["terms"]
+        cells = [format_with_std(d["value"], d["std"], d["unit"])  # type: ignore[index]
+                 for d in doc.values()]  # type: ignore[union-attr]
+        rows.append([n, *cells, f"{law.chi2:.3g} / {law.dof}",
+                     "-" if law.dof <= 0 else f"{law.p_value:.2g}"])
+    return header, rows
+
+
+def triad_hysteresis_rows(result: ThermalTriadResult) -> tuple[list[str], list[list[str]]]:
+    """Header and rows: heating minus cooling at its largest, Wald test and verdict."""
+    header = ["coefficient", "heating - cooling", "at [degC]", "Wald chi2", "dof", "p",
+              "verdict"]
+    rows = [[n, format_with_std(h.max_difference, h.std, h.unit), f"{h.at_temperature_c:.1f}",
+             f"{h.statistic:.3g}", str(h.dof), f"{h.p_value:.2g}",
+             "SIGNIFICANT" if h.significant else "not significant"]
+            for n, h in result.hysteresis.items()]
+    return header, rows
+
+
+def triad_thermal_sections(result: ThermalTriadResult, *, title: str) -> list[Section]:
+    """Report section: laws per coefficient, figure, hysteresis table with verdicts."""
+    first = next(iter(result.laws.values()))
+    heat = int(np.sum(result.step_branch == "heating"))
+    cool = int(np.sum(result.step_branch == "cooling"))
+    t = result.step_temperature_c
+    sec = Section(title, [paragraph(
+        f"Multi-position calibration at each of {t.size} temperature steps ({heat} heating, "
+        f"{cool} cooling, {t.min():.4g} to {t.max():.4g} degC), then each coefficient fitted "
+        f"as a polynomial of degree {first.degree} in (T - {first.t_ref_c:g} degC)"
+        + (" plus a term in dT/dt" if first.uses_rate else "")
+        + " by weighted least squares with the per-step uncertainties. Triad model raw = "
+        "K (I + M) (u + B); K in the scale unit, M in urad, B in mg (input-referred). "
+        "The model (thermal triad --model-out) is valid over the step temperatures and is "
+        "applied with inertest apply MODEL.json DATA --temperature-column temperature_c.")])
+    sec.parts.append(table_html(*triad_law_rows(result),
+                                caption="Law of each coefficient (value ± std unit)"))
+    sec.parts.append(figure_html(triad_thermal_figure(result),
+                                 "Per-step estimates ± std (heating up, cooling down triangles) "
+                                 "and the fitted law ± std"))
+    if result.hysteresis:
+        sec.parts.append(table_html(
+            *triad_hysteresis_rows(result),
+            caption=(f"Hysteresis: heating minus cooling curve at its largest; Wald test of the "
+                     f"two branches' polynomials, family level {result.alpha:g} (Bonferroni over "
+                     f"{len(result.hysteresis)} coefficients)")))
+    for m in result.messages:
+        sec.parts.append(paragraph(m, note=True))
     return [sec]
