@@ -180,8 +180,9 @@ def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
     gyro = d[:, :3] * (np.asarray(lsb[:3]) * ARCSEC_TO_RAD / dt)
     accel = d[:, 3:6] * (np.asarray(lsb[3:]) * 1e-6 * PSINS_G0 / dt)
     t = None if d.shape[1] == 6 else d[:, 6] - d[0, 6]
-    notes = (f"PSINS: interval {interval_ms:g} ms, gyro LSB {lsb[:3]} arcsec, accelerometer LSB "
-             f"{lsb[3:]} ug*s (ug = 1e-6 x {PSINS_G0} m/s^2); increments / interval = rates",)
+    notes: tuple[str, ...] = (
+        f"PSINS: interval {interval_ms:g} ms, gyro LSB {lsb[:3]} arcsec, accelerometer LSB "
+        f"{lsb[3:]} ug*s (ug = 1e-6 x {PSINS_G0} m/s^2); increments / interval = rates",)
     if _compression(p) is not None:
         notes += (f"read through {p.suffix} decompression (in memory)",)
     return ImuRecording(t, gyro, accel, ("gyro_x", "gyro_y", "gyro_z"),
