@@ -41,7 +41,8 @@ _LIST_OPTIONS = {
 @click.option("--scenario", "scenario_file", type=click.Path(dir_okay=False, path_type=Path),
               help="TOML scenario ([site], [run], [errors]); options below override it.")
 @click.option("--example", is_flag=True,
-              help="Start from the source's worked example (seed 002: 39 deg, 24 h, all sources).")
+              help="Start from the worked example of the INS error-propagation report (39 deg, "
+              "24 h, all sources).")
 @click.option("--latitude", type=float, help="Latitude L [deg], strictly between -90 and 90.")
 @click.option("--hours", type=float, help="Duration [h] (default 24).")
 @click.option("--step", type=float, help="Output step [s] (default 60); the solution is exact.")
@@ -80,7 +81,9 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
                gyro_arw_deg_sqrt_h: float, accel_vrw_m_s_sqrt_h: float,
                gyro_rrw_deg_h_sqrt_h: float, closed_forms: bool, as_json: bool,
                plot: Path | None, report: Path | None) -> None:
-    """Error propagation of a north-pointing local-level INS on a static base (seed 002).
+    """Error propagation of a north-pointing local-level INS on a static base.
+
+    Source: Error propagation of an inertial navigation system.
 
     Exact solution of the linear error equations for constant accelerometer biases, gyro
     drifts and initial errors, each source separately and combined; Schuler, Foucault and

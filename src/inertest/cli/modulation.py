@@ -70,7 +70,10 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
               drift_sine_deg_h: float, drift_sine_hz: float, noise_deg_h: float,
               house_rate_deg_s: str, house_sine_deg_s: float, house_sine_hz: float, seed: int,
               as_json: bool, plot: Path | None) -> None:
-    """Stator rotation of a suspended gyro (seed 001): residual drift with and without it."""
+    """Stator rotation of a suspended gyro: residual drift with and without it.
+
+    Source: patent, stator rotation modulation for suspended gyros.
+    """
     from inertest.report.modulation import component_figure
     from inertest.results import envelope
     from inertest.studies import stator_modulation as sm

@@ -216,7 +216,7 @@ def seed_scenario() -> InsScenario:
                    20 * ARCSEC_TO_RAD, 20 * ARCSEC_TO_RAD, 5 * ARCMIN_TO_RAD])
     u = np.array([1e-4 * g, 1e-4 * g, drift, drift, drift])
     return InsScenario(site=site, x0=x0, u=u, duration_s=24 * HOUR_TO_S, step_s=10.0,
-                       name="seed 002 worked example (L = 39 deg, 24 h)")
+                       name="worked example of the INS error-propagation report (L = 39 deg, 24 h)")
 
 
 

@@ -173,4 +173,5 @@ def navigation_page(result: NavigationCalibrationResult, *, scale_unit: str,
     return page(f"inertest: navigation-mode calibration of {serial or 'gyro triad'}",
                 navigation_sections(result, scale_unit=scale_unit,
                                     si_per_scale_unit=si_per_scale_unit),
-                subtitle="Iterative refinement through 360-degree rotations (seed 003, sec. 1.3)")
+                subtitle="Iterative refinement through 360-degree rotations (Source: Precise "
+                         "calibration and compensation of FOG scale factor, sec. 1.3)")

@@ -143,7 +143,8 @@ def system_sections(runs: Sequence[SystemRun]) -> list[Section]:
             figure_html(system_figure(runs),
                         f"INS errors over {hours:g} h, same IMU errors for every scheme"),
             table_html(SYSTEM_SUMMARY_HEADER, system_summary_rows(runs)),
-            paragraph("Static-base INS error equations (seed 002); the vertical channel is not "
+            paragraph("Static-base INS error equations (Source: Error propagation of an inertial "
+                      "navigation system); the vertical channel is not "
                       "modelled, so the vertical accelerometer error does not enter.", note=True),
             paragraph(f"Sign convention: {SIGN_CONVENTION}.", note=True),
         ]),

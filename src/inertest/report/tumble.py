@@ -79,7 +79,8 @@ def polar_tumble_sections(
     for mount, combos in result.closed_form.items():
         rows = [[c.name, fmt(c.value, c.std), c.unit] for c in combos]
         harm.parts.append(paragraph(
-            f"Closed-form separation from the {mount}-Np/{mount}-Sp pair (seed 000, sec. 2(4)):"))
+            f"Closed-form separation from the {mount}-Np/{mount}-Sp pair "
+            "(Source: Inertial instrument testing and data analysis, ch. 3, sec. 2(4)):"))
         harm.parts.append(table_html(["quantity", "estimate ± std", "unit"], rows))
     if result.harmonics:
         harm.parts.append(figure_html(polar_tumble_figure(result),
