@@ -61,8 +61,8 @@ def nine_position_sections(
         "Institute of Technology). One observation per run; omega is the signed arm rate "
         "(negative = clockwise seen from above)."))
     rows = [
-        [str(int(p)), f"{w:g}", str(int(r)), str(int(n)), f"{d:.6g}", f"{f:.6g}", f"{e:.6g}",
-         f"{res:.3g}"]
+        [str(int(p)), f"{w:g}", str(int(r)), str(int(n)), float(d), float(f), float(e),
+         float(res)]  # floats: 4 significant digits, round-off (1e-16 deg/h) printed as 0
         for p, w, r, n, d, f, e, res in zip(
             result.run_position, result.run_omega, result.run_revolutions, result.run_samples,
             result.drift_deg_h, result.fitted_deg_h, result.earth_rate_deg_h,

@@ -12,6 +12,7 @@ import numpy as np
 
 from inertest.ins.error_model import SIGN_CONVENTION
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.rounding import format_number
 from inertest.studies.rotation_modulation import SystemRun
 from inertest.studies.stator_modulation import ModulationRun, drift_gain
 from inertest.units import (
@@ -29,8 +30,11 @@ def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarra
     fig, ax = plt.subplots(2, 2, figsize=(11, 7.5))
     first = runs[0]
     a = ax[0, 0]
-    a.plot(first.t_out, first.residual_fixed[:, 0] / k, label="no modulation (x)")
-    a.plot(first.t_out, first.residual_modulated[:, 0] / k,
+    fixed = first.residual_fixed[:, 0] / k
+    scale = max(float(np.max(np.abs(fixed), initial=0.0)),
+                float(np.max(np.abs(first.true_rate[:, 0]), initial=0.0)) / k)
+    a.plot(first.t_out, clip_round_off(fixed, scale), label="no modulation (x)")
+    a.plot(first.t_out, clip_round_off(first.residual_modulated[:, 0] / k, scale),
            label=f"stator at {first.stator_rate_rad_s / (2 * np.pi):g} Hz (x)")
     a.set_xlabel("time [s]")
     a.set_ylabel("rate error [deg/h]")
@@ -87,8 +91,9 @@ def system_figure(runs: Sequence[SystemRun]):
         (ax[1, 2], lambda r: r.x[:, 6] / ARCSEC_TO_RAD, "azimuth φU [arcsec]"),
     ]
     for a, value, title in panels:
+        scale = max(float(np.max(np.abs(value(r)), initial=0.0)) for r in runs)
         for r in runs:
-            v = np.abs(value(r))
+            v = clip_round_off(np.abs(value(r)), scale)
             a.semilogy(r.t / HOUR_TO_S, np.where(v > 0, v, np.nan), lw=1.0, label=r.scheme.label)
         a.set_title(f"|{title.split(' [')[0]}|")
         a.set_ylabel(title)
@@ -126,13 +131,29 @@ def system_summary_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
 
 
 def system_residual_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
-    """Per scheme: the equivalent constant errors it leaves (cycle means), ug and deg/h."""
-    rows = []
-    for r in runs:
-        u = r.cycle_mean_inputs
-        vals = np.r_[u[:2] / MICRO_G_TO_M_PER_S2, u[2:] / DEG_PER_H_TO_RAD_PER_S]
-        rows.append([r.scheme.label, *(f"{v:.3g}" for v in vals)])
-    return rows
+    """Per scheme: the equivalent constant errors it leaves (cycle means), ug and deg/h.
+
+    A cycle mean below :data:`PLOT_ROUND_OFF` of its column's largest value (the unmodulated
+    error) is the quadrature's round-off and printed as 0 (not -5.8e-17 deg/h or 6.1e-11 deg/h).
+    """
+    vals = np.array([np.r_[r.cycle_mean_inputs[:2] / MICRO_G_TO_M_PER_S2,
+                           r.cycle_mean_inputs[2:] / DEG_PER_H_TO_RAD_PER_S] for r in runs])
+    scale = np.max(np.abs(vals), axis=0, initial=0.0)
+    return [[r.scheme.label, *(format_number(float(v), scale=float(s), digits=3,
+                                             round_off=PLOT_ROUND_OFF)
+                               for v, s in zip(row, scale, strict=True))]
+            for r, row in zip(runs, vals, strict=True)]
+
+
+#: Relative size below which a computed error (a cycle mean, a modulated residual) is round-off
+#: of the quadrature and the filters: printed as 0 and not plotted as a "step".
+PLOT_ROUND_OFF = 1e-8
+
+
+def clip_round_off(values: np.ndarray, scale: float) -> np.ndarray:
+    """``values`` with entries below ``PLOT_ROUND_OFF * scale`` in magnitude set to 0."""
+    v = np.asarray(values, dtype=float)
+    return np.where(np.abs(v) < PLOT_ROUND_OFF * scale, 0.0, v)
 
 
 def system_sections(runs: Sequence[SystemRun]) -> list[Section]:

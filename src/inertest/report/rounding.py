@@ -90,7 +90,9 @@ def _std_only(std: float) -> str:
     return f"{std:.2g}" if _finite(std) else str(std)
 
 
-def format_number(x: float, *, scale: float | None = None, digits: int = 4) -> str:
+def format_number(
+    x: float, *, scale: float | None = None, digits: int = 4, round_off: float = ROUND_OFF
+) -> str:
     """A number without an uncertainty to ``digits`` significant digits; round-off as ``0``.
 
     Parameters
@@ -102,12 +104,15 @@ def format_number(x: float, *, scale: float | None = None, digits: int = 4) -> s
         it only an exact zero does.
     digits : int
         Significant digits kept.
+    round_off : float
+        Relative size printed as 0 (default :data:`ROUND_OFF`; larger for numbers computed by
+        quadrature, whose round-off is larger than the arithmetic's).
     """
     if isinstance(x, bool) or not isinstance(x, int | float):
         return str(x)
     if not math.isfinite(x):
         return str(x)
-    if x == 0 or scale is not None and abs(x) < ROUND_OFF * abs(scale):
+    if x == 0 or scale is not None and abs(x) < round_off * abs(scale):
         return "0"
     if isinstance(x, int) and abs(x) < 10 ** _FIXED_MAX_EXP:
         return str(x)
