@@ -213,35 +213,112 @@ LAG1_FIELDS = 8
 
 
 @numba.njit(cache=True, nogil=True)
+def _lag1_step(val: float, state: NDArray) -> None:
+    """One value into the sums of every difference order (start-up: orders not yet begun)."""
+    for d in range(state.shape[0]):
+        row = state[d]
+        if row[0] == 0.0:
+            row[1] = val
+            v = 0.0
+            row[5] = v
+        else:
+            v = val - row[1]
+            row[4] += row[6] * v
+        row[2] += v
+        row[3] += v * v
+        row[6] = v
+        prev = row[7]
+        had = row[0] > 0.0
+        row[7] = val
+        row[0] += 1.0
+        if not had:
+            return  # the next order starts with the next value
+        val = val - prev
+
+
+@numba.njit(cache=True, nogil=True)
 def lag1_update(z: NDArray, state: NDArray) -> None:
     """Feed the next values ``z`` of a series into the lag-1 sums of its differences.
 
     ``state`` has one row per difference order (see ``LAG1_FIELDS``), updated in place; row 0
     is the series itself, row d its d-th difference (as ``np.diff`` d times). Riley & Greenhall
-    (2004) eq. 2 needs only these running sums.
+    (2004) eq. 2 needs only these running sums. Once every order has begun, the sums run in
+    local variables (up to 4 orders: dmax 3).
     """
     orders = state.shape[0]
-    for i in range(z.shape[0]):
-        val = z[i]
-        for d in range(orders):
-            row = state[d]
-            if row[0] == 0.0:
-                row[1] = val
-                v = 0.0
-                row[5] = v
-            else:
-                v = val - row[1]
-                row[4] += row[6] * v
-            row[2] += v
-            row[3] += v * v
-            row[6] = v
-            prev = row[7]
-            had = row[0] > 0.0
-            row[7] = val
-            row[0] += 1.0
-            if not had:
-                break  # the next order starts with the next value
-            val = val - prev
+    i = 0
+    nz = z.shape[0]
+    while i < nz and state[orders - 1, 0] == 0.0:
+        _lag1_step(z[i], state)
+        i += 1
+    if i >= nz:
+        return
+    if orders > 4:
+        for k in range(i, nz):
+            _lag1_step(z[k], state)
+        return
+    # every order has begun: sums in registers
+    sh = np.zeros(4)
+    s1 = np.zeros(4)
+    s2 = np.zeros(4)
+    s11 = np.zeros(4)
+    lv = np.zeros(4)
+    raw = np.zeros(4)
+    for d in range(orders):
+        sh[d] = state[d, 1]
+        s1[d] = state[d, 2]
+        s2[d] = state[d, 3]
+        s11[d] = state[d, 4]
+        lv[d] = state[d, 6]
+        raw[d] = state[d, 7]
+    sh0, sh1, sh2, sh3 = sh[0], sh[1], sh[2], sh[3]
+    a1, a2, a3, a4 = s1[0], s1[1], s1[2], s1[3]
+    b1, b2, b3, b4 = s2[0], s2[1], s2[2], s2[3]
+    c1, c2, c3, c4 = s11[0], s11[1], s11[2], s11[3]
+    l1, l2, l3, l4 = lv[0], lv[1], lv[2], lv[3]
+    r0, r1, r2, r3 = raw[0], raw[1], raw[2], raw[3]
+    for k in range(i, nz):
+        z0 = z[k]
+        v = z0 - sh0
+        c1 += l1 * v
+        a1 += v
+        b1 += v * v
+        l1 = v
+        if orders > 1:
+            z1 = z0 - r0
+            v = z1 - sh1
+            c2 += l2 * v
+            a2 += v
+            b2 += v * v
+            l2 = v
+            if orders > 2:
+                z2 = z1 - r1
+                v = z2 - sh2
+                c3 += l3 * v
+                a3 += v
+                b3 += v * v
+                l3 = v
+                if orders > 3:
+                    z3 = z2 - r2
+                    v = z3 - sh3
+                    c4 += l4 * v
+                    a4 += v
+                    b4 += v * v
+                    l4 = v
+                    r3 = z3
+                r2 = z2
+            r1 = z1
+        r0 = z0
+    cnt = float(nz - i)
+    vals = ((a1, b1, c1, l1, r0), (a2, b2, c2, l2, r1), (a3, b3, c3, l3, r2),
+            (a4, b4, c4, l4, r3))
+    for d in range(orders):
+        state[d, 0] += cnt
+        state[d, 2] = vals[d][0]
+        state[d, 3] = vals[d][1]
+        state[d, 4] = vals[d][2]
+        state[d, 6] = vals[d][3]
+        state[d, 7] = vals[d][4]
 
 
 @numba.njit(cache=True, nogil=True)
