@@ -28,3 +28,12 @@ def test_demo_prints_truth_vs_estimate_and_writes_report(tmp_path, examples_dir,
         assert f"{entry['title']}: accel_z: Allan deviation and PSD" in html
         stem = entry["data"].split("/")[-1].split(".")[0]
         assert "gyroscope_noise_density:" in (rep / f"{stem}_imu.yaml").read_text()
+    # [[thermal]]: K, M, B laws of a simulated chamber test; the held-out run's drift is removed.
+    for entry in tomllib.loads((examples_dir / "demo.toml").read_text()).get("thermal", []):
+        assert entry["title"] in out and entry["title"] in html
+        assert "drift after [mg]" in html and "not significant" in html
+        drift = re.findall(r"output_[xyz]: [\d.]+ / ([\d.]+) -> [\d.]+ / ([\d.]+)", out)
+        assert len(drift) == 3
+        assert all(float(before) > 1.0 and float(after) < 0.2 for before, after in drift)
+        stem = entry["plan"].split("/")[0]
+        assert (rep / f"{stem}.csv").exists() and (rep / f"{stem}_held_out.csv").exists()

@@ -22,6 +22,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from inertest.api import fit, load_plan, simulate
 from inertest.conformance import read_spec
 from inertest.errors import PlanError
@@ -60,6 +62,83 @@ class DemoTest:
             self.result.to_dict(), test=self.test,
             uncertainty_budget=None if self.budget is None else self.budget.to_dict(),
             conformance=None if self.conformance is None else self.conformance.to_dict())
+
+
+@dataclass(frozen=True)
+class DemoThermal:
+    """A simulated chamber test of a triad, its K, M, B laws and a held-out run corrected.
+
+    ``before_mg`` / ``after_mg``: per axis, the RMS error of the corrected specific force [mg]
+    and its drift (largest minus smallest step mean) [mg] over the held-out run, with the
+    calibration at T_ref only (before) and with the laws at each row's temperature (after).
+    """
+
+    title: str
+    plan_path: Path
+    noise: float
+    seed: int
+    data: dict[str, Any]
+    held_out: dict[str, Any]
+    result: Any
+    before_mg: dict[str, tuple[float, float]]
+    after_mg: dict[str, tuple[float, float]]
+
+
+def run_thermal(campaign: str | os.PathLike[str]) -> list[DemoThermal]:
+    """Simulate, fit and apply every ``[[thermal]]`` test of the campaign file."""
+    from inertest.equipment.multiposition import motion
+    from inertest.procedures.thermal_triad import fit_triad_thermal, simulate_triad_thermal
+    from inertest.units import MILLI_G_TO_M_PER_S2
+
+    cpath = Path(campaign)
+    out = []
+    for t in read_toml(cpath, "campaign").get("thermal", []):
+        plan_path = cpath.parent / t["plan"]
+        laws_doc = read_toml(plan_path.parent / t.get("laws", "laws.toml"), "laws")
+        plan = load_plan(plan_path)
+        noise, seed = float(t.get("noise", 0.0)), int(t.get("seed", 0))
+        t_ref = float(laws_doc["t_ref_c"])
+        laws = laws_doc["laws"]
+        data = simulate_triad_thermal(plan, laws, t_ref_c=t_ref,
+                                      temperatures_c=np.arange(-40.0, 61.0, 10.0),
+                                      noise=noise, rng=seed)
+        result = fit_triad_thermal(plan, data, degree=2, t_ref_c=t_ref)
+        model = result.model()
+        held = simulate_triad_thermal(plan, laws, t_ref_c=t_ref,
+                                      temperatures_c=np.arange(-35.0, 56.0, 10.0),
+                                      branches=("heating",), noise=noise, rng=seed + 1000)
+        raw = np.column_stack([held[f"output_{a}"] for a in "xyz"])
+        temp = np.asarray(held["temperature_c"], dtype=float)
+        f = motion(held["position"], plan.site).inputs_of_rows(held["position"]).f_i
+        quality = []
+        for at in (np.full(temp.size, t_ref), temp):
+            err = (model.compensate(raw, at)[0] - f) / MILLI_G_TO_M_PER_S2
+            means = np.array([err[temp == T].mean(axis=0) for T in np.unique(temp)])
+            quality.append({a: (float(np.sqrt(np.mean(err[:, i] ** 2))),
+                                float(np.ptp(means[:, i]))) for i, a in enumerate("xyz")})
+        out.append(DemoThermal(str(t.get("title", "thermal triad")), plan_path, noise, seed,
+                               data, held, result, quality[0], quality[1]))
+    return out
+
+
+def thermal_sections(t: DemoThermal) -> list[Section]:
+    """Report sections of one thermal test: the laws, and the held-out run before/after."""
+    from inertest.report.html import table_html
+    from inertest.report.thermal import triad_thermal_sections
+
+    secs = triad_thermal_sections(t.result, title=t.title)
+    rows = [[f"output_{a}", f"{t.before_mg[a][0]:.3f}", f"{t.after_mg[a][0]:.3f}",
+             f"{t.before_mg[a][1]:.3f}", f"{t.after_mg[a][1]:.3f}"] for a in "xyz"]
+    secs[0].parts.append(paragraph(
+        f"Held-out heating run at temperatures between the steps (-35 to 55 degC, file "
+        f"{t.plan_path.parent.name}_held_out.csv), corrected by the model as inertest apply "
+        "does: before = the calibration at T_ref only, after = K, M, B at each row's "
+        "temperature. Error = corrected minus true specific force."))
+    secs[0].parts.append(table_html(
+        ["axis", "RMS error before [mg]", "RMS error after [mg]", "drift before [mg]",
+         "drift after [mg]"], rows,
+        caption="Held-out run: drift = largest minus smallest step mean of the error"))
+    return secs
 
 
 def find_examples(start: Path | None = None) -> Path:
@@ -113,11 +192,14 @@ def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
 
 
 def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[str], *,
-                          noise: list[DemoNoise] | None = None) -> Path:
+                          noise: list[DemoNoise] | None = None,
+                          thermal: list[DemoThermal] | None = None) -> Path:
     """Write ``index.html`` (self-contained) and the simulated data files into ``directory``.
 
     ``noise`` (from :func:`run_noise`) adds its report sections after the tests and writes each
-    recording's Kalibr ``<name>_imu.yaml`` beside the report.
+    recording's Kalibr ``<name>_imu.yaml`` beside the report. ``thermal`` (from
+    :func:`run_thermal`) adds the laws, hysteresis and held-out run of each thermal test and
+    writes its chamber and held-out data.
     """
     sections = [Section("About this report", [paragraph(
         "Simulated campaign on virtual instruments: each test below was simulated from the true "
@@ -134,6 +216,8 @@ def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[st
         sections += [ident, *parts, *conformance_sections(
             t.to_dict(), title=f"{t.title}: conformance and uncertainty budget")]
     sections += noise_sections(noise or [])
+    for th in thermal or ():
+        sections += thermal_sections(th)
     html = page("inertest: example test campaign", sections,
                 subtitle=f"Generated by `inertest demo` on {datetime.now(UTC):%Y-%m-%d %H:%M} "
                          f"UTC with inertest {software_version()}.")
@@ -141,6 +225,9 @@ def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[st
         (tmp / "index.html").write_text(html, encoding="utf-8")
         for t in tests:
             write_table(tmp / f"{t.plan_path.parent.name}.csv", t.data)
+        for th in thermal or ():
+            write_table(tmp / f"{th.plan_path.parent.name}.csv", th.data)
+            write_table(tmp / f"{th.plan_path.parent.name}_held_out.csv", th.held_out)
         for n in noise or []:
             from inertest.io.kalibr import write_kalibr_yaml
 

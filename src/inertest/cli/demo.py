@@ -8,7 +8,13 @@ import click
 
 from inertest.cli._common import print_identity
 from inertest.cli.procedure import print_result
-from inertest.demo import find_examples, run_campaign, run_noise, write_campaign_report
+from inertest.demo import (
+    find_examples,
+    run_campaign,
+    run_noise,
+    run_thermal,
+    write_campaign_report,
+)
 
 
 @click.command()
@@ -34,5 +40,16 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         h, r = summary_rows(n.result)
         print_table("noise per channel: Kalibr noise density N and random walk K (< : upper "
                     "bound), IEEE 952 bias instability B", h, r)
-    index = write_campaign_report(tests, report_dir, noise=noise)
+    thermal = run_thermal(folder / "demo.toml")
+    for th in thermal:
+        click.echo(f"\n{th.title} ({th.plan_path}; noise {th.noise:g} per reading, seed "
+                   f"{th.seed}): {len(th.result.step_temperature_c)} steps; held-out run, "
+                   "RMS error / drift before -> after [mg]:")
+        for a in "xyz":
+            (rb, db), (ra, da) = th.before_mg[a], th.after_mg[a]
+            click.echo(f"  output_{a}: {rb:.3f} / {db:.3f} -> {ra:.3f} / {da:.3f}")
+        flagged = [n for n, h in th.result.hysteresis.items() if h.significant]
+        click.echo("  hysteresis heating vs cooling: "
+                   + (", ".join(flagged) if flagged else "none significant"))
+    index = write_campaign_report(tests, report_dir, noise=noise, thermal=thermal)
     click.echo(f"\nreport: {index}")
