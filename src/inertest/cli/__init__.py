@@ -57,6 +57,8 @@ _COMMANDS: dict[str, tuple[str, str, str]] = {
               "Noise of every IMU channel: Allan, PSD, IEEE 952 terms, Kalibr imu.yaml."),
     "centrifuge-study": ("inertest.cli.centrifuge", "centrifuge_study",
                          "What the centrifuge's machine errors cost the nine-position test."),
+    "plan-check": ("inertest.cli.plan_check", "plan_check",
+                   "Can PLAN verify a specification? Predicted U per limit, before testing."),
 }
 
 #: Exit status for errors in the user's input (as click uses for usage errors).

@@ -1,0 +1,115 @@
+"""``inertest plan-check``: whether a test plan can verify a specification, before testing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from inertest.cli import safe_line
+from inertest.cli._common import echo_json, print_table
+
+_FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+
+#: Exit status when a limit cannot be verified by the plan (not an input error: that is 2).
+EXIT_NOT_VERIFIABLE = 1
+
+
+@click.command()
+@click.argument("plan", type=_FILE)
+@click.option("--spec", "spec_path", type=_FILE, required=True,
+              help="Instrument specification (TOML, see examples/specs).")
+@click.option("--noise", "noise_path", type=_FILE, required=True,
+              help="Noise per reading in the output unit (TOML/JSON: sigma, position_offset, "
+              "random_walk, flicker, unit) or the JSON of `inertest allan --json`.")
+@click.option("--equipment", type=_FILE, default=None,
+              help="Lab equipment file: the Type B of the plan's [test] equipment enters U.")
+@click.option("--truth", type=_FILE, default=None,
+              help="Nominal coefficients to simulate with (default zero).")
+@click.option("--sample-interval", "sample_interval_s", type=float, default=None,
+              help="Seconds between readings, to map Allan terms (default: the plan's rate).")
+@click.option("--tur", type=click.FloatRange(min=1.0), default=3.0, show_default=True,
+              help="Test uncertainty ratio: a limit is verifiable when U <= tolerance / TUR.")
+@click.option("--mc", "n_mc", type=click.IntRange(min=20), default=200, show_default=True,
+              help="Simulated tests of the Monte Carlo (noise other than white or equal "
+              "position offsets).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | None,
+               truth: Path | None, sample_interval_s: float | None, tur: float, n_mc: int,
+               seed: int, as_json: bool) -> None:
+    """Predict each limited quantity's U from PLAN and a noise model, before testing.
+
+    A limit is verifiable when the predicted U (k = 2: Type A from the plan and the noise,
+    Type B of the equipment and site gravity) is at most tolerance / TUR (3:1 by default).
+    When a limit is not, the cheapest change (longer dwell, more positions or repeats, more
+    mountings) that makes it verifiable is printed with its predicted U.
+
+    Exit status: 0 when every limit is verifiable, 1 when one is not (marginal, not
+    verifiable or not determined by the plan), 2 for bad input.
+    """
+    from inertest.api import load_plan
+    from inertest.conformance import read_spec
+    from inertest.io.plan_file import load_truth
+    from inertest.lab import read_equipment, select_equipment
+    from inertest.plan_check import check_plan, read_noise
+
+    p = load_plan(plan)
+    spec = read_spec(spec_path)
+    noise = read_noise(noise_path, p, sample_interval_s=sample_interval_s)
+    used = ()
+    if equipment is not None and p.test is not None:
+        used = select_equipment(read_equipment(equipment), p.test.equipment,
+                                plan_source=f"plan {plan}", lab_source=f"lab file {equipment}")
+    tr = load_truth(truth) if truth is not None else None
+    out = check_plan(p, spec, noise, equipment=used, truth=tr, tur=tur, n_mc=n_mc, rng=seed)
+    if as_json:
+        echo_json(out.to_dict())
+    else:
+        _print(out)
+    if not out.ok:
+        raise SystemExit(EXIT_NOT_VERIFIABLE)
+
+
+def _u(x: float | None, unit: str) -> str:
+    return "-" if x is None else f"{x:.2g} {unit}"
+
+
+def _print(out) -> None:  # noqa: ANN001 - PlanCheck
+    n = out.noise
+    click.echo(safe_line(
+        f"noise per reading: white {n.sigma:.3g}, position offset {n.position_offset:.3g}, "
+        f"random-walk step {n.random_walk:.3g}, flicker {n.flicker:.3g} {n.unit}"))
+    for note in n.notes:
+        click.echo(safe_line(f"  {note}"))
+    click.echo(safe_line(f"prediction: {out.plan.method}"))
+    header = ["quantity", "limit", "predicted std (Type A)", "Type B", "U (k = 2)",
+              "U / tolerance", "status"]
+    rows = [[c.quantity, c.limit, _u(c.std_a, c.unit), _u(c.type_b, c.unit),
+             _u(c.expanded, c.unit),
+             "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}", c.status]
+            for c in out.plan.limits]
+    print_table(f"plan as written ({out.plan.readings} readings)", header, rows)
+    for c in out.plan.limits:
+        if c.status == "not determined":
+            click.echo(safe_line(f"not determined: {c.quantity}: {c.note}"))
+    click.echo(safe_line(f"rule: {out.rule}"))
+    if out.ok:
+        click.echo("the plan can verify every limit")
+        return
+    s = out.suggestion
+    if all(c.status in ("verifiable", "not determined") for c in out.plan.limits):
+        click.echo("the quantities not determined need another procedure or more mountings "
+                   "(see above); no dwell or repeat makes them identifiable")
+        return
+    if s is None:
+        tried = ", ".join(c.label for c in out.candidates) or "none applies to this procedure"
+        click.echo(safe_line(f"no single change tried makes every limit verifiable (tried: "
+                             f"{tried})"))
+        return
+    click.echo(safe_line(f"cheapest change: {s.label} ({s.readings} readings instead of "
+                         f"{out.plan.readings})"))
+    print_table(f"with {s.label}", header[:1] + ["U (k = 2)", "U / tolerance", "status"],
+                [[c.quantity, _u(c.expanded, c.unit),
+                  "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}", c.status]
+                 for c in s.limits])

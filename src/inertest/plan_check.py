@@ -1,0 +1,657 @@
+"""Test-plan design before testing: whether a plan can verify specification limits.
+
+:func:`check_plan` predicts the uncertainty of every quantity a plan determines, from the plan and a
+noise model, before anything is measured, and compares it with each limit of an instrument
+specification (:mod:`inertest.conformance`):
+
+1. The test is simulated noise-free (the plan's kinematics, a nominal instrument: the given truth
+   or zero coefficients) and fitted by the procedure's own identification front.
+2. Predicted Type-A standard uncertainty:
+
+   - **white noise** (``sigma`` per reading): the fit of the noise-free data with the white
+     noise given, ``cov = sigma^2 (A^T A)^-1`` in engineering units (exact for the least
+     squares the fit runs);
+   - **position offsets** (``position_offset`` per position, on top of ``sigma``) when every
+     position has the same number ``n`` of readings and the design is constant within a
+     position: the generalised least squares of the position means has the covariance of a white
+     fit with ``sigma_eff^2 = sigma^2 + n sigma_pos^2`` (the means are independent with variance
+     ``sigma^2 / n + sigma_pos^2``), which is what the fit's ``position-offsets`` model
+     estimates;
+   - **random walk or flicker**, or unequal positions: a Monte Carlo of ``n_mc`` (default 200)
+     simulated tests with that noise added to the output and fitted with the matching noise
+     model; the scatter of the estimates is the prediction (:attr:`Prediction.method` says
+     which).
+3. Type B: the uncertainty budget of the plan's equipment and the site gravity
+   (:func:`inertest.budget.uncertainty_budget`), and ``U = k u_c`` with ``k = 2`` (GUM G.6.6:
+   many degrees of freedom).
+4. The decision: a limit is *verifiable* when ``U <= tolerance / TUR`` (test uncertainty ratio,
+   default 3, the usual 3:1 of calibration practice; ILAC-G8:09/2019 sec. 3 leaves the ratio to
+   the lab); *marginal* when ``tolerance / TUR < U < tolerance`` (a guarded pass, w = U, is still
+   possible for an instrument well inside the limit); *not verifiable* when ``U >= tolerance``
+   (no value can get a guarded pass); *not determined* when the plan does not identify the
+   quantity at all. The tolerance is ``max_abs``, half of ``max - min``, or ``|bound|`` for a
+   one-sided limit.
+5. For limits that are not verifiable, the cheapest change among a longer dwell (x2, x4), more
+   positions or repeats (x2) and a second position set where the procedure has one (the missing
+   mountings of a polar tumble) that makes every such limit verifiable, cost measured by the
+   number of readings.
+
+Noise file (TOML or JSON), in the plan's output unit unless ``unit`` says otherwise::
+
+    sigma = 0.002            # white noise per reading
+    position_offset = 0.0    # std of an offset per position (table re-settling, bias jumps)
+    random_walk = 0.0        # std of the random-walk step per reading
+    flicker = 0.0            # std of band-limited 1/f noise per reading
+    unit = "mA"              # optional; a rate or specific-force unit is converted
+
+or the JSON of ``inertest allan --json`` (a rate recording), whose IEEE Std 952-1997 Annex C terms
+map, with the reading interval ``tau0`` (the plan's ``sample_rate_hz`` or ``sample_interval_s``, or
+``--sample-interval``) and the dwell ``T_d`` of a position, as:
+
+- angle random walk N: ``sigma_A(tau) = N / sqrt(tau)``, so white ``sigma = N / sqrt(tau0)`` per
+  reading;
+- bias instability B: the flicker floor ``sigma_A = B sqrt(2 ln 2 / pi) = 0.664 B`` (C.1); for
+  independent offsets per position the Allan deviation at ``tau = T_d`` of the position means
+  equals the offset std, so ``position_offset = 0.664 B``;
+- rate random walk K: ``sigma_A(tau) = K sqrt(tau / 3)``, a random walk of the rate with step
+  ``K sqrt(tau0)`` per reading.
+
+Unresolved terms (only an upper bound known) are taken as zero and named in the notes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import tomllib
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from inertest.budget import quantities_of, uncertainty_budget
+from inertest.conformance import Spec
+from inertest.errors import InertestError, PlanError, UnitError
+from inertest.lab import Equipment
+from inertest.plan import Plan, did_you_mean
+from inertest.procedures import procedure_module
+from inertest.units import convert
+
+#: Default test uncertainty ratio: U <= tolerance / 3.
+DEFAULT_TUR = 3.0
+#: Allan deviation of flicker noise per unit of bias instability, sqrt(2 ln 2 / pi) (IEEE 952 C.1).
+FLICKER_FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
+#: Coverage factor of the predicted expanded uncertainty (GUM G.6.6, many dof).
+K_PREDICTED = 2.0
+
+STATUSES = ("verifiable", "marginal", "not verifiable", "not determined")
+
+
+class NoiseFileError(PlanError):
+    """A noise file is missing, malformed or does not fit the plan."""
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Noise of the instrument's output, per reading, in the plan's output unit.
+
+    Attributes
+    ----------
+    sigma : float
+        White noise per reading [output unit].
+    position_offset : float
+        Std of an independent offset per position [output unit].
+    random_walk : float
+        Std of the random-walk step per reading [output unit].
+    flicker : float
+        Std of band-limited 1/f noise per reading [output unit].
+    unit : str
+        The output unit.
+    notes : tuple of str
+        How the levels were obtained (mapping from Allan terms, unresolved terms).
+    """
+
+    sigma: float
+    position_offset: float = 0.0
+    random_walk: float = 0.0
+    flicker: float = 0.0
+    unit: str = ""
+    notes: tuple[str, ...] = ()
+
+    @property
+    def white_only(self) -> bool:
+        """True when only the white part is non-zero."""
+        return self.position_offset == 0 and self.random_walk == 0 and self.flicker == 0
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form, every level with its unit."""
+        return {"sigma": self.sigma, "position_offset": self.position_offset,
+                "random_walk": self.random_walk, "flicker": self.flicker, "unit": self.unit,
+                "notes": list(self.notes)}
+
+
+@dataclass(frozen=True)
+class LimitCheck:
+    """Whether a plan can verify one limit.
+
+    Attributes
+    ----------
+    quantity, unit, limit, clause : str
+        The limited quantity, the limit's unit, the limit as written, its clause.
+    tolerance : float
+        [unit] (see the module docstring).
+    std_a, type_b, expanded : float or None
+        Predicted Type-A std, Type-B combined std, U (k = 2) [unit]; None when not determined.
+    status : str
+        One of :data:`STATUSES`.
+    note : str
+    """
+
+    quantity: str
+    unit: str
+    limit: str
+    clause: str
+    tolerance: float
+    std_a: float | None
+    type_b: float | None
+    expanded: float | None
+    status: str
+    note: str = ""
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form."""
+        return {"quantity": self.quantity, "unit": self.unit, "limit": self.limit,
+                "clause": self.clause, "tolerance": self.tolerance,
+                "predicted_std_type_a": self.std_a, "predicted_std_type_b": self.type_b,
+                "predicted_expanded": self.expanded, "coverage_factor": K_PREDICTED,
+                "status": self.status, "note": self.note}
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """Predicted uncertainties of one plan and the verdict on each limit.
+
+    Attributes
+    ----------
+    label : str
+        ``"plan as written"`` or the change applied (``"dwell x2 (samples_per_position 10)"``).
+    readings : int
+        Readings of the test (its cost).
+    method : str
+        How the Type-A std was predicted (closed form or Monte Carlo, see the module docstring).
+    std_a : dict of str to (float, str)
+        Predicted Type-A std and unit per determined quantity.
+    limits : tuple of LimitCheck
+    plan : Plan or None
+        The plan predicted (with the change applied).
+    """
+
+    label: str
+    readings: int
+    method: str
+    std_a: dict[str, tuple[float, str]]
+    limits: tuple[LimitCheck, ...]
+    plan: Plan | None = dataclasses.field(default=None, repr=False, compare=False)
+
+    @property
+    def ok(self) -> bool:
+        """True when every limit is verifiable."""
+        return all(c.status == "verifiable" for c in self.limits)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form."""
+        return {"plan": self.label, "readings": self.readings, "method": self.method,
+                "predicted_std_type_a": {k: {"std": v, "unit": u}
+                                         for k, (v, u) in self.std_a.items()},
+                "limits": [c.to_dict() for c in self.limits], "all_verifiable": self.ok}
+
+
+@dataclass(frozen=True)
+class PlanCheck:
+    """The outcome of :func:`check_plan`.
+
+    Attributes
+    ----------
+    plan : Prediction
+        The plan as written.
+    suggestion : Prediction or None
+        The cheapest change that makes every limit verifiable (None when the plan already
+        does, or when no candidate does).
+    candidates : tuple of Prediction
+        Every change tried, cheapest first.
+    noise : NoiseModel
+    tur : float
+    rule : str
+        The decision rule in words.
+    not_determined : tuple of str
+        What the plan cannot determine, and why (from the fit).
+    """
+
+    plan: Prediction
+    suggestion: Prediction | None
+    candidates: tuple[Prediction, ...]
+    noise: NoiseModel
+    tur: float
+    rule: str
+    not_determined: tuple[str, ...]
+
+    @property
+    def ok(self) -> bool:
+        """True when the plan as written can verify every limit."""
+        return self.plan.ok
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``plan-check`` JSON document."""
+        return {"kind": "plan-check", "rule": self.rule, "test_uncertainty_ratio": self.tur,
+                "noise": self.noise.to_dict(), "plan": self.plan.to_dict(),
+                "all_verifiable": self.ok, "not_determined": list(self.not_determined),
+                "suggestion": None if self.suggestion is None else self.suggestion.to_dict(),
+                "candidates": [c.to_dict() for c in self.candidates]}
+
+
+# --- noise file ------------------------------------------------------------------------------
+
+_NOISE_KEYS = {"sigma", "position_offset", "random_walk", "flicker", "unit"}
+
+
+def read_noise(path: str | os.PathLike[str], plan: Plan, *,
+               sample_interval_s: float | None = None) -> NoiseModel:
+    """Read a noise file (TOML, JSON or ``inertest allan --json``) into the plan's output unit.
+
+    Parameters
+    ----------
+    path : path-like
+    plan : Plan
+        Gives the output unit (and the torquer scale factor of an electrical output).
+    sample_interval_s : float, optional
+        Interval between readings [s], to map Allan terms; default the plan's
+        ``sample_rate_hz`` / ``sample_interval_s``.
+
+    Raises
+    ------
+    NoiseFileError
+        Missing or unreadable file, unknown keys, a negative or missing level, a unit that cannot
+        be expressed in the output unit, Allan terms without a sample interval.
+    """
+    source = f"noise file {os.fspath(path)}"
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except FileNotFoundError:
+        raise NoiseFileError(f"{source} does not exist; give --noise a TOML/JSON with sigma "
+                             "per reading, or the JSON of inertest allan --json") from None
+    except OSError as exc:
+        raise NoiseFileError(f"{source} cannot be read: {exc.strerror}") from None
+    doc: Any
+    try:
+        doc = json.loads(raw)
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        try:
+            doc = tomllib.loads(raw.decode("utf-8"))
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise NoiseFileError(f"{source} is neither JSON nor valid TOML: {exc}") from None
+    if not isinstance(doc, Mapping):
+        raise NoiseFileError(f"{source} must hold a table of noise levels")
+    tau0 = sample_interval_s if sample_interval_s is not None else _plan_interval(plan)
+    if isinstance(doc.get("result"), Mapping) and "noise_terms" in doc["result"]:
+        return _from_allan(doc["result"]["noise_terms"], plan, tau0, source)
+    return _from_levels(doc, plan, source)
+
+
+def _plan_interval(plan: Plan) -> float | None:
+    spec = plan.procedure
+    rate = getattr(spec, "sample_rate_hz", None)
+    if rate:
+        return 1.0 / float(rate)
+    dt = getattr(spec, "sample_interval_s", None)
+    return float(dt) if dt else None
+
+
+def _number(doc: Mapping[str, Any], key: str, source: str, default: float | None) -> float:
+    v = doc.get(key, default)
+    if v is None:
+        raise NoiseFileError(f"{source} has no {key}; give the white noise per reading, e.g. "
+                             "sigma = 0.002 (in the plan's output unit)")
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+        raise NoiseFileError(f"{source}: {key} must be a number >= 0, got {v!r}")
+    return float(v)
+
+
+def _from_levels(doc: Mapping[str, Any], plan: Plan, source: str) -> NoiseModel:
+    unknown = sorted(set(doc) - _NOISE_KEYS)
+    if unknown:
+        raise NoiseFileError(
+            f"{source}: unknown key(s) {', '.join(unknown)}"
+            f"{did_you_mean(unknown[0], sorted(_NOISE_KEYS))}; known: "
+            f"{', '.join(sorted(_NOISE_KEYS))}")
+    out = plan.instrument.output_unit
+    unit = doc.get("unit", out)
+    if not isinstance(unit, str):
+        raise NoiseFileError(f"{source}: unit must be text, got {unit!r}")
+    levels = {k: _number(doc, k, source, None if k == "sigma" else 0.0)
+              for k in ("sigma", "position_offset", "random_walk", "flicker")}
+    if levels["sigma"] == 0 and not any(levels.values()):
+        raise NoiseFileError(f"{source}: every noise level is zero; a plan cannot be judged "
+                             "against noise-free data (give sigma > 0)")
+    factor = _to_output(1.0, unit, plan, source)
+    return NoiseModel(**{k: v * factor for k, v in levels.items()}, unit=out,
+                      notes=(f"levels from {source}",))
+
+
+def _to_output(x: float, unit: str, plan: Plan, source: str) -> float:
+    """``x`` in ``unit`` as the plan's output unit (electrical outputs via the scale factor)."""
+    inst = plan.instrument
+    if unit == inst.output_unit:
+        return x
+    try:
+        return convert(x, unit, inst.output_unit)
+    except UnitError:
+        pass
+    if inst.scale_factor:   # electrical output: scale_factor deg/h per output unit
+        try:
+            return convert(x, unit, "deg/h") / float(inst.scale_factor)
+        except UnitError:
+            pass
+    raise NoiseFileError(f'{source}: noise in "{unit}" cannot be expressed in the plan\'s output '
+                         f'unit "{inst.output_unit}"; give the levels in {inst.output_unit}')
+
+
+def _from_allan(terms_doc: Mapping[str, Any], plan: Plan, tau0: float | None,
+                source: str) -> NoiseModel:
+    if tau0 is None or not tau0 > 0:
+        raise NoiseFileError(f"{source}: mapping Allan terms needs the interval between readings; "
+                             "give --sample-interval SECONDS (the plan has no sample rate)")
+    terms = terms_doc.get("terms") if isinstance(terms_doc, Mapping) else None
+    if not isinstance(terms, Mapping) or "N" not in terms:
+        raise NoiseFileError(f"{source}: no IEEE 952 terms (N, B, K) in its noise_terms; run "
+                             "inertest allan without --no-noise-id")
+    kind = str(terms_doc.get("instrument", "gyro"))
+    si_rate = "rad/s" if kind == "gyro" else "m/s^2"
+    notes = [f"levels mapped from the IEEE Std 952 terms of {source} at tau0 = {tau0:g} s"]
+
+    def term(name: str) -> float:
+        t = terms.get(name) or {}
+        if not t.get("resolved") or t.get("value_si") is None:
+            if t:
+                notes.append(f"{name} not resolved by the Allan fit: taken as 0 (upper bound "
+                             f"{t.get('upper_bound')} {t.get('unit')})")
+            return 0.0
+        return float(t["value_si"])
+
+    n_si, b_si, k_si = term("N"), term("B"), term("K")
+    sigma = _to_output(n_si / math.sqrt(tau0), si_rate, plan, source)
+    offset = _to_output(FLICKER_FLOOR * b_si, si_rate, plan, source)
+    walk = _to_output(k_si * math.sqrt(tau0), si_rate, plan, source)
+    if sigma <= 0:
+        raise NoiseFileError(f"{source}: the angle random walk N is not resolved; the white "
+                             "noise per reading is unknown (give a noise TOML with sigma)")
+    return NoiseModel(sigma=sigma, position_offset=offset, random_walk=walk,
+                      unit=plan.instrument.output_unit, notes=tuple(notes))
+
+
+# --- prediction ------------------------------------------------------------------------------
+
+
+def _with_procedure(plan: Plan, **changes: Any) -> Plan:
+    return dataclasses.replace(plan, procedure=dataclasses.replace(plan.procedure, **changes))
+
+
+def _noise_model_plan(plan: Plan, model: str) -> Plan:
+    names = {f.name for f in dataclasses.fields(plan.procedure)}
+    return _with_procedure(plan, noise_model=model) if "noise_model" in names else plan
+
+
+def _simulate(plan: Plan, truth: Mapping[str, float]) -> tuple[dict[str, Any], list[str]]:
+    """Noise-free data and the output columns (those the noise reaches)."""
+    module = procedure_module(plan.kind)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = module.simulate(plan, dict(truth), noise=0.0, rng=0)
+        noisy = module.simulate(plan, dict(truth), noise=1.0, rng=0)
+    outputs = [k for k in clean if np.asarray(clean[k]).dtype.kind == "f"
+               and not np.array_equal(np.asarray(clean[k]), np.asarray(noisy[k]))]
+    return clean, outputs
+
+
+def _positions(data: Mapping[str, Any], outputs: Sequence[str]) -> np.ndarray:
+    """Position index of each row: runs of equal values of the non-output columns."""
+    cols = [np.asarray(v) for k, v in data.items() if k not in outputs]
+    n = len(next(iter(data.values())))
+    cols = [c for c in cols if len(np.unique(c)) < n]   # time stamps are no position label
+    change = np.zeros(n, dtype=bool)
+    change[0] = True
+    for c in cols:
+        change[1:] |= c[1:] != c[:-1]
+    return np.cumsum(change) - 1
+
+
+def _fit(plan: Plan, data: Mapping[str, Any], sigma: float | None) -> Any:
+    module = procedure_module(plan.kind)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return module.fit(plan, data, sigma=sigma)
+
+
+def _noise(noise: NoiseModel, pos: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """One series of the noise model over the rows (time order)."""
+    n = pos.size
+    e = rng.normal(0.0, noise.sigma, n)
+    if noise.position_offset:
+        e += rng.normal(0.0, noise.position_offset, int(pos.max()) + 1)[pos]
+    if noise.random_walk:
+        e += np.cumsum(rng.normal(0.0, noise.random_walk, n))
+    if noise.flicker:
+        f = np.fft.rfftfreq(2 * n)
+        amp = np.r_[0.0, 1.0 / np.sqrt(f[1:])]
+        z = rng.normal(size=f.size) + 1j * rng.normal(size=f.size)
+        x = np.fft.irfft(z * amp, 2 * n)[:n]
+        e += noise.flicker * x / x.std()
+    return e
+
+
+def predict_std(plan: Plan, noise: NoiseModel, *, truth: Mapping[str, float] | None = None,
+                n_mc: int = 200, rng: np.random.Generator | int | None = 0
+                ) -> tuple[dict[str, tuple[float, str]], str, Any, int]:
+    """Predicted Type-A std of every quantity the plan determines (module docstring, step 2).
+
+    Returns
+    -------
+    std : dict of str to (float, str)
+        Std and unit per quantity.
+    method : str
+    nominal : procedure result
+        The fit of the noise-free data (what the plan determines, and what it cannot).
+    readings : int
+    """
+    truth = dict(truth or {})
+    white_plan = _noise_model_plan(plan, "white")
+    data, outputs = _simulate(white_plan, truth)
+    if not outputs:
+        raise PlanError(f"{plan.kind}: the simulated test has no noisy output column; "
+                        "plan-check cannot predict its uncertainty")
+    n = len(next(iter(data.values())))
+    pos = _positions(data, outputs)
+    counts = np.bincount(pos)
+    nominal = _fit(white_plan, data, noise.sigma if noise.sigma > 0 else None)
+    equal = bool(np.all(counts == counts[0]))
+    if noise.white_only or (equal and noise.random_walk == 0 and noise.flicker == 0):
+        eff = math.sqrt(noise.sigma**2 + counts[0] * noise.position_offset**2)
+        fitted = nominal if eff == noise.sigma else _fit(white_plan, data, eff)
+        std = {k: (float(s), u) for k, (_, s, u) in quantities_of(fitted).items()}
+        method = ("closed form: white noise, cov = sigma^2 (A^T A)^-1" if noise.white_only else
+                  f"closed form: position offsets, sigma_eff^2 = sigma^2 + n sigma_pos^2 "
+                  f"(n = {int(counts[0])} readings per position)")
+        return std, method, nominal, n
+    model = ("flicker" if noise.flicker else "random-walk" if noise.random_walk
+             else "position-offsets")
+    mc_plan = _noise_model_plan(plan, model)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    samples: dict[str, list[float]] = {}
+    units: dict[str, str] = {}
+    for _ in range(n_mc):
+        d = dict(data)
+        for c in outputs:
+            d[c] = np.asarray(data[c], dtype=float) + _noise(noise, pos, gen)
+        try:
+            q = quantities_of(_fit(mc_plan, d, None))
+        except InertestError:
+            continue
+        for k, (v, _, u) in q.items():
+            samples.setdefault(k, []).append(v)
+            units[k] = u
+    if not samples:
+        raise PlanError(f"{plan.kind}: no simulated test could be fitted with the "
+                        f"{model} noise model")
+    std = {k: (float(np.std(v, ddof=1)), units[k]) for k, v in samples.items()}
+    return std, (f"Monte Carlo: {n_mc} simulated tests with the noise model added, fitted with "
+                 f"noise_model = {model}; std = scatter of the estimates"), nominal, n
+
+
+def _tolerance(lim: Any) -> float:
+    if lim.max_abs is not None:
+        return float(lim.max_abs)
+    if lim.minimum is not None and lim.maximum is not None:
+        return 0.5 * float(lim.maximum - lim.minimum)
+    return abs(float(lim.minimum if lim.minimum is not None else lim.maximum))
+
+
+def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
+           equipment: Sequence[Equipment], truth: Mapping[str, float] | None, n_mc: int,
+           tur: float, rng: np.random.Generator | int | None) -> tuple[Prediction, Any]:
+    std, method, nominal, n = predict_std(plan, noise, truth=truth, n_mc=n_mc, rng=rng)
+    budget = uncertainty_budget(plan, nominal, equipment)
+    names = set(std)
+    model_names = set(nominal.identification.names)
+    checks = []
+    for lim in spec.limits:
+        tol = _tolerance(lim)
+        if lim.quantity not in names:
+            if lim.quantity not in model_names:
+                raise PlanError(f'{spec.source}: quantity "{lim.quantity}" is neither determined '
+                                f"by {plan.kind} nor a coefficient of its model"
+                                f"{did_you_mean(lim.quantity, sorted(names | model_names))}")
+            why = next((s for s in nominal.identification.not_separable
+                        if lim.quantity in s), "not identifiable by this plan")
+            checks.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol,
+                                     None, None, None, "not determined", why))
+            continue
+        s_a, unit = std[lim.quantity]
+        b = budget.quantities.get(lim.quantity)
+        u_b = b.type_b if b is not None else 0.0
+        big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
+        try:
+            s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
+        except UnitError:
+            raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
+                            f'the result gives it in "{unit}"') from None
+        if big_u_l <= tol / tur:
+            status = "verifiable"
+        elif big_u_l < tol:
+            status = "marginal"
+        else:
+            status = "not verifiable"
+        checks.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l,
+                                 u_b_l, big_u_l, status,
+                                 f"U/tolerance = {big_u_l / tol:.3g}" if tol > 0 else ""))
+    return Prediction(label, n, method, std, tuple(checks), plan), nominal
+
+
+def candidate_changes(plan: Plan) -> list[tuple[str, Plan]]:
+    """Plan changes tried by :func:`check_plan`: longer dwell, more positions/repeats, more sets."""
+    spec = plan.procedure
+    fields = {f.name for f in dataclasses.fields(spec)}
+    out: list[tuple[str, Plan]] = []
+    for name in ("samples_per_position", "samples_per_rate", "revolutions", "duration_h",
+                 "static_window_s", "face_duration_s"):
+        if name in fields and getattr(spec, name) is not None:
+            v = getattr(spec, name)
+            for m in (2, 4):
+                out.append((f"dwell x{m} ({name} = {v * m:g})", _with_procedure(plan, **{
+                    name: type(v)(v * m)})))
+    if "angles_deg" in fields and getattr(spec, "angles_deg", None):
+        a = np.asarray(spec.angles_deg, dtype=float)
+        step = 360.0 / a.size
+        if np.allclose(np.diff(a), step):
+            b = tuple(float(x) for x in a[0] + np.arange(2 * a.size) * step / 2)
+            out.append((f"positions x2 ({2 * a.size} table angles)",
+                        _with_procedure(plan, angles_deg=b)))
+    for name in ("positions", "repeats"):
+        v = getattr(spec, name, None) if name in fields else None
+        if isinstance(v, int) and not isinstance(v, bool):
+            out.append((f"{name} x2 ({name} = {2 * v})", _with_procedure(plan, **{name: 2 * v})))
+    if plan.kind == "polar-tumble" and "mountings" in fields:
+        from inertest.equipment.polar_axis_table import MOUNTINGS
+
+        missing = [m for m in MOUNTINGS if m not in spec.mountings]
+        if missing:
+            out.append((f"all four mountings (add {', '.join(missing)})",
+                        _with_procedure(plan, mountings=tuple(MOUNTINGS))))
+    return out
+
+
+def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
+               equipment: Sequence[Equipment] = (), truth: Mapping[str, float] | None = None,
+               tur: float = DEFAULT_TUR, n_mc: int = 200,
+               rng: np.random.Generator | int | None = 0) -> PlanCheck:
+    """Predict each limited quantity's U and whether the plan can verify its limit.
+
+    Parameters
+    ----------
+    plan : Plan
+    spec : Spec
+        Limits to verify (:func:`inertest.conformance.read_spec`).
+    noise : NoiseModel
+        The instrument's noise in the plan's output unit (:func:`read_noise`).
+    equipment : sequence of Equipment
+        Lab records of the plan's equipment (their Type B enters U).
+    truth : mapping, optional
+        Nominal coefficients to simulate with (default zero; a plan whose fit needs a scale
+        factor needs them).
+    tur : float
+        Test uncertainty ratio: verifiable when U <= tolerance / tur (default 3).
+    n_mc : int
+        Simulated tests of the Monte Carlo (non-white noise with unequal positions, random walk,
+        flicker).
+    rng : Generator, int or None
+        For the Monte Carlo.
+
+    Returns
+    -------
+    PlanCheck
+        The plan's prediction and, when a limit is not verifiable, the cheapest verifying change.
+    """
+    if not tur >= 1:
+        raise PlanError(f"the test uncertainty ratio must be >= 1, got {tur!r}")
+    base, nominal = _judge("plan as written", plan, spec, noise, equipment, truth, n_mc, tur,
+                           rng)
+    rule = (f"verifiable when U (k = 2, Type A predicted + Type B of the equipment) <= "
+            f"tolerance / {tur:g} (test uncertainty ratio {tur:g}:1); marginal when below the "
+            "tolerance (a guarded pass, ILAC-G8:09/2019 w = U, only for an instrument well inside "
+            "the limit); not verifiable when U >= tolerance")
+    candidates: list[Prediction] = []
+    suggestion = None
+    if not base.ok and any(c.status != "not determined" for c in base.limits if
+                           c.status != "verifiable"):
+        for label, p in candidate_changes(plan):
+            try:
+                pred, _ = _judge(label, p, spec, noise, equipment, truth, n_mc, tur, rng)
+            except InertestError:
+                continue
+            candidates.append(pred)
+        candidates.sort(key=lambda c: c.readings)
+        wanted = {c.quantity for c in base.limits if c.status in ("marginal", "not verifiable")}
+        for c in candidates:
+            if all(x.status == "verifiable" for x in c.limits if x.quantity in wanted):
+                suggestion = c
+                break
+    return PlanCheck(base, suggestion, tuple(candidates), noise, tur, rule,
+                     tuple(nominal.identification.not_separable))
+
+
+__all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "LimitCheck", "NoiseFileError", "NoiseModel",
+           "PlanCheck", "Prediction", "STATUSES", "candidate_changes", "check_plan",
+           "predict_std", "read_noise"]
