@@ -221,6 +221,12 @@ class Identification:
         ``flicker`` (per reading).
     checks : ModelChecks or None
         Goodness of fit of the model and its noise model (None when not computed).
+    noise_model_weights : dict
+        With ``noise_model = "auto"``: the Akaike weight of each candidate noise model;
+        :attr:`noise_model` has the largest, and the models within 2 AIC of it (weight at
+        least ``exp(-1)`` of its own, listed as ``close`` in the JSON) add the spread of their
+        estimates to the covariance (:func:`inertest.estimation.identify.solve`). Empty
+        otherwise.
     """
 
     coefficients: dict[str, Estimate]
@@ -237,6 +243,7 @@ class Identification:
     noise_model: str = "white"
     noise_components: Mapping[str, float] = field(default_factory=dict)
     checks: ModelChecks | None = None
+    noise_model_weights: Mapping[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready summary (no per-sample arrays); the checks under ``"checks"``."""
@@ -256,6 +263,18 @@ class Identification:
             "dof": self.dof,
             "rank": self.rank,
         }
+        if self.noise_model_weights:
+            noise = d["noise"]
+            assert isinstance(noise, dict)
+            top = max(self.noise_model_weights.values())
+            noise["selection"] = {
+                "rule": "auto: the noise model of smallest AIC (restricted likelihood); its "
+                        "covariance plus the Akaike-weighted spread of the estimates of the "
+                        "models within 2 AIC of it (close)",
+                "weights": {k: float(v) for k, v in self.noise_model_weights.items()},
+                "close": [k for k, v in self.noise_model_weights.items()
+                          if v >= top * np.exp(-1.0) * (1 - 1e-12)],
+            }
         if self.checks is not None:
             d["checks"] = self.checks.to_dict()
         return d
