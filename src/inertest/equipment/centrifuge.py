@@ -245,7 +245,10 @@ class MeasuredDgamma:
                 f"measured dgamma covers {self.t[0]:g}..{self.t[-1]:g} s but times "
                 f"{t.min():g}..{t.max():g} s were asked; record dgamma over the whole run"
             )
-        spline = CubicSpline(self.t, self.dgamma_rad)
+        spline = self.__dict__.get("_spline")
+        if spline is None:  # built once: the kinematics evaluate it block by block
+            spline = CubicSpline(self.t, self.dgamma_rad)
+            object.__setattr__(self, "_spline", spline)
         return spline(t), spline(t, 1), spline(t, 2)
 
 
@@ -369,11 +372,14 @@ def centrifuge_motion(
           -> Ry(theta)                       fixture angle of the position
           -> mounting (rows I, O, S)         instrument
 
-    Nothing is linearised. Angular rate, angular acceleration, velocity and acceleration are
-    propagated along the chain analytically (serial-chain recursion: each joint adds
-    ``e_k dq_k/dt`` to the rate, ``e_k d2q_k/dt2 + w x e_k dq_k/dt`` to the angular acceleration,
-    and each offset ``r`` adds ``w' x r + w x (w x r)`` to the acceleration), so the residual rate
-    ``d(dgamma)/dt`` and the wobble rates ``-a sin(beta + p) dbeta/dt`` are included exactly.
+    Nothing is linearised. The chain is evaluated sample by sample in one compiled pass
+    (:mod:`inertest.equipment._centrifuge_kernel`, numba) over blocks of :data:`BLOCK`
+    samples, so memory beyond the outputs is O(block). Angular rate, angular acceleration,
+    velocity and acceleration are propagated along the chain analytically (serial-chain
+    recursion: each joint adds ``e_k dq_k/dt`` to the rate, ``e_k d2q_k/dt2 + w x e_k dq_k/dt``
+    to the angular acceleration, and each offset ``r`` adds ``w' x r + w x (w x r)`` to the
+    acceleration), so the residual rate ``d(dgamma)/dt`` and the wobble rates
+    ``-a sin(beta + p) dbeta/dt`` are included exactly.
 
     Earth rotation: P turns with the Earth at ``W`` (the Earth rate in P). The inertial angular
     rate is ``W + w_rel``. With ``earth_rotation_in_acceleration`` (default) the inertial
@@ -402,8 +408,37 @@ def centrifuge_motion(
     earth_rotation_in_acceleration : bool
         Include the Earth-rate Coriolis and centripetal terms in the acceleration.
     """
-    tt = np.atleast_1d(np.asarray(t, dtype=float))
-    if tt.ndim != 1 or not np.all(np.isfinite(tt)):
+    return _evaluate(
+        t, omega, position, radius_m=radius_m, gravity_m_s2=gravity_m_s2,
+        latitude_rad=latitude_rad, platform_heading_rad=platform_heading_rad, errors=errors,
+        dgamma=dgamma, earth_rotation_in_acceleration=earth_rotation_in_acceleration, full=True)
+
+
+#: Samples per call of the compiled chain: the only temporaries (a measured ``dgamma`` and its
+#: derivatives) are O(BLOCK); the outputs are written in place.
+BLOCK = 65_536
+
+
+def _evaluate(
+    t: ArrayLike,
+    omega: float,
+    position: int,
+    *,
+    radius_m: float,
+    gravity_m_s2: float,
+    latitude_rad: float,
+    platform_heading_rad: float,
+    errors: CentrifugeErrors | None,
+    dgamma: NonSynchronisation | None,
+    earth_rotation_in_acceleration: bool,
+    full: bool,
+) -> Any:
+    """The chain of :func:`centrifuge_motion` through the fused kernel, block by block.
+
+    ``full``: a :class:`CentrifugeMotion`; otherwise only ``(f_ios, omega_ios, attitude)``.
+    """
+    tt = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)))
+    if tt.ndim != 1 or (tt.size and not np.isfinite(tt.min() + tt.max())):
         raise InputError("times must be a finite 1-D array [s]")
     w = float(omega)
     if not np.isfinite(w):
@@ -416,104 +451,52 @@ def centrifuge_motion(
     if not float(radius_m) > 0:
         raise InputError(f"arm radius must be positive [m], got {radius_m!r}")
     err = errors if errors is not None else CentrifugeErrors()
-    n = tt.size
-    zeros = np.zeros(n)
-    dg, dg1, dg2 = (zeros, zeros, zeros) if dgamma is None else dgamma.evaluate(tt)
-
-    alpha = w * tt
-    beta, beta1, beta2 = -alpha + dg, -w + dg1, dg2
-
-    def wobble(amp: float, ph: float) -> tuple[NDArray[np.float64], ...]:
-        c, s = np.cos(beta + ph), np.sin(beta + ph)
-        return amp * c, -amp * s * beta1, -amp * c * beta1**2 - amp * s * beta2
-
-    axes = position_axes(position)  # rows I, O, S in the fixture's frame
-    # (kind, axis or offset, (q, dq/dt, d2q/dt2) for a moving joint, or a constant angle)
-    chain: list[tuple[str, Any, Any]] = [
-        ("rot", "z", (alpha, np.full(n, w), zeros)),
-        ("trans", np.array([float(radius_m) + _poly(err.radius_poly_m, w), 0.0, 0.0]), None),
-        ("rot", "y", _poly(err.misalignment_y_poly_rad, w)),
-        ("rot", "z", _poly(err.misalignment_z_poly_rad, w)),
-        ("rot", "x", err.parallelism_x_rad),
-        ("rot", "y", err.parallelism_y_rad),
-        ("rot", "z", (beta, beta1, beta2)),
-        ("rot", "x", wobble(err.wobble_x_rad, err.wobble_x_phase_rad) if err.wobble_x_rad else 0),
-        ("rot", "y", wobble(err.wobble_y_rad, err.wobble_y_phase_rad) if err.wobble_y_rad else 0),
-        ("trans", np.array([err.eccentricity_x_m, err.eccentricity_y_m, 0.0]), None),
-    ]
-    # Running attitude C (frame axes in P as columns), stored component-major as c[row, col, n]
-    # so that every operation below works on contiguous length-n rows. Turning about a body axis
-    # only mixes the two other columns, ~20x faster than composing scipy Rotations sample by
-    # sample (0.6 us per product in scipy 1.17).
-    c = np.zeros((3, 3, n))
-    c[0, 0] = c[1, 1] = c[2, 2] = 1.0
-    p, v, a = np.zeros((3, n)), np.zeros((3, n)), np.zeros((3, n))
-    wr, wd = np.zeros((3, n)), np.zeros((3, n))
-    for kind, what, motion in chain:
-        if kind == "trans":
-            if not np.any(what):
-                continue
-            r = np.einsum("ijn,j->in", c, what)
-            wxr = _cross(wr, r)
-            p += r
-            v += wxr
-            a += _cross(wd, r) + _cross(wr, wxr)
-            continue
-        k = "xyz".index(what)
-        if not isinstance(motion, tuple):  # a constant angle: no rate
-            if motion:
-                _turn(c, k, float(motion))
-            continue
-        q, q1, q2 = motion
-        e = c[:, k].copy()  # joint axis in P (the same before and after the joint turns)
-        dw = e * q1
-        wd += e * q2 + _cross(wr, dw)
-        wr += dw
-        _turn(c, k, q)
-    # fixture angle about the platform's y, then the mounting: columns I, O, S in P
-    c = np.einsum("ijn,jk->ikn", c, axes.T)
-
+    fixture = np.ascontiguousarray(position_axes(position).T)
     c_pe = platform_to_enu(platform_heading_rad)
     earth_p = c_pe.T @ earth_rate_enu(latitude_rad)
-    acc = a.copy()
-    if earth_rotation_in_acceleration:
-        e3 = np.broadcast_to(earth_p[:, None], p.shape)
-        acc += 2.0 * _cross(e3, v) + _cross(e3, _cross(e3, p))
-    acc[2] += float(gravity_m_s2)
-    w_in = wr + earth_p[:, None]
-    return CentrifugeMotion(
-        attitude_p=c.transpose(2, 0, 1),
-        attitude=np.einsum("ij,jkn->nik", c_pe, c),
-        omega_ios=np.einsum("jin,jn->ni", c, w_in),
-        f_ios=np.einsum("jin,jn->ni", c, acc),
-        position_p=p.T,
-        velocity_p=v.T,
-        acceleration_p=a.T,
-        omega_rel_p=wr.T,
-    )
 
+    from inertest.equipment import _centrifuge_kernel as kernel  # numba: only when evaluated
 
-def _turn(c: NDArray[np.float64], k: int, angle: float | NDArray[np.float64]) -> None:
-    """In place ``C <- C R_k(angle)`` (``c[row, col, n]``): right-handed turn about body axis k.
-
-    Only the two other columns change: ``c_i' = cos c_i + sin c_j``, ``c_j' = -sin c_i + cos c_j``
-    with ``(i, j)`` the cyclic successors of ``k``.
-    """
-    i, j = (k + 1) % 3, (k + 2) % 3
-    co = np.cos(angle)
-    si = np.sin(angle)
-    ci, cj = c[:, i].copy(), c[:, j]
-    c[:, i] = co * ci + si * cj
-    c[:, j] = -si * ci + co * cj
-
-
-def _cross(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Cross product of component-major (3, n) arrays.
-
-    ``np.cross(a, b, axis=0)`` gives the same but moves the axis and is ~1.6x slower here.
-    """
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    radius = float(radius_m) + _poly(err.radius_poly_m, w)
+    links = np.array([_poly(err.misalignment_y_poly_rad, w),
+                      _poly(err.misalignment_z_poly_rad, w),
+                      err.parallelism_x_rad, err.parallelism_y_rad], dtype=float)
+    wobble = np.array([err.wobble_x_rad, err.wobble_x_phase_rad, err.wobble_y_rad,
+                       err.wobble_y_phase_rad], dtype=float)
+    ecc = np.array([err.eccentricity_x_m, err.eccentricity_y_m], dtype=float)
+    empty = np.empty(0)
+    chain: Any = kernel.chain  # a numba dispatcher
+    if dgamma is None:
+        kind, par = kernel.DGAMMA_NONE, empty
+    elif isinstance(dgamma, PhaseTracking):
+        kind = kernel.DGAMMA_PHASE
+        par = np.array([dgamma.amplitude_rad, 2.0 * np.pi * float(dgamma.frequency_hz),
+                        dgamma.phase_rad], dtype=float)
+    elif isinstance(dgamma, RateTracking):
+        kind, par = kernel.DGAMMA_RATE, np.array([dgamma.rate_rad_s, dgamma.offset_rad], float)
+    else:
+        kind, par = kernel.DGAMMA_ARRAYS, empty
+    n = tt.size
+    out = [np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))]
+    extra = ([np.empty((n, 3, 3))] + [np.empty((n, 3)) for _ in range(4)] if full
+             else [np.empty((0, 3, 3))] + [np.empty((0, 3)) for _ in range(4)])
+    for i0 in range(0, n, BLOCK):
+        i1 = min(i0 + BLOCK, n)
+        tb = tt[i0:i1]
+        dgs: tuple[NDArray[np.float64], ...] = (empty, empty, empty)
+        if kind == kernel.DGAMMA_ARRAYS:
+            assert dgamma is not None
+            dgs = tuple(np.ascontiguousarray(x, dtype=float) for x in dgamma.evaluate(tb))
+        chain(tb, w, radius, links, wobble, ecc, fixture, earth_p, c_pe,
+                     float(gravity_m_s2), bool(earth_rotation_in_acceleration), kind, par, *dgs,
+                     *(o[i0:i1] for o in out), full,
+                     *(o[i0:i1] if full else o for o in extra))
+    attitude, omega_ios, f_ios = out
+    if not full:
+        return f_ios, omega_ios, attitude
+    return CentrifugeMotion(attitude_p=extra[0], attitude=attitude, omega_ios=omega_ios,
+                            f_ios=f_ios, position_p=extra[1], velocity_p=extra[2],
+                            acceleration_p=extra[3], omega_rel_p=extra[4])
 
 
 def instrument_inputs(
@@ -542,12 +525,11 @@ def instrument_inputs(
     attitude : ndarray, shape (n, 3, 3)
         Direction cosines instrument -> ENU.
     """
-    m = centrifuge_motion(
+    f_ios, omega_ios, attitude = _evaluate(
         t, omega, position, radius_m=radius_m, gravity_m_s2=gravity_m_s2,
         latitude_rad=latitude_rad, platform_heading_rad=platform_heading_rad, errors=errors,
-        dgamma=dgamma, earth_rotation_in_acceleration=earth_rotation_in_acceleration,
-    )
-    return m.f_ios, m.omega_ios, m.attitude
+        dgamma=dgamma, earth_rotation_in_acceleration=earth_rotation_in_acceleration, full=False)
+    return f_ios, omega_ios, attitude
 
 
 def run_labels(position: ArrayLike, omega: ArrayLike) -> NDArray[np.str_]:
@@ -628,14 +610,14 @@ class CentrifugeRuns:
         if tilt:
             base = CentrifugeErrors() if errors is None else errors
             errors = replace(base, parallelism_x_rad=base.parallelism_x_rad + tilt)
-        m = centrifuge_motion(
+        f_ios, omega_ios, attitude = instrument_inputs(
             t, w * (1.0 + current_error("rate")), p,
             radius_m=self.radius_m + current_error("radius"),
             gravity_m_s2=self.site.gravity_m_s2,
             latitude_rad=self.site.latitude_rad, platform_heading_rad=self.platform_heading_rad,
             errors=errors, dgamma=self.dgamma,
             earth_rotation_in_acceleration=self.earth_rotation_in_acceleration)
-        return Inputs(m.attitude, m.omega_ios, m.f_ios)
+        return Inputs(attitude, omega_ios, f_ios)
 
     def inputs_of_rows(self, labels: ArrayLike, t: ArrayLike) -> Inputs:
         """Inputs of every data row, by its run label and time [s], shape (n,).
