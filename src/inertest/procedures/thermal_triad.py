@@ -52,7 +52,7 @@ KIND = "thermal-triad"
 MODEL_KIND = "thermal-triad-model"
 MODEL_FORMAT_VERSION = 1
 #: Rows corrected at a time by :meth:`TriadThermalModel.compensate` (bounds the temporaries).
-CHUNK_ROWS = 65536
+CHUNK_ROWS = 16384
 BRANCHES = ("heating", "cooling")
 #: Temperature jump between consecutive rows that starts a new step [degC].
 STEP_JUMP_C = 1.0
@@ -197,6 +197,10 @@ class TriadThermalModel:
     serial : str
     sensor : str
         ``"accelerometer"`` (the multi-position procedure calibrates accelerometer triads).
+    covariance : ndarray or None
+        Joint covariance of the coefficients of all laws (laws in
+        :func:`~inertest.models.triad.parameter_names` order, each law's ``a_0..a_degree`` [then
+        ``r``]), engineering units; ``None``: the laws' own covariances, taken as independent.
 
     Notes
     -----
@@ -205,10 +209,16 @@ class TriadThermalModel:
 
         u = (I + M(T))^-1 K(T)^-1 raw - B(T)            [SI: m/s^2]
 
-    Its standard uncertainty from the laws' covariances, to first order and with the laws
-    taken as independent (each is fitted on its own), with ``w = K^-1 raw`` and
-    ``v = (I + M)^-1 w``: ``var u_i = (w_i s(K_i) / K_i)^2 + sum_j (v_j s(M_ij))^2 +
-    s(B_i)^2``.
+    Its standard uncertainty is first order in the law coefficients ``a`` (all twelve laws
+    stacked, :func:`~inertest.models.triad.parameter_names` order): ``var u_i = (J_a C_a
+    J_a^T)_ii`` with ``J_a = (du/dq) (dq/da)``, where, with ``w = K^-1 raw`` and
+    ``v = (I + M)^-1 w``, ``du/dK_j = -(I + M)^-1 e_j w_j / K_j``, ``du/dM_ij = -(I + M)^-1
+    e_i v_j``, ``du/dB_i = -e_i`` and ``dq/da`` is each law's design row. ``C_a`` is
+    :attr:`covariance`: the laws are fitted from the same per-step triad fits, so their
+    coefficients are correlated (``C_a = sum_steps L_q C_step[q, q'] L_q'^T``, ``L_q`` the
+    weighted least-squares operator of law ``q``); a tilted or unbalanced position set makes
+    ``K_i`` and ``M_ij`` strongly correlated at each step. Without it (a model file that lacks
+    ``joint_covariance``) the laws are taken as independent.
     """
 
     laws: dict[str, CoefficientLaw]
@@ -218,6 +228,7 @@ class TriadThermalModel:
     rate_range_c_per_min: tuple[float, float] | None = None
     serial: str = ""
     sensor: str = "accelerometer"
+    covariance: NDArray[np.float64] | None = field(default=None, repr=False)
 
     kind: ClassVar[str] = MODEL_KIND
 
@@ -225,6 +236,26 @@ class TriadThermalModel:
         missing = [n for n in triad.parameter_names() if n not in self.laws]
         if missing:
             raise InputError(f"triad thermal model lacks the law(s) {', '.join(missing)}")
+        if self.covariance is not None:
+            n = sum(self.laws[q].coefficients.size for q in triad.parameter_names())
+            c = np.asarray(self.covariance, dtype=float)
+            if c.shape != (n, n) or not np.all(np.isfinite(c)):
+                raise InputError(f"joint covariance of the triad thermal model must be a finite "
+                                 f"{n}x{n} matrix (the coefficients of all laws), got shape "
+                                 f"{c.shape}")
+
+    def joint_covariance(self) -> NDArray[np.float64]:
+        """:attr:`covariance`, or the laws' covariances as a block diagonal when it is None."""
+        if self.covariance is not None:
+            return np.asarray(self.covariance, dtype=float)
+        blocks = [self.laws[q].covariance for q in triad.parameter_names()]
+        n = sum(b.shape[0] for b in blocks)
+        out = np.zeros((n, n))
+        k = 0
+        for b in blocks:
+            out[k:k + b.shape[0], k:k + b.shape[0]] = b
+            k += b.shape[0]
+        return out
 
     @property
     def uses_rate(self) -> bool:
@@ -282,31 +313,35 @@ class TriadThermalModel:
         rate = (None if rate_c_per_min is None
                 else np.broadcast_to(np.asarray(rate_c_per_min, dtype=float), t.shape))
         _, b_si = triad.bias_unit(self.sensor)
+        names = triad.parameter_names()
+        C = self.joint_covariance()
         u = np.empty_like(r)
         std = np.empty_like(r)
         for a in range(0, t.size, CHUNK_ROWS):
             sl = slice(a, a + CHUNK_ROWS)
             tc, rc = t[sl], None if rate is None else rate[sl]
-
-            def at(name: str, tc: NDArray = tc, rc: NDArray | None = rc
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-                return self.laws[name].predict(tc, rc)
-
-            K = np.column_stack([at(n)[0] for n in triad.SCALE_NAMES]) * self.scale.si_per_unit
-            sK = np.column_stack([at(n)[1] for n in triad.SCALE_NAMES]) * self.scale.si_per_unit
+            # each law's design row (n, p_q) and value (n,) at the rows' temperatures and rates
+            rows = {q: _design(tc - self.laws[q].t_ref_c, self.laws[q].degree, rc,
+                               self.laws[q].uses_rate) for q in names}
+            val = {q: rows[q] @ self.laws[q].coefficients for q in names}
+            K = np.column_stack([val[q] for q in triad.SCALE_NAMES])  # scale unit
             IM = np.broadcast_to(np.eye(3), (tc.size, 3, 3)).copy()
-            sM = np.zeros((tc.size, 3, 3))
-            for name, (i, j) in zip(triad.MISALIGNMENT_NAMES, triad.OFF_DIAGONAL, strict=True):
-                v, s = at(name)
-                IM[:, i, j] = v * triad.MICRORAD_TO_RAD
-                sM[:, i, j] = s * triad.MICRORAD_TO_RAD
-            B = np.column_stack([at(n)[0] for n in triad.BIAS_NAMES]) * b_si
-            sB = np.column_stack([at(n)[1] for n in triad.BIAS_NAMES]) * b_si
-            w = r[sl] * self.scale.raw_si_per_raw / K
-            v = np.linalg.solve(IM, w[:, :, None])[:, :, 0]
+            for q, (i, j) in zip(triad.MISALIGNMENT_NAMES, triad.OFF_DIAGONAL, strict=True):
+                IM[:, i, j] = val[q] * triad.MICRORAD_TO_RAD
+            B = np.column_stack([val[q] for q in triad.BIAS_NAMES]) * b_si
+            w = r[sl] * self.scale.raw_si_per_raw / (K * self.scale.si_per_unit)
+            P = np.linalg.inv(IM)
+            v = np.einsum("nij,nj->ni", P, w)
             u[sl] = v - B
-            std[sl] = np.sqrt((w * sK / K) ** 2 + np.einsum("nij,nj->ni", sM**2, v**2)
-                              + sB**2)
+            # du/dq (n, 3, 12) in engineering units of q, then du/da through the design rows
+            J = np.empty((tc.size, 3, len(names)))
+            J[:, :, :3] = -P * (w / K)[:, None, :]
+            for k, (i, j) in enumerate(triad.OFF_DIAGONAL):
+                J[:, :, 3 + k] = -P[:, :, i] * (v[:, j] * triad.MICRORAD_TO_RAD)[:, None]
+            J[:, :, 9:] = -np.eye(3) * b_si
+            Ja = np.concatenate([J[:, :, k, None] * rows[q][:, None, :]
+                                 for k, q in enumerate(names)], axis=2)
+            std[sl] = np.sqrt(np.clip(np.einsum("nip,nip->ni", Ja @ C, Ja), 0.0, None))
         return u, std
 
     def to_dict(self) -> dict[str, object]:
@@ -333,6 +368,10 @@ class TriadThermalModel:
                                                else list(self.rate_range_c_per_min)),
             },
             "laws": {n: law.to_model_dict() for n, law in self.laws.items()},
+            **({} if self.covariance is None else {"joint_covariance": {
+                "names": _coefficient_names(self.laws),
+                "unit": "each law's term units (laws[name].terms)",
+                "matrix": np.asarray(self.covariance).tolist()}}),
         }
 
     @classmethod
@@ -358,7 +397,11 @@ class TriadThermalModel:
             laws_doc = d["laws"]
             laws = {str(n): CoefficientLaw.from_model_dict(str(n), v)
                     for n, v in laws_doc.items()}  # type: ignore[union-attr]
-            return cls(laws=laws, raw_unit=str(d["raw_unit"]), scale=scale,
+            jc = d.get("joint_covariance")
+            cov: NDArray[np.float64] | None = (
+                None if jc is None
+                else np.asarray(jc["matrix"], dtype=np.float64))  # type: ignore[index]
+            return cls(laws=laws, raw_unit=str(d["raw_unit"]), scale=scale, covariance=cov,
                        temperature_range_c=trange,  # type: ignore[arg-type]
                        rate_range_c_per_min=rrange,  # type: ignore[arg-type]
                        serial=str(d.get("serial", "")),
@@ -387,6 +430,10 @@ class ThermalTriadResult:
     alpha : float
         Family significance level of the hysteresis verdicts.
     messages : tuple of str
+    law_covariance : ndarray or None
+        Joint covariance of all laws' coefficients (:attr:`TriadThermalModel.covariance`):
+        the laws come from the same per-step triad fits, whose twelve coefficients are
+        correlated.
     """
 
     step_temperature_c: NDArray[np.float64] = field(repr=False)
@@ -402,6 +449,7 @@ class ThermalTriadResult:
     messages: tuple[str, ...] = ()
     raw_unit: str = ""
     scale: triad.ScaleUnit | None = None
+    law_covariance: NDArray[np.float64] | None = field(default=None, repr=False)
 
     kind: ClassVar[str] = KIND
 
@@ -416,7 +464,7 @@ class ThermalTriadResult:
             laws=dict(self.laws), raw_unit=self.raw_unit, scale=self.scale,
             temperature_range_c=(float(t.min()), float(t.max())),
             rate_range_c_per_min=(float(r.min()), float(r.max())) if uses_rate else None,
-            serial=self.serial)
+            serial=self.serial, covariance=self.law_covariance)
 
     def coefficients_at(self, temperature_c: float, rate_c_per_min: float = 0.0
                         ) -> dict[str, tuple[float, float]]:
@@ -452,7 +500,34 @@ class ThermalTriadResult:
                                                         self.step_branch, strict=True))],
             "laws": {n: law.to_dict() for n, law in self.laws.items()},
             "hysteresis": {n: h.to_dict() for n, h in self.hysteresis.items()},
+            **({} if self.law_covariance is None else {"law_covariance": {
+                "names": _coefficient_names(self.laws),
+                "matrix": self.law_covariance.tolist()}}),
         }, checks=checks, messages=self.messages)
+
+
+def _coefficient_names(laws: Mapping[str, CoefficientLaw]) -> list[str]:
+    """``K_x.a0`` .. ``B_z.r``: the order of the joint covariance of the laws."""
+    return [f"{q}.{t}" for q in triad.parameter_names()
+            for t in [f"a{k}" for k in range(laws[q].degree + 1)]
+            + (["r"] if laws[q].uses_rate else [])]
+
+
+def _joint_covariance(A: NDArray[np.float64], stds: Mapping[str, NDArray[np.float64]],
+                      step_cov: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Covariance of all laws' weighted least-squares coefficients.
+
+    Law ``q`` is ``a_q = L_q y_q`` with ``L_q = (A^T W_q A)^-1 A^T W_q``, ``W_q = diag(1 /
+    s_q^2)`` over the steps; the steps are independent, so ``cov(a_q, a_q') = L_q diag_k(
+    C_k[q, q']) L_q'^T`` with ``C_k`` the covariance of the twelve coefficients of step ``k``
+    (shape ``(n_steps, 12, 12)``, :func:`~inertest.models.triad.parameter_names` order).
+    """
+    L = np.stack([np.linalg.pinv(A / stds[q][:, None]) / stds[q][None, :]
+                  for q in triad.parameter_names()])             # (12, p, n_steps)
+    C = np.einsum("apk,kab,bqk->apbq", L, step_cov, L)
+    n = L.shape[0] * L.shape[1]
+    out = C.reshape(n, n)
+    return 0.5 * (out + out.T)
 
 
 def _design(dt: NDArray[np.float64], degree: int, rate: ArrayLike | None, uses_rate: bool
@@ -552,6 +627,7 @@ def fit_triad_thermal(
     values: dict[str, list[float]] = {}
     stds: dict[str, list[float]] = {}
     units: dict[str, str] = {}
+    step_cov = np.zeros((n_steps, 12, 12))
     for k in range(n_steps):
         sel = step == k
         if len(set(branch[sel])) != 1:
@@ -569,6 +645,7 @@ def fit_triad_thermal(
             values.setdefault(name, []).append(est.value)
             stds.setdefault(name, []).append(est.std)
             units[name] = est.unit
+        step_cov[k] = res.triads[0].covariance[:12, :12]
     if use_rate and np.ptp(r_step) == 0:
         raise IdentifiabilityError("the temperature rate is the same at every step, so its "
                                    "term cannot be found; fit without use_rate")
@@ -576,9 +653,10 @@ def fit_triad_thermal(
     vals = {n: np.array(v) for n, v in values.items()}
     sds = {n: np.array(v) for n, v in stds.items()}
     laws = {}
+    A = _design(t_step - t_ref, degree, r_step, use_rate)
     for n in vals:
-        A = _design(t_step - t_ref, degree, r_step, use_rate)
         laws[n] = _law(n, units[n], t_ref, degree, use_rate, A, vals[n], sds[n])
+    law_cov = _joint_covariance(A, sds, step_cov)
     hysteresis: dict[str, Hysteresis] = {}
     messages = []
     heat, cool = b_step == "heating", b_step == "cooling"
@@ -610,7 +688,8 @@ def fit_triad_thermal(
         alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages),
         raw_unit=plan.instrument.output_unit,
         scale=triad.scale_unit(plan.instrument.output_unit, "accelerometer").with_nominal(
-            getattr(plan.procedure, "nominal_scale_factor", None)))
+            getattr(plan.procedure, "nominal_scale_factor", None)),
+        law_covariance=law_cov)
 
 
 def _law(name: str, unit: str, t_ref: float, degree: int, use_rate: bool,
