@@ -4,6 +4,8 @@ real imu_tk Xsens recording, an independent simulation, Monte Carlo std, identif
 from __future__ import annotations
 
 import json
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -200,26 +202,69 @@ def test_monte_carlo_reported_std_matches_scatter():
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(reason="gyro std still ~0.77 of the MC scatter (Mg 0.6-0.84): the common "
-                   "accelerometer-calibration error of the gravity directions is not propagated",
-                   strict=False)
-def test_monte_carlo_gyro_std_matches_scatter():
-    """The whole procedure (gyro included) on short sessions: median std / scatter 0.8-1.25."""
+def _whole_procedure_mc(chunk, reps=100):
+    """``fit`` on ``reps`` independent short sessions (same IMU and attitudes, new noise and
+    new intermediate turns each time; ``chunk`` seeds them): values, reported stds,
+    covariances, names."""
     rng = np.random.default_rng(5)
     model = _truth_matrices(rng)
     plan = load_plan(EXAMPLES / "plan.toml")
     att = Rotation.concatenate([Rotation.identity(), Rotation.random(20, random_state=rng)])
-    vals, stds = [], []
-    for _ in range(60):
-        data = _session(rng, model, attitudes=att, init_s=20.0, still_s=2.0)
-        r = fit(plan, data)
+    rng = np.random.default_rng([5, chunk])
+    vals, stds, covs = [], [], []
+    for _ in range(reps):
+        r = fit(plan, _session(rng, model, attitudes=att, init_s=20.0, still_s=2.0))
         vals.append([e.value for e in r.coefficients.values()])
         stds.append([e.std for e in r.coefficients.values()])
-    names = list(r.coefficients)
-    ratio = np.median(np.array(stds), axis=0) / np.array(vals).std(axis=0, ddof=1)
-    gyro = [i for i, n in enumerate(names) if n[1] == "g" and n[0] in "KM"]
-    assert 0.8 < np.median(ratio[gyro]) < 1.25, dict(zip(names, ratio, strict=True))
+        covs.append(r.identification.covariance)
+    return np.array(vals), np.array(stds), np.array(covs), list(r.coefficients)
+
+
+@pytest.fixture(scope="module")
+def whole_mc():
+    """200 sessions in two processes (about 10 s CPU each)."""
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(2, mp_context=ctx) as pool:
+        parts = list(pool.map(_whole_procedure_mc, (0, 1)))
+    return (*(np.concatenate([p[i] for p in parts]) for i in range(3)), parts[0][3])
+
+
+@pytest.mark.slow
+def test_monte_carlo_gyro_std_matches_scatter(whole_mc):
+    """The whole procedure (gyro included): for every coefficient of both triads, reported
+    std / MC scatter in 0.8-1.25 (200 sessions; sampling error of a ratio ~5 %).
+
+    The gyro std includes the shared accelerometer-calibration error of the gravity
+    directions, the initial-period bias and the angle random walk of each motion (before:
+    median ratio 0.77). The reported std is the root mean square over the sessions: the
+    random intermediate turns change the design, and in a few sessions a slow last turn is
+    taken for the start of the static interval, so those sessions' residuals (and stds) are
+    several times larger; the scatter of such a mixture is the RMS of its stds, not the
+    median."""
+    vals, stds, _, names = whole_mc
+    ratio = np.sqrt(np.mean(stds**2, axis=0)) / vals.std(axis=0, ddof=1)
+    bad = {n: round(float(q), 2) for n, q in zip(names, ratio, strict=True)
+           if not 0.8 < q < 1.25}
+    assert not bad, dict(zip(names, np.round(ratio, 2), strict=True))
+    assert sum(n[1] == "g" for n in names) == 12
+
+
+@pytest.mark.slow
+def test_monte_carlo_acc_gyro_cross_covariance(whole_mc):
+    """The reported accelerometer-gyro correlations (up to |rho| ~ 0.7) agree with the MC
+    ones: Fisher z of each of the 108 pairs within 4 sampling sigmas and their mean square
+    near 1 (a zero cross block gives a mean square near 10 here)."""
+    vals, _, covs, names = whole_mc
+    ia = [i for i, n in enumerate(names) if n[1] == "a"]
+    ig = [i for i, n in enumerate(names) if n[1] == "g"]
+    cov_rep = np.median(covs, axis=0)
+    sd_rep = np.sqrt(np.diag(cov_rep))
+    rho_rep = (cov_rep / np.outer(sd_rep, sd_rep))[np.ix_(ia, ig)]
+    rho_mc = np.corrcoef(vals, rowvar=False)[np.ix_(ia, ig)]
+    z = (np.arctanh(rho_mc) - np.arctanh(rho_rep)) * np.sqrt(len(vals) - 3)
+    assert np.max(np.abs(z)) < 4.0 and np.mean(z**2) < 1.6, np.round(z, 1)
+    assert np.max(np.abs(rho_rep)) > 0.5
+    assert np.mean(np.arctanh(rho_mc) ** 2) * (len(vals) - 3) > 4.0  # the block matters
 
 
 # --- identifiability --------------------------------------------------------------------------
@@ -262,3 +307,7 @@ def test_readme_example_runs_on_the_shipped_recording(capsys):
     assert checks["gyro carries gravity to the next attitude"]["verdict"] == "pass"
     assert len(doc["result"]["static_intervals"]) == 38
     assert "Ma_yx" not in doc["result"]["triads"]["accelerometer"]["misalignment"]
+    cross = doc["result"]["acc_gyro_cross_covariance"]
+    assert len(cross["rows"]) == 9 and len(cross["columns"]) == 12
+    assert np.array(cross["value"]).shape == (9, 12) and np.any(np.array(cross["value"]) != 0)
+    assert doc["result"]["noise_scales"]["gyro_motions"] > 1  # real data: beyond white noise

@@ -39,12 +39,21 @@ Steps (every number SI inside; conventions of :mod:`inertest.models.triad`)
    ``scipy.spatial.transform.Rotation``. Time steps from the data's ``t_s`` column when present.
    The Earth rate is not modelled (the initial-period bias holds its projection at the start
    attitude; over a 3 s turn it moves gravity by < 0.013 deg, below MEMS noise).
-4. **Uncertainties**: ``cov = s^2 (J^T J)^-1`` from each fit's Jacobian ``J`` at the solution
-   and the residual variance ``s^2 = sum r^2 / dof`` (acc: dof = n - 9; gyro: 2 per motion,
-   the component along ``u`` being second order, minus 9), propagated to K, M, B by the triad
-   model's Jacobian. The gyro bias std is the white-noise std of the initial-period mean. The
-   gyro fit takes the accelerometer's gravity directions as exact (their error is in the gyro
-   residuals). Checked by Monte Carlo (tests: std / scatter in 0.8-1.25).
+4. **Uncertainties** (:func:`joint_covariance`): both estimates are linearised in three
+   independent noise sources: the noise of the static interval means (white, variance of
+   each interval's samples / n), of the initial-period gyro bias, and the rotation noise of
+   each integrated motion (angle random walk: the initial period's rate noise times the sum
+   of the squared trapezoid weights). The accelerometer solution moves with the means; every
+   gravity direction ``u_k`` moves with its own mean *and* with the accelerometer solution
+   (an error shared by all of them); the gyro solution moves with the ``u_k``, the bias and
+   the motion noise (implicit differentiation of its normal equations). The covariance of
+   that one linear map holds both triads and their cross-covariance. The noise levels come
+   from the residuals: the sample variances of the means are scaled by ``lambda`` and the
+   angle random walk by ``mu`` so that each fit's expected residual sum of squares equals
+   the observed one (the real Xsens recording: ``lambda`` ~ 14, ``mu`` ~ 30: model errors
+   larger than white noise, hence larger and honest stds). Propagated to K, M, B by the
+   triad model's Jacobian. Checked by Monte Carlo (tests: std / scatter in 0.8-1.25 for every
+   coefficient; accelerometer-gyro correlations).
 
 Identifiability. Fewer than nine static attitudes raise
 :class:`~inertest.errors.IdentifiabilityError`; so does a design whose Jacobian is
@@ -247,6 +256,15 @@ class OrientationFreeResult(TriadResult):
         interval's [deg], calibrated gyro / nominal gyro (same gravity directions).
     reference_axis : str
         The accelerometer gauge (module docstring).
+    noise_scales : tuple of float
+        ``(lambda, mu)`` of :class:`NoisePropagation`: residual-estimated over white-noise
+        predicted variance of the interval means and of the integrated motions [1].
+
+    Notes
+    -----
+    ``identification.covariance`` is the joint covariance of all coefficients (accelerometer
+    then gyro, :func:`joint_covariance`), with the accelerometer-gyro cross block;
+    :meth:`details` reports that block as ``acc_gyro_cross_covariance``.
     """
 
     intervals: tuple[StaticInterval, ...] = field(repr=False)
@@ -256,6 +274,7 @@ class OrientationFreeResult(TriadResult):
     transport_angle_deg: NDArray[np.float64] = field(repr=False)
     transport_angle_before_deg: NDArray[np.float64] = field(repr=False)
     reference_axis: str = "z"
+    noise_scales: tuple[float, float] = (1.0, 1.0)
     procedure: str = KIND
 
     def summary(self) -> dict[str, dict[str, float | str]]:
@@ -297,6 +316,20 @@ class OrientationFreeResult(TriadResult):
              "mean_abs_a": {"value": g + float(e), "unit": "m/s^2"}}
             for iv, e in zip(self.intervals, self.gravity_error_m_s2, strict=True)]
         d["summary"] = self.summary()
+        ident = self.identification
+        names = list(ident.names)
+        ia = [i for i, nm in enumerate(names) if nm[1] == "a"]
+        ig = [i for i, nm in enumerate(names) if nm[1] == "g"]
+        co = self.coefficients
+        d["acc_gyro_cross_covariance"] = {
+            "rows": [names[i] for i in ia], "columns": [names[j] for j in ig],
+            "value": ident.covariance[np.ix_(ia, ig)].tolist(),
+            "unit": "row unit x column unit",
+            "units": {"rows": [co[names[i]].unit for i in ia],
+                      "columns": [co[names[j]].unit for j in ig]},
+        }
+        d["noise_scales"] = {"acc_interval_means": self.noise_scales[0],
+                             "gyro_motions": self.noise_scales[1], "unit": "1"}
         return d
 
     def to_dict(self) -> dict[str, object]:
@@ -350,7 +383,8 @@ def ellipsoid_start(means: NDArray[np.float64], g: float, axis: str
         T = np.linalg.cholesky(Q).T * g
     else:  # S^-1 lower triangular: Q = (P L^T P)^T (P L^T P)
         T = P @ np.linalg.cholesky(P @ Q @ P).T @ P * g
-    return np.linalg.inv(T) * sc, c0 + centre * sc  # back to raw units
+    return (np.asarray(np.linalg.inv(T) * sc, dtype=float),
+            np.asarray(c0 + centre * sc, dtype=float))  # back to raw units
 
 
 def _unpack_acc(theta: NDArray, axis: str) -> tuple[NDArray, NDArray]:
@@ -441,6 +475,13 @@ def coverage_message(means: NDArray[np.float64],
 # gyroscope
 
 
+def _step_rotvecs(rate: NDArray[np.float64], dt: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per-step rotation vectors ``(w_j + w_{j+1}) dt/2 + (w_j x w_{j+1}) dt^2/12`` (n-1, 3)."""
+    w0, w1 = rate[:-1], rate[1:]
+    return np.asarray(0.5 * (w0 + w1) * dt[:, None] + np.cross(w0, w1) * (dt[:, None] ** 2
+                                                                            / 12.0))
+
+
 def integrate_rotation(rate: NDArray[np.float64], dt: NDArray[np.float64]) -> Rotation:
     """Body rotation ``C(t0)^T C(t1)`` over samples ``rate`` (n, 3) [rad/s], steps ``dt`` (n-1,).
 
@@ -450,23 +491,45 @@ def integrate_rotation(rate: NDArray[np.float64], dt: NDArray[np.float64]) -> Ro
     """
     if rate.shape[0] < 2:
         return Rotation.identity()
-    w0, w1 = rate[:-1], rate[1:]
-    phi = 0.5 * (w0 + w1) * dt[:, None] + np.cross(w0, w1) * (dt[:, None] ** 2 / 12.0)
-    r = Rotation.from_rotvec(phi)
-    while len(r) > 1:
-        n = len(r)
-        pairs = r[0:n - 1:2] * r[1:n:2]
-        r = Rotation.concatenate([pairs, r[n - 1:n]]) if n % 2 else pairs
-    return r[0]
+    return _compose_blocks(_step_rotvecs(rate, dt)[None])[0]
+
+
+def _compose_blocks(phi: NDArray[np.float64]) -> Rotation:
+    """``C = C_1 C_2 ... C_L`` of each row of step rotation vectors ``phi`` (n_blocks, L, 3).
+
+    Each row is padded with identities to a power of two; the step rotations (from
+    :class:`~scipy.spatial.transform.Rotation`) are multiplied as direction-cosine matrices,
+    all rows together, by pairwise products in time order (the pairs never straddle two
+    rows); the result is re-orthonormalised by ``Rotation.from_matrix``.
+    """
+    nb, length, _ = phi.shape
+    size = 1 << max(0, int(np.ceil(np.log2(max(length, 1)))))
+    pad = np.zeros((nb, size, 3))
+    pad[:, :length] = phi
+    mats = Rotation.from_rotvec(pad.reshape(-1, 3)).as_matrix().reshape(nb, size, 3, 3)
+    while mats.shape[1] > 1:
+        mats = mats[:, 0::2] @ mats[:, 1::2]
+    return Rotation.from_matrix(mats[:, 0])
 
 
 def motion_rotations(
     S_g: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
     dt: NDArray[np.float64], spans: list[tuple[int, int]],
-) -> list[Rotation]:
-    """``C_k`` of every motion from the calibrated rates ``S_g^-1 (raw - b_g)``."""
-    Sinv = np.linalg.inv(S_g)
-    return [integrate_rotation((gyr[i0:i1 + 1] - b_g) @ Sinv.T, dt[i0:i1]) for i0, i1 in spans]
+) -> Rotation:
+    """``C_k`` of every motion (stacked) from the calibrated rates ``S_g^-1 (raw - b_g)``.
+
+    The motion k runs over samples ``spans[k] = (i0, i1)`` inclusive; all motions are
+    integrated together (:func:`integrate_rotation`'s rule, vectorised over the motions).
+    """
+    lo = min(i0 for i0, _ in spans)
+    hi = max(i1 for _, i1 in spans)
+    w = (gyr[lo:hi + 1] - b_g) @ np.linalg.inv(S_g).T
+    steps = _step_rotvecs(w, dt[lo:hi])
+    length = max(i1 - i0 for i0, i1 in spans)
+    phi = np.zeros((len(spans), max(length, 1), 3))
+    for k, (i0, i1) in enumerate(spans):
+        phi[k, :i1 - i0] = steps[i0 - lo:i1 - lo]
+    return _compose_blocks(phi)
 
 
 def transport_residuals(
@@ -475,21 +538,32 @@ def transport_residuals(
 ) -> NDArray[np.float64]:
     """``C_k^T u_k - u_{k+1}`` for every motion k (flattened, 3 per motion) [1]."""
     rots = motion_rotations(S_g, b_g, gyr, dt, spans)
-    return np.concatenate([C.inv().apply(up[k]) - up[k + 1] for k, C in enumerate(rots)])
+    return np.asarray((rots.inv().apply(up[:-1]) - up[1:]).ravel())
+
+
+@dataclass(frozen=True)
+class _GyroFit:
+    """Solution of the gyro transport fit and its Jacobians at the solution."""
+
+    S_g: NDArray[np.float64]
+    residuals: NDArray[np.float64]  # (3 (m-1),)
+    jac: NDArray[np.float64]  # d r / d vec(S_g), (3 (m-1), 9)
+    jac_up: NDArray[np.float64]  # d r / d up, (3 (m-1), 3 m)
+    jac_b: NDArray[np.float64]  # d r / d b_g, (3 (m-1), 3)
+    jac_w: NDArray[np.float64]  # d r / d (rotation noise of each motion), (3 (m-1), 3 (m-1))
+    cond: float
 
 
 def fit_gyroscope(
     S0: NDArray[np.float64], b_g: NDArray[np.float64], gyr: NDArray[np.float64],
-    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64], *,
-    cov_up: NDArray[np.float64] | None = None, cov_b: NDArray[np.float64] | None = None,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
-    """``S_g`` [raw SI per rad/s], its covariance (9x9), residuals, cond (Tedaldi Sec. III-B).
+    dt: NDArray[np.float64], spans: list[tuple[int, int]], up: NDArray[np.float64],
+) -> _GyroFit:
+    """``S_g`` [raw SI per rad/s] minimising ``sum |C_k^T u_k - u_{k+1}|^2`` (Tedaldi III-B).
 
-    Covariance ``A (s_w^2 I + J_u C_u J_u^T) A^T + A_b C_b A_b^T`` with ``A = (J^T J)^-1 J^T``:
-    the gyro noise ``s_w^2`` from the residuals less the part the gravity directions explain
-    (``cov_up`` (m, 3, 3): noise of each ``u_k``; ``J_u`` exact: ``C_k^T`` and ``-I``, so
-    neighbouring residuals share ``u_{k+1}``), and the initial-period bias noise ``cov_b``
-    (3,) through ``A_b = -A dr/db``.
+    Also the Jacobians of the residuals the covariance needs (:func:`joint_covariance`):
+    with respect to ``vec S_g`` (the fit's), the gravity directions (exact: ``C_k^T`` and
+    ``-I``), the bias (finite differences) and a small rotation ``dphi_k`` of each motion in
+    its end frame (``C_k -> C_k Exp(dphi_k)``: ``d r_k = [v_k x] dphi_k``, ``v_k = C_k^T u_k``).
     """
     def resid(x: NDArray) -> NDArray:
         return transport_residuals(x.reshape(3, 3), b_g, gyr, dt, spans, up)
@@ -504,34 +578,150 @@ def fit_gyroscope(
             f"factors and misalignments (condition number {cond:.3g}): turn the IMU about all "
             "three axes between the attitudes")
     S_g = sol.x.reshape(3, 3)
-    N = np.linalg.pinv(J.T @ J)
-    A = N @ J.T
-    n_r = J.shape[0]
-    Sig_u = np.zeros((n_r, n_r))
-    if cov_up is not None:
-        rots = motion_rotations(S_g, b_g, gyr, dt, spans)
-        Ju = np.zeros((n_r, 3 * len(up)))
-        for k, C in enumerate(rots):
-            Ju[3 * k:3 * k + 3, 3 * k:3 * k + 3] = C.inv().as_matrix()
-            Ju[3 * k:3 * k + 3, 3 * k + 3:3 * k + 6] = -np.eye(3)
-        Cu = np.zeros((3 * len(up), 3 * len(up)))
-        for k in range(len(up)):
-            Cu[3 * k:3 * k + 3, 3 * k:3 * k + 3] = cov_up[k]
-        Sig_u = Ju @ Cu @ Ju.T
-    R = np.eye(n_r) - J @ A
-    dof = 2 * len(spans) - 9
-    rr = float(sol.fun @ sol.fun) - float(np.trace(R @ Sig_u @ R.T))
-    s2 = max(rr, 0.0) / dof if dof > 0 else 0.0
-    cov = A @ (s2 * np.eye(n_r) + Sig_u) @ A.T
-    if cov_b is not None:
-        Jb = np.empty((n_r, 3))
-        for i in range(3):
-            h = np.zeros(3)
-            h[i] = max(1e-6, 1e-3 * float(np.sqrt(cov_b[i])))
-            Jb[:, i] = (transport_residuals(S_g, b_g + h, gyr, dt, spans, up) - sol.fun) / h[i]
-        Ab = -A @ Jb
-        cov = cov + Ab @ np.diag(cov_b) @ Ab.T
-    return S_g, cov, sol.fun, cond
+    r0 = transport_residuals(S_g, b_g, gyr, dt, spans, up)
+    n_mot = len(spans)
+    rots = motion_rotations(S_g, b_g, gyr, dt, spans)
+    CT = rots.inv().as_matrix()
+    Ju = np.zeros((3 * n_mot, 3 * (n_mot + 1)))
+    Jw = np.zeros((3 * n_mot, 3 * n_mot))
+    for k in range(n_mot):
+        Ju[3 * k:3 * k + 3, 3 * k:3 * k + 3] = CT[k]
+        Ju[3 * k:3 * k + 3, 3 * k + 3:3 * k + 6] = -np.eye(3)
+        Jw[3 * k:3 * k + 3, 3 * k:3 * k + 3] = _skew(CT[k] @ up[k])
+    Jb = np.empty((3 * n_mot, 3))
+    h = 1e-3 * float(np.max(np.abs(np.linalg.inv(S_g)))) ** -1 * 1e-3  # ~1e-6 rad/s
+    for i in range(3):
+        e = np.zeros(3)
+        e[i] = h
+        Jb[:, i] = (transport_residuals(S_g, b_g + e, gyr, dt, spans, up)
+                    - transport_residuals(S_g, b_g - e, gyr, dt, spans, up)) / (2 * h)
+    return _GyroFit(S_g=S_g, residuals=r0, jac=J, jac_up=Ju, jac_b=Jb, jac_w=Jw, cond=cond)
+
+
+def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+@dataclass(frozen=True)
+class NoisePropagation:
+    """Joint covariance of the accelerometer and gyro parameters and the noise scales used.
+
+    Attributes
+    ----------
+    covariance : ndarray, shape (24, 24)
+        Of ``[S_a.ravel(), b_a, S_g.ravel(), b_g]`` [raw SI units].
+    acc_noise_scale : float
+        ``lambda``: residual-estimated / sample-variance-predicted accelerometer noise
+        variance of the interval means [1].
+    gyro_noise_scale : float
+        ``mu``: residual-estimated / white-noise-predicted variance of the rotation noise of
+        each motion [1] (1 for pure angle random walk; larger with model errors).
+    """
+
+    covariance: NDArray[np.float64]
+    acc_noise_scale: float
+    gyro_noise_scale: float
+
+
+def joint_covariance(
+    means: NDArray[np.float64], var_means: NDArray[np.float64], S_a: NDArray[np.float64],
+    b_a: NDArray[np.float64], axis: str, r_a: NDArray[np.float64], gf: _GyroFit,
+    var_bg: NDArray[np.float64], var_rot: NDArray[np.float64],
+) -> NoisePropagation:
+    """Covariance of both triads, propagated from every noise source to both fits.
+
+    Both estimates are linearised in three independent noise sources:
+
+    - ``e_m`` (3m): noise of the static interval means ``m_k``, covariance
+      ``lambda diag(var_means)``;
+    - ``e_b`` (3): noise of the initial-period gyro bias, covariance ``diag(var_bg)``;
+    - ``e_w`` (3 per motion): rotation noise of each integrated motion (angle random walk),
+      covariance ``mu var_rot[k] I``.
+
+    Accelerometer (Tedaldi Sec. III-A, residual ``r_k = |S_a^-1 (m_k - b_a)| - g``):
+    ``d theta_a = T_a e_m``, ``T_a = -(J_a^T J_a)^-1 J_a^T dr/dm``. The gravity directions
+    ``u_k = S_a^-1 (m_k - b_a) / |.|`` move with their own mean and with ``theta_a`` (shared
+    by all of them): ``d u = U e_m``, ``U = Q S_a^-1 (block diagonal) + Q H T_a``. Gyro
+    (Sec. III-B, implicit differentiation of the normal equations at the solution):
+    ``d vec S_g = -A (J_u U e_m + J_b e_b + J_w e_w)``, ``A = (J^T J)^-1 J^T``; ``d b_g = e_b``.
+    The covariance ``L Sigma L^T`` of the stacked map ``L`` holds the cross-covariance of the
+    accelerometer and gyro estimates. ``lambda`` and ``mu`` are the noise levels estimated from
+    each fit's residuals (``E r^T r = tr(R Sigma_r R^T)`` with ``R = I - J A``; the gyro's
+    share of the gravity-direction and bias noise subtracted first); ``lambda = 1`` when the
+    accelerometer has no residual degrees of freedom.
+    """
+    m = means.shape[0]
+    free = _FREE[axis]
+    Sinv = np.linalg.inv(S_a)
+    u = (means - b_a) @ Sinv.T
+    nu = np.linalg.norm(u, axis=1)
+    n = u / nu[:, None]
+    wv = n @ Sinv  # rows: n_k^T S_a^-1 = d r_k / d m_k
+    # accelerometer Jacobians: theta = free entries of S_a, then b_a
+    Ja = np.empty((m, 9))
+    for c, (i, j) in enumerate(free):
+        Ja[:, c] = -wv[:, i] * u[:, j]
+    Ja[:, 6:] = -wv
+    Dm = np.zeros((m, 3 * m))
+    for k in range(m):
+        Dm[k, 3 * k:3 * k + 3] = wv[k]
+    Na = np.linalg.pinv(Ja.T @ Ja)
+    Ta = -Na @ Ja.T @ Dm  # (9, 3m)
+    Sig_m0 = np.diag(var_means.ravel())
+    Ra = np.eye(m) - Ja @ Na @ Ja.T
+    pred = float(np.trace(Ra @ Dm @ Sig_m0 @ Dm.T @ Ra.T))
+    lam = float(r_a @ r_a) / pred if m > 9 and pred > 0 else 1.0
+    Sig_m = lam * Sig_m0
+    # gravity directions: own mean + the shared accelerometer solution
+    U = np.zeros((3 * m, 3 * m))
+    H = np.zeros((3 * m, 9))
+    for k in range(m):
+        Q = (np.eye(3) - np.outer(n[k], n[k])) / nu[k]
+        U[3 * k:3 * k + 3, 3 * k:3 * k + 3] = Q @ Sinv
+        for c, (i, j) in enumerate(free):
+            H[3 * k:3 * k + 3, c] = -Q @ Sinv[:, i] * u[k, j]
+        H[3 * k:3 * k + 3, 6:] = -Q @ Sinv
+    U = U + H @ Ta
+    # gyro
+    J = gf.jac
+    A = np.linalg.pinv(J.T @ J) @ J.T
+    Rg = np.eye(J.shape[0]) - J @ A
+    Gm = gf.jac_up @ U  # d r_g / d e_m
+    Sig_w0 = np.diag(np.repeat(var_rot, 3))
+    known = Gm @ Sig_m @ Gm.T + gf.jac_b @ np.diag(var_bg) @ gf.jac_b.T
+    rr_known = float(np.trace(Rg @ known @ Rg.T))
+    pred_w = float(np.trace(Rg @ gf.jac_w @ Sig_w0 @ gf.jac_w.T @ Rg.T))
+    rr = float(gf.residuals @ gf.residuals)
+    mu = max(rr - rr_known, 0.0) / pred_w if J.shape[0] > 9 and pred_w > 0 else 1.0
+    # stacked map from the sources [e_m, e_b, e_w] to [p_a (12), p_g (12)]
+    nw = J.shape[0]
+    L = np.zeros((24, 3 * m + 3 + nw))
+    for c, (i, j) in enumerate(free):
+        L[3 * i + j, :3 * m] = Ta[c]
+    L[9:12, :3 * m] = Ta[6:]
+    L[12:21, :3 * m] = -A @ Gm
+    L[12:21, 3 * m:3 * m + 3] = -A @ gf.jac_b
+    L[12:21, 3 * m + 3:] = -A @ gf.jac_w
+    L[21:24, 3 * m:3 * m + 3] = np.eye(3)
+    Sig = np.zeros((L.shape[1], L.shape[1]))
+    Sig[:3 * m, :3 * m] = Sig_m
+    Sig[3 * m:3 * m + 3, 3 * m:3 * m + 3] = np.diag(var_bg)
+    Sig[3 * m + 3:, 3 * m + 3:] = mu * Sig_w0
+    cov = L @ Sig @ L.T
+    return NoisePropagation(covariance=0.5 * (cov + cov.T), acc_noise_scale=lam,
+                            gyro_noise_scale=mu)
+
+
+def _trapezoid_weight2(dt: NDArray[np.float64]) -> float:
+    """``sum_j c_j^2`` [s^2] of the trapezoid weights ``c_j`` over a motion's steps ``dt``.
+
+    The angle-random-walk variance of the integrated rotation is this times the per-sample
+    rate variance (white rate noise, each sample weighted by half of each adjoining step).
+    """
+    if dt.size == 0:
+        return 0.0
+    c = np.r_[dt, 0.0] / 2 + np.r_[0.0, dt] / 2
+    return float(c @ c)
 
 
 def _angles_deg(res: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -597,7 +787,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             "min_interval_s if the IMU was still longer than found")
     means = np.array([acc[a:b].mean(axis=0) for a, b in iv])
     gmeans = np.array([gyr[a:b].mean(axis=0) for a, b in iv])
-    p_a, cov_a, r_a, _ = fit_accelerometer(means, g, spec.reference_axis,
+    p_a, _, r_a, _ = fit_accelerometer(means, g, spec.reference_axis,
                                            centre=spec.acc_bias_guess * ra)
     S_a, b_a = p_a[:9].reshape(3, 3), p_a[9:]
     messages: list[str] = []
@@ -618,19 +808,20 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     # nominal gyro: the plan's scale guess [count/(deg/s)] in raw SI, or 1 for a physical unit
     k_g0 = 1.0 if spec.gyr_scale_guess is None else spec.gyr_scale_guess * sg.si_per_unit
     S_g0 = np.eye(3) * k_g0
-    # noise of each gravity direction: the interval mean's noise through S_a^-1, across u
-    cov_up = np.empty((m, 3, 3))
-    Sa_inv = np.linalg.inv(S_a)
-    for k, (a, b) in enumerate(iv):
-        P = (np.eye(3) - np.outer(up[k], up[k])) / np.linalg.norm(u_cal[k])
-        L = P @ Sa_inv
-        cov_up[k] = L @ np.diag(acc[a:b].var(axis=0, ddof=1) / (b - a)) @ L.T
-    S_g, cov_sg, r_g, _ = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up, cov_up=cov_up,
-                                        cov_b=var_bg)
+    # noise: of each interval mean (white, from its own samples), of the initial-period gyro
+    # bias, and of each integrated motion (angle random walk of the calibrated rates)
+    var_means = np.array([acc[a:b].var(axis=0, ddof=1) / (b - a) for a, b in iv])
+    var_raw_g = gyr[:n_init].var(axis=0, ddof=1)
+    gf = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up)
+    S_g, r_g = gf.S_g, gf.residuals
+    Sg_inv = np.linalg.inv(S_g)
+    var_rate = float(np.trace(Sg_inv @ np.diag(var_raw_g) @ Sg_inv.T)) / 3  # per axis
+    var_rot = np.array([var_rate * _trapezoid_weight2(dt[i0:i1]) for i0, i1 in spans])
+    prop = joint_covariance(means, var_means, S_a, b_a, spec.reference_axis, r_a, gf,
+                            var_bg, var_rot)
+    cov_a = prop.covariance[:12, :12]
+    cov_g = prop.covariance[12:, 12:]
     p_g = triad.stack_parameters(S_g, b_g)
-    cov_g = np.zeros((12, 12))
-    cov_g[:9, :9] = cov_sg
-    cov_g[9:, 9:] = np.diag(var_bg)
 
     # checks before/after
     if spec.acc_scale_guess is not None:
@@ -656,8 +847,10 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
             e = tri.all_estimates()[nm]
             key = f"{nm[0]}{letter}{nm[1:]}"
             coefficients[key] = Estimate(key, e.value, e.std, e.unit)
-    cov_out = np.block([[cov_ea, np.zeros((cov_ea.shape[0], 12))],
-                        [np.zeros((12, cov_ea.shape[0])), tri_g.covariance]])
+    _, Je_a = triad.engineering_jacobian(p_a, "accelerometer", sa)
+    _, Je_g = triad.engineering_jacobian(p_g, "gyroscope", sg)
+    cross = (Je_a @ prop.covariance[:12, 12:] @ Je_g.T)[idx_a]
+    cov_out = np.block([[cov_ea, cross], [cross.T, tri_g.covariance]])
     fixed_names = ", ".join(f"M{'a'}{nm[1:]}" for nm in _FIXED_MIS[spec.reference_axis])
     frame = ("the z accelerometer defines the z axis and y lies in the y-z plane"
              if spec.reference_axis == "z" else
@@ -667,8 +860,6 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         f"of its reference frame; the gauge of Tedaldi et al. (reference_axis = "
         f"{spec.reference_axis}: {frame}) sets {fixed_names} = 0 by definition, so they are "
         "not estimates; the gyro misalignments Mg_ij refer to this same frame",
-        "cross-covariance between the accelerometer and gyro estimates is not propagated (the "
-        "gyro fit takes the calibrated gravity directions as exact)",
     )
     for msg in (triad.reversed_axes_message(p_a, "accelerometer", "acc_{}"),
                 triad.reversed_axes_message(p_g, "gyroscope", "gyr_{}")):
@@ -696,7 +887,8 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         output_unit="m/s^2", messages=tuple(messages), intervals=intervals, detection=det,
         gravity_error_m_s2=err_after, gravity_error_before_m_s2=err_before,
         transport_angle_deg=ang_after, transport_angle_before_deg=ang_before,
-        reference_axis=spec.reference_axis,
+        reference_axis=spec.reference_axis, noise_scales=(prop.acc_noise_scale,
+                                                          prop.gyro_noise_scale),
     )
 
 

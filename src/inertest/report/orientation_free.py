@@ -9,6 +9,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from inertest.procedures.orientation_free import OrientationFreeResult
+from inertest.report.calibration import result_calibration_rows
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
 from inertest.units import MILLI_G_TO_M_PER_S2
@@ -61,15 +62,21 @@ def orientation_free_sections(
     sec = identification_section(f"{title}: scale factors, misalignments, biases",
                                  result.identification, truth)
     s = result.summary()
-    rows = [[name.replace("_", " "), f"{float(v['before']):.4g}", f"{float(v['after']):.4g}",
-             str(v["unit"])] for name, v in s.items()]
+    rows = [[name.replace("_", " "), float(v["before"]), float(v["after"]), str(v["unit"])]
+            for name, v in s.items()]
     sec.parts.append(paragraph(
         "Physical checks (rms over the static intervals / the motions between them): |a| - g "
         "of each interval mean, and the angle between the gravity direction carried by the "
         "integrated gyro and the next interval's; nominal = the plan's scale guesses."))
     sec.parts.append(table_html(["check", "nominal", "calibrated", "unit"], rows))
-    iv_rows = [[str(k + 1), f"{iv.start_s:.2f}", f"{iv.end_s:.2f}", f"{iv.duration_s:.2f}",
-                f"{result.site_gravity_m_s2 + e:.5f}"]
+    lam, mu = result.noise_scales
+    sec.parts.append(paragraph(
+        "Uncertainties propagate the noise of the static interval means, of the initial gyro "
+        "bias and of each integrated motion through both fits (with the accelerometer-gyro "
+        f"cross-covariance); noise levels from the residuals: {lam:.3g} x the white-noise "
+        f"variance of the interval means, {mu:.3g} x the gyro angle random walk."))
+    iv_rows = [[str(k + 1), float(iv.start_s), float(iv.end_s), float(iv.duration_s),
+                float(e / MILLI_G_TO_M_PER_S2)]
                for k, (iv, e) in enumerate(zip(result.intervals, result.gravity_error_m_s2,
                                                strict=True))]
     sec.parts.append(paragraph(
@@ -77,18 +84,13 @@ def orientation_free_sections(
         f"initial variance magnitude, window {result.detection.window} samples; "
         f"{result.detection.n_short} short quiet runs dropped):"))
     sec.parts.append(table_html(["#", "start [s]", "end [s]", "duration [s]",
-                                 "calibrated mean |a| [m/s^2]"], iv_rows))
-    cal = result.calibration
-    crow = []
-    for name, tri in (("accelerometer", cal.accelerometer), ("gyroscope", cal.gyroscope)):
-        if tri is None:
-            continue
-        for i in range(3):
-            crow.append([f"{name} {'xyz'[i]}", *(f"{v:.9g}" for v in tri.matrix[i]),
-                         f"{tri.offset[i]:.6g}", f"{tri.unit} per {tri.raw_unit}"])
-    sec.parts.append(paragraph("Calibration: calibrated = matrix @ (raw - offset), SI units."))
+                                 "calibrated mean |a| − g [mg]"], iv_rows))
+    sec.parts.append(paragraph("Calibration: calibrated = matrix @ (raw - offset), SI units; "
+                               "each entry ± its standard uncertainty (first order from those "
+                               "of K, M and B)."))
     sec.parts.append(table_html(["triad row", "matrix 1", "matrix 2", "matrix 3",
-                                 "offset [raw]", "matrix unit"], crow))
+                                 "offset [raw]", "matrix unit"],
+                                result_calibration_rows(result)))
     for msg in result.messages:
         sec.parts.append(paragraph(msg, note=True))
     sec.parts.append(figure_html(orientation_free_figure(result), "static detection and checks"))
