@@ -200,3 +200,35 @@ def test_stored_run_holds_both_models(files, tmp_path, capsys):
                                           from_file.predict(t["temperature_c"], rate))
     assert main(["thermal", "fit", str(train), "--store"]) != 0
     assert "--store needs --serial" in capsys.readouterr().err
+
+
+def test_review19_gap_accepted_and_unseen_rate_combinations_refused(tmp_path, capsys):
+    """Review 19: a held-out cycle of thermal simulate with a time-stamp gap was refused as
+    "2.66e-15 degC/min outside the rate range"; now it is compensated. A constant 10 degC
+    (rate 0, seen in training only in the dwells at -40 and 60 degC) is inside the box but
+    not near any training point: refused, naming it, nothing written."""
+    from inertest.procedures.thermal_compensation import simulate_thermal
+
+    train, model = tmp_path / "train.csv", tmp_path / "m.json"
+    write_table(train, simulate_thermal(cycles=4, rng=5))
+    assert main(["thermal", "fit", str(train), "--quantity", "bias", "--model", "polynomial",
+                 "--model-out", str(model)]) == 0
+    held = simulate_thermal(cycles=1, rng=6)
+    keep = (held["time_s"] < 4000) | (held["time_s"] > 5200)
+    gap = tmp_path / "gap.csv"
+    write_table(gap, {k: v[keep] for k, v in held.items()})
+    capsys.readouterr()
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(model), str(gap), "-o", str(out), "--temperature-column",
+                 "temperature_c"]) == 0
+    assert out.exists()
+    flat = {k: v[:50].copy() for k, v in held.items()}
+    flat["temperature_c"][:] = 10.0
+    flat_file, out2 = tmp_path / "flat.csv", tmp_path / "o2.csv"
+    write_table(flat_file, flat)
+    capsys.readouterr()
+    assert main(["apply", str(model), str(flat_file), "-o", str(out2), "--temperature-column",
+                 "temperature_c"]) != 0
+    err = capsys.readouterr().err
+    assert "not seen in training (first: 10 degC at 0 degC/min" in err
+    assert "Traceback" not in err and not out2.exists()

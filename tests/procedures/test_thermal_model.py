@@ -110,3 +110,45 @@ def test_polynomial_correction_uncertainty_matches_monte_carlo():
         stds.append(m.predict_std(temps))
     ratio = np.sqrt(np.mean(np.square(stds), axis=0)) / np.std(errs, axis=0)
     assert np.all((ratio > 0.8) & (ratio < 1.25)), ratio
+
+
+def test_review19_rate_polynomial_is_identifiable_and_training_subsets_agree():
+    """Review 19, th_rank.py: thermal simulate's rate takes only 0, +-0.5, +-1 degC/min (zero
+    only in the dwells at -40 and 60 degC), so a full degree-5 polynomial in (T, dT/dt) had
+    rank 16 of 21 and a singular covariance. Only the identifiable terms are fitted now: the
+    covariance is non-singular, two independent training sets agree within 3 stated sigma at
+    points inside the observed (T, rate) support, and 10 degC at rate 0 is outside it."""
+    fits = [th.fit_thermal(th.simulate_thermal(cycles=3, rng=seed), quantity="bias",
+                           max_degree=5, hidden=2, max_iter=5) for seed in (11, 12)]
+    models = [f.model("polynomial") for f in fits]
+    for f, m in zip(fits, models, strict=True):
+        assert len(m.exponents) < len(poly_exponents(5, True))
+        assert any("do not determine" in msg for msg in f.messages)
+        d = np.sqrt(np.diag(m.covariance))
+        assert np.linalg.eigvalsh(m.covariance / np.outer(d, d))[0] > 1e-8
+        doc = model_from_dict(json.loads(json.dumps(m.to_dict())))
+        np.testing.assert_array_equal(doc.support, m.support)
+    temps = np.array([-40.0, 60.0, 10.0, 30.0, -20.0])
+    rates = np.array([0.0, 0.0, 1.0, -1.0, 1.0])
+    assert not np.any(models[0].outside_support(temps, rates))
+    assert np.all(models[0].outside_support([10.0, 30.0], [0.0, 0.0]))
+    p = [m.predict(temps, rates) for m in models]
+    s = [m.predict_std(temps, rates) for m in models]
+    assert np.all(np.abs(p[0] - p[1]) <= 3.0 * np.hypot(s[0], s[1])), (p, s)
+
+
+def test_review19_range_check_has_a_relative_tolerance():
+    """A rate 2.66e-15 degC/min beyond the training range is rounding, not extrapolation."""
+    m = th.fit_thermal(th.simulate_thermal(cycles=3, rng=1), max_degree=2).model("polynomial")
+    lo, hi = m.rate_range_c_per_min
+    dt, dr = m.out_of_range([10.0, 10.0], [hi + 2.66e-15, hi + 1e-3])
+    assert dt.tolist() == [0.0, 0.0] and dr[0] == 0.0 and dr[1] == pytest.approx(1e-3)
+
+
+def test_review19_rate_is_not_differenced_across_a_time_gap():
+    """A 1220 s gap in a 20 s record: one-sided differences on each side of it."""
+    t = np.r_[np.arange(0, 200, 20.0), np.arange(1400, 1600, 20.0)]
+    temp = np.where(t < 1000, 0.01 * t, 50.0)  # ramp at 0.6 degC/min, then constant
+    r = th.temperature_rate(np.ones(t.size, dtype=int), t, temp)
+    np.testing.assert_allclose(r[t < 1000], 0.6, atol=1e-12)
+    np.testing.assert_allclose(r[t > 1000], 0.0, atol=1e-12)

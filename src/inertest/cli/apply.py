@@ -34,13 +34,6 @@ from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import is_hdf5
-from inertest.io.thermal_model import (
-    is_thermal_model,
-    is_triad_thermal_model,
-    load_thermal_model,
-    load_triad_thermal_model,
-    read_json_object,
-)
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -82,6 +75,13 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
           thermal_columns: str | None, extrapolate: bool) -> None:
     """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA."""
     check_paths([output], [calibration, data])
+    # thermal models load their procedures (scipy.stats): only when a command runs
+    from inertest.io.thermal_model import (
+        is_thermal_model,
+        is_triad_thermal_model,
+        read_json_object,
+    )
+
     doc = read_json_object(calibration, "calibration")
     if is_thermal_model(doc):
         _apply_thermal(calibration, data, output, temperature_column, time_column,
@@ -148,6 +148,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
 def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_column: str | None,
                    time_column: str, columns: str | None, extrapolate: bool) -> None:
     """Compensate the thermal model's quantity in DATA; write OUTPUT with the uncertainty."""
+    from inertest.io.thermal_model import load_thermal_model
     from inertest.procedures.thermal_compensation import QUANTITIES
 
     model = load_thermal_model(model_path)
@@ -217,6 +218,18 @@ def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarra
         lo, hi = model.rate_range_c_per_min
         outside.append(f"{int(np.count_nonzero(dr))} row(s) up to {np.max(dr):.3g} degC/min "
                        f"outside the rate range {lo:.3g} to {hi:.3g} degC/min")
+    unseen = (model.outside_support(temp, rate) if hasattr(model, "outside_support")
+              else np.zeros(temp.size, dtype=bool))
+    unseen &= dt == 0
+    if dr is not None:
+        unseen &= dr == 0
+    if np.any(unseen):
+        k = int(np.flatnonzero(unseen)[0])
+        tol_t, tol_r = model.support_tolerance
+        outside.append(f"{int(np.count_nonzero(unseen))} row(s) inside the ranges but at "
+                       f"temperature x rate combinations not seen in training (first: "
+                       f"{temp[k]:.4g} degC at {rate[k]:.3g} degC/min; more than {tol_t:.3g} degC "
+                       f"/ {tol_r:.3g} degC/min from every training point)")
     if outside and not extrapolate:
         raise DataError(f"{data}: {'; '.join(outside)} of the model; nothing written. Use data "
                         "inside the range, refit over a wider range, or --extrapolate")
@@ -229,6 +242,8 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
                          temperature_column: str | None, time_column: str,
                          columns: str | None, extrapolate: bool, acc_unit: str) -> None:
     """Correct the raw triad columns of DATA with K, M, B at each row's temperature."""
+    from inertest.io.thermal_model import load_triad_thermal_model
+
     model = load_triad_thermal_model(model_path)
     if temperature_column is None:
         raise click.UsageError(f"{model_path} is a triad thermal model: name the temperature "

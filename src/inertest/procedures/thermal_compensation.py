@@ -41,6 +41,7 @@ from inertest.procedures.thermal_model import (
     NetworkThermalModel,
     PolynomialThermalModel,
     ThermalModel,
+    observed_support,
     poly_design,
     poly_exponents,
 )
@@ -274,18 +275,96 @@ def simulate_thermal(
 # fitting
 
 
+#: A time step longer than this many times the median step is a gap in the recording.
+GAP_FACTOR = 5.0
+
+
 def temperature_rate(cycle: NDArray, time_s: NDArray, temperature_c: NDArray) -> NDArray:
-    """dT/dt within each cycle by central differences [degC/min]."""
+    """dT/dt within each cycle by central differences [degC/min].
+
+    A time step longer than :data:`GAP_FACTOR` times the cycle's median step is a gap: no
+    difference is taken across it (the rows on either side get one-sided differences), except
+    for a row isolated between two gaps, which keeps the difference across them.
+    """
     out = np.empty_like(temperature_c, dtype=float)
     for c in np.unique(cycle):
         sel = np.flatnonzero(cycle == c)
         if sel.size < 3:
             raise DataError(f"cycle {c} has {sel.size} rows; each cycle needs at least 3")
         ts = time_s[sel]
-        if np.any(np.diff(ts) <= 0):
+        step = np.diff(ts)
+        if np.any(step <= 0):
             raise DataError(f"time_s must increase within cycle {c}; sort the rows by time")
-        out[sel] = np.gradient(temperature_c[sel], ts) * 60.0
+        rate = np.gradient(temperature_c[sel], ts) * 60.0
+        cuts = np.flatnonzero(step > GAP_FACTOR * np.median(step)) + 1
+        for seg in np.split(np.arange(sel.size), cuts):
+            if seg.size >= 2:
+                rate[seg] = np.gradient(temperature_c[sel][seg], ts[seg]) * 60.0
+        out[sel] = rate
     return out
+
+
+def identifiable_terms(dt: NDArray, rate: NDArray | None, exponents: tuple[tuple[int, int], ...],
+                       *, tol: float = 1e-6) -> tuple[tuple[int, int], ...]:
+    """The terms of ``exponents`` the data determine, lowest order first.
+
+    Columns ``x^i y^j`` of the scaled design (``x = dt / max|dt|``, ``y = rate / max|rate|``,
+    each column of unit norm) are taken in order; a column whose part orthogonal to the columns
+    already kept has a norm below ``tol`` is a combination of them (e.g. ``rate^2`` when the
+    rate takes only the values +-r, or ``T rate^2`` when the rate is 0 at only one or two
+    temperatures) and is left out: its coefficient is not identifiable from these data.
+    """
+    x = dt / max(float(np.max(np.abs(dt))), 1e-300)
+    y = None if rate is None else rate / max(float(np.max(np.abs(rate))), 1e-300)
+    keep: list[tuple[int, int]] = []
+    basis = np.zeros((dt.size, 0))
+    for i, j in exponents:
+        col = poly_design(x, y, ((i, j),))[:, 0]
+        norm = float(np.linalg.norm(col))
+        if norm == 0.0:
+            continue
+        col = col / norm
+        for _ in range(2):  # Gram-Schmidt, twice for orthogonality to rounding
+            col = col - basis @ (basis.T @ col)
+        left = float(np.linalg.norm(col))
+        if left > tol:
+            keep.append((i, j))
+            basis = np.column_stack([basis, col / left])
+    return tuple(keep)
+
+
+def _term_label(i: int, j: int) -> str:
+    parts = [b if k == 1 else f"{b}^{k}" for b, k in (("(T - T_ref)", i), ("(dT/dt)", j)) if k]
+    return " ".join(parts) or "1"
+
+
+def _scaled_fit(dt: NDArray, rate: NDArray | None, exps: tuple[tuple[int, int], ...],
+                y: NDArray) -> tuple[NDArray, NDArray, float]:
+    """Least squares in scaled regressors; coefficients, covariance, sigma in the raw units."""
+    sx = max(float(np.max(np.abs(dt))), 1e-300)
+    sy = 1.0 if rate is None else max(float(np.max(np.abs(rate))), 1e-300)
+    A = poly_design(dt / sx, None if rate is None else rate / sy, exps)
+    lf = weighted_least_squares(A, y)
+    if lf.rank < len(exps):
+        raise IdentifiabilityError(
+            f"the polynomial terms {list(exps)} are not all determined by the training data "
+            f"(rank {lf.rank} of {len(exps)}); record more varied temperatures and rates")
+    d = np.array([1.0 / (sx**i * sy**j) for i, j in exps])
+    return lf.x * d, lf.covariance * np.outer(d, d), float(lf.sigma)
+
+
+def _cv_rms(dt: NDArray, rate: NDArray | None, exps: tuple[tuple[int, int], ...], y: NDArray,
+            groups: NDArray) -> float:
+    """Leave-one-cycle-out RMS (root of the mean of the folds' mean squared errors)."""
+    sx = max(float(np.max(np.abs(dt))), 1e-300)
+    sy = 1.0 if rate is None else max(float(np.max(np.abs(rate))), 1e-300)
+    A = poly_design(dt / sx, None if rate is None else rate / sy, exps)
+    mse = []
+    for g in np.unique(groups):
+        out = groups == g
+        c, *_ = np.linalg.lstsq(A[~out], y[~out], rcond=None)
+        mse.append(float(np.mean((y[out] - A[out] @ c) ** 2)))
+    return float(np.sqrt(np.mean(mse)))
 
 
 def fit_thermal(
@@ -338,7 +417,6 @@ def fit_thermal(
     # scikit-learn (~1.5 s to import) loads only when a thermal model is fitted.
     from sklearn.compose import TransformedTargetRegressor
     from sklearn.exceptions import ConvergenceWarning
-    from sklearn.model_selection import LeaveOneGroupOut, cross_val_score
     from sklearn.neural_network import MLPRegressor
     from sklearn.pipeline import Pipeline
     from sklearn.preprocessing import StandardScaler
@@ -400,38 +478,44 @@ def fit_thermal(
     def rms(r: NDArray) -> float:
         return float(np.sqrt(np.mean(r**2)))
 
-    # Polynomial: degree by leave-one-cycle-out CV on the training cycles.
+    t_ref = float(np.round(np.mean(temp[train]), 1)) if t_ref_c is None else float(t_ref_c)
+    if not np.isfinite(t_ref):
+        raise InputError(f"t_ref_c must be a finite temperature [degC], got {t_ref_c!r}")
+    # Polynomial: degree by leave-one-cycle-out CV on the training cycles, each degree with
+    # only the terms the training data determine (a rate sampled at a few values, or a zero
+    # rate seen at only the dwell temperatures, leaves higher rate powers unidentifiable).
+    dt_train = temp[train] - t_ref
+    r_train = rate[train] if use_rate else None
     cv: dict[int, float] = {}
-    logo = LeaveOneGroupOut()
+    terms: dict[int, tuple[tuple[int, int], ...]] = {}
     for deg in range(1, max_degree + 1):
-        scores = cross_val_score(_polynomial(deg), X[train], y[train], groups=cycle[train],
-                                 cv=logo, scoring="neg_mean_squared_error")
-        cv[deg] = float(np.sqrt(-np.mean(scores)))
+        terms[deg] = identifiable_terms(dt_train, r_train, poly_exponents(deg, use_rate))
+        cv[deg] = _cv_rms(dt_train, r_train, terms[deg], y[train], cycle[train])
     # Parsimony: the lowest degree within 2 % of the best CV RMS (plus a floor for noise-free
     # data, where every degree above the true one fits to rounding).
     floor = 1.02 * min(cv.values()) + 1e-9 * float(np.sqrt(np.mean(y[train] ** 2)))
     best = min(d for d, v in cv.items() if v <= floor)
-    t_ref = float(np.round(np.mean(temp[train]), 1)) if t_ref_c is None else float(t_ref_c)
-    if not np.isfinite(t_ref):
-        raise InputError(f"t_ref_c must be a finite temperature [degC], got {t_ref_c!r}")
+    support = observed_support(temp[train], rate[train]) if use_rate else (None, None)
     common = dict(
         quantity=quantity, unit=unit, reference=reference, inputs=inputs,
         temperature_range_c=(float(np.min(temp[train])), float(np.max(temp[train]))),
         rate_range_c_per_min=((float(np.min(rate[train])), float(np.max(rate[train])))
                               if use_rate else None),
-        serial=serial,
+        serial=serial, support=support[0], support_tolerance=support[1],
     )
-    exps = poly_exponents(best, use_rate)
-    A = poly_design(temp - t_ref, rate if use_rate else None, exps)
-    lf = weighted_least_squares(A[train], y[train])
+    exps = terms[best]
+    dropped = [e for e in poly_exponents(best, use_rate) if e not in exps]
+    coef, cov, sigma = _scaled_fit(dt_train, r_train, exps, y[train])
     poly_model = PolynomialThermalModel(
-        **common, t_ref_c=t_ref, exponents=exps, coefficients=lf.x, covariance=lf.covariance,
-        noise=float(lf.sigma))
+        **common, t_ref_c=t_ref, exponents=exps, coefficients=coef, covariance=cov,
+        noise=sigma)
     p_pred = poly_model.predict(temp, rate if use_rate else None)
     poly_val = rms(y[~train] - p_pred[~train])
-    poly_fit = ThermalModelFit("polynomial", f"degree {best} in {', '.join(inputs)}",
-                               rms(y[train] - p_pred[train]), poly_val, p_pred,
-                               model=replace(poly_model, validation_rms=poly_val))
+    poly_fit = ThermalModelFit(
+        "polynomial", f"degree {best} in {', '.join(inputs)}"
+        + (f" ({len(exps)} of {len(exps) + len(dropped)} terms identifiable)" if dropped else ""),
+        rms(y[train] - p_pred[train]), poly_val, p_pred,
+        model=replace(poly_model, validation_rms=poly_val))
 
     net = TransformedTargetRegressor(
         regressor=Pipeline([
@@ -463,6 +547,15 @@ def fit_thermal(
         rms(y[train] - n_pred[train]), net_val, n_pred, converged,
         model=replace(net_model, validation_rms=net_val), estimator=net)
     messages = []
+    if dropped:
+        n_rates = np.unique(np.round(rate[train], 6)).size if use_rate else 0
+        messages.append(
+            "the training data do not determine the polynomial terms "
+            + ", ".join(_term_label(i, j) for i, j in dropped)
+            + (f" (the rate takes {n_rates} distinct values, seen at few temperatures)"
+               if use_rate and n_rates <= 10 else "")
+            + ": they are left out; the model is valid only near the temperature x rate "
+            "combinations of the training cycles (valid_range.observed)")
     if best == max_degree:
         messages.append(
             f"the highest polynomial degree tried ({max_degree}) fits best in cross-validation; "

@@ -18,7 +18,12 @@ training mean of the scale factor, in the data's unit). Compensation (:meth:`com
     scale factor:  corrected = raw / (reference (1 + 1e-6 ppm(T, dT/dt)))
 
 Each model states the temperature (and rate) range of its training data; outside it the model
-extrapolates, and :meth:`out_of_range` measures by how much.
+extrapolates, and :meth:`out_of_range` measures by how much (values beyond the range by less
+than :data:`RANGE_RTOL` of its width count as inside: rounding, not extrapolation). A model with
+the rate also records the temperature x rate combinations it was trained on (``observed``: the
+training points thinned to a grid of :data:`SUPPORT_FRACTION` of each span, which is also the
+tolerance): a row inside the box but far from every training point (e.g. 10 degC at rate 0 when
+the chamber dwelt only at the ends) is an extrapolation too, see :meth:`outside_support`.
 """
 
 from __future__ import annotations
@@ -38,6 +43,10 @@ FORMAT_VERSION = 1
 MODEL_KIND = "thermal-model"
 QUANTITY_UNITS = {"scale_factor": "ppm", "bias": "deg/h"}
 INPUT_NAMES = ("temperature_c", "temperature_rate_c_per_min")
+#: Relative tolerance of the range check, as a fraction of the range's width.
+RANGE_RTOL = 1e-9
+#: Grid step of the observed (T, dT/dt) support and its tolerance, as a fraction of each span.
+SUPPORT_FRACTION = 0.05
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,6 +70,10 @@ class _ThermalModel:
         Instrument serial ("" when unknown).
     validation_rms : float
         RMS residual on the held-out cycles [unit]: the compensation's accuracy on new data.
+    support : ndarray, shape (m, 2), or None
+        Training ``(T [degC], dT/dt [degC/min])`` points thinned to a grid (rate models only).
+    support_tolerance : tuple of float or None
+        Distance [degC], [degC/min] within which a row counts as near a training point.
     """
 
     quantity: str
@@ -71,6 +84,8 @@ class _ThermalModel:
     rate_range_c_per_min: tuple[float, float] | None = None
     serial: str = ""
     validation_rms: float = float("nan")
+    support: NDArray[np.float64] | None = field(default=None, repr=False)
+    support_tolerance: tuple[float, float] | None = None
 
     model_type: ClassVar[str] = ""
 
@@ -104,16 +119,30 @@ class _ThermalModel:
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
         """Distance of each row outside the valid range: temperature [degC], rate [degC/min].
 
-        Zero inside the range.
+        Zero inside the range, and within :data:`RANGE_RTOL` of its width beyond it.
         """
         t, r = self._inputs(temperature_c, rate_c_per_min)
-        lo, hi = self.temperature_range_c
-        dt = np.maximum(lo - t, 0.0) + np.maximum(t - hi, 0.0)
+        dt = _beyond(t, self.temperature_range_c)
         dr = None
         if r is not None and self.rate_range_c_per_min is not None:
-            rlo, rhi = self.rate_range_c_per_min
-            dr = np.maximum(rlo - r, 0.0) + np.maximum(r - rhi, 0.0)
+            dr = _beyond(r, self.rate_range_c_per_min)
         return dt, dr
+
+    def outside_support(self, temperature_c: ArrayLike, rate_c_per_min: ArrayLike | None = None
+                        ) -> NDArray[np.bool_]:
+        """Rows whose (T, dT/dt) is farther than the tolerance from every training point.
+
+        All False for a temperature-only model or one without a recorded support.
+        """
+        t, r = self._inputs(temperature_c, rate_c_per_min)
+        if r is None or self.support is None or self.support_tolerance is None:
+            return np.zeros(t.shape, dtype=bool)
+        from scipy.spatial import cKDTree
+
+        tol = np.asarray(self.support_tolerance, dtype=float)
+        tree = cKDTree(self.support / tol)
+        dist, _ = tree.query(np.column_stack([t, r]) / tol)
+        return np.asarray(dist > 1.0 + 1e-9)
 
     def compensate(self, raw: ArrayLike, temperature_c: ArrayLike,
                    rate_c_per_min: ArrayLike | None = None
@@ -163,6 +192,14 @@ class _ThermalModel:
                 "temperature_c": list(self.temperature_range_c),
                 "temperature_rate_c_per_min": (None if self.rate_range_c_per_min is None
                                                else list(self.rate_range_c_per_min)),
+                **({"observed": {
+                    "note": ("temperature x rate combinations of the training data (thinned to "
+                             "a grid); a row farther than the tolerance from all of them is an "
+                             "extrapolation"),
+                    "points_c_and_c_per_min": self.support.tolist(),
+                    "tolerance": list(self.support_tolerance),
+                    "tolerance_units": ["degC", "degC/min"]}}
+                   if self.support is not None and self.support_tolerance is not None else {}),
             },
             "validation_rms": {"value": self.validation_rms, "unit": self.unit},
             "compensation": ("corrected = raw - bias(T, dT/dt)" if self.quantity == "bias" else
@@ -333,6 +370,28 @@ def poly_design(dt: NDArray[np.float64], rate: NDArray[np.float64] | None,
     return np.column_stack(cols) if cols else np.zeros((dt.size, 0))
 
 
+def observed_support(temperature_c: NDArray[np.float64], rate_c_per_min: NDArray[np.float64]
+                     ) -> tuple[NDArray[np.float64], tuple[float, float]]:
+    """Training (T, dT/dt) points thinned to a grid of :data:`SUPPORT_FRACTION` of each span.
+
+    Returns the points, shape (m, 2), and the tolerance (grid step) [degC], [degC/min].
+    """
+    t = np.asarray(temperature_c, dtype=float)
+    r = np.asarray(rate_c_per_min, dtype=float)
+    tol = (max(SUPPORT_FRACTION * float(np.ptp(t)), 1e-6),
+           max(SUPPORT_FRACTION * float(np.ptp(r)), 1e-6))
+    cells = np.round(np.column_stack([t / tol[0], r / tol[1]]) * 2.0)
+    _, first = np.unique(cells, axis=0, return_index=True)
+    return np.column_stack([t, r])[np.sort(first)], tol
+
+
+def _beyond(x: NDArray[np.float64], rng: tuple[float, float]) -> NDArray[np.float64]:
+    lo, hi = rng
+    tol = RANGE_RTOL * max(hi - lo, abs(lo), abs(hi), 1e-300)
+    d = np.maximum(lo - x, 0.0) + np.maximum(x - hi, 0.0)
+    return np.where(d > tol, d, 0.0)
+
+
 def poly_exponents(degree: int, use_rate: bool) -> tuple[tuple[int, int], ...]:
     """All ``(i, j)`` with ``i + j <= degree`` (``j = 0`` without the rate), by total degree."""
     return tuple((d - j, j) for d in range(degree + 1) for j in range(d + 1 if use_rate else 1))
@@ -365,11 +424,20 @@ def model_from_dict(doc: Mapping[str, object]) -> ThermalModel:
         r_raw = rng.get("temperature_rate_c_per_min")  # type: ignore[attr-defined]
         r_rng = None if r_raw is None else tuple(float(v) for v in r_raw)
         vr = doc.get("validation_rms") or {}
+        obs = rng.get("observed")  # type: ignore[attr-defined]
+        support = tol = None
+        if obs is not None:
+            support = np.array(obs["points_c_and_c_per_min"], dtype=float).reshape(-1, 2)
+            tol = tuple(float(v) for v in obs["tolerance"])
+            if len(tol) != 2 or not all(np.isfinite(tol)) or min(tol) <= 0 or support.size == 0:
+                raise InputError("thermal model valid_range.observed needs points and two "
+                                 "positive tolerances; rewrite it with thermal fit")
         common = dict(
             quantity=quantity, unit=QUANTITY_UNITS[quantity], reference=float(doc["reference"]),  # type: ignore[arg-type]
             inputs=inputs, temperature_range_c=t_rng, rate_range_c_per_min=r_rng,
             serial=str(doc.get("serial", "")),
             validation_rms=float(vr.get("value", float("nan"))),  # type: ignore[attr-defined]
+            support=support, support_tolerance=tol,
         )
         kind = doc.get("model_type")
         if kind == PolynomialThermalModel.model_type:
