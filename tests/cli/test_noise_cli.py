@@ -9,6 +9,7 @@ import hashlib
 import json
 import lzma
 import math
+import re
 from pathlib import Path
 
 import allantools
@@ -258,3 +259,21 @@ def test_parquet_and_hdf5_tables_read_like_csv_and_psd_white_level(tmp_path, cap
         flat = p[f > 1.0]
         assert math.sqrt(float(np.mean(flat)) / 2) == pytest.approx(density, rel=0.02)
         assert math.sqrt(float(np.mean(flat)) / 2) == pytest.approx(fit["value"], rel=0.05)
+
+
+def test_review19_header_only_csv_and_truncated_psins_refused_in_one_line(tmp_path, capsys):
+    """Review 19: a header-only CSV gave exit 70 (IndexError); a truncated PSINS row passed
+    numpy's hint "use `usecols`". Both are now one-line errors saying what is wrong."""
+    hdr = tmp_path / "header_only.csv"
+    hdr.write_text("t,gyro_x,gyro_y,gyro_z,acc_x,acc_y,acc_z\n")
+    assert main(["noise", str(hdr)]) == 2
+    err = capsys.readouterr().err
+    assert "has no data rows" in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    trunc = tmp_path / "trunc.imu"
+    trunc.write_text(_psins_excerpt(200) + "1 2 3 4 5\n")
+    assert main(["noise", str(trunc)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(r"sample row \d+ has 5 numbers where the rows before it have 6", err)
+    assert "the file is truncated" in err and "usecols" not in err
+    assert len(err.strip().splitlines()) == 1

@@ -170,9 +170,10 @@ def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
         raise DataError(f"{p}: PSINS LSBs {lsb} (arcsec, ug*s) must be positive")
     try:
         d = np.loadtxt(lines[3:], ndmin=2)
-    except ValueError as exc:
-        raise DataError(f"{p}: PSINS samples are not rows of 6 or 7 numbers "
-                        f"({str(exc).splitlines()[0]})") from None
+    except ValueError:
+        raise DataError(f"{p}: {_psins_bad_row(lines[3:])}; PSINS samples are rows of 6 "
+                        "increments (and an optional time): repair or cut the file at the last "
+                        "complete row") from None
     if d.shape[1] not in (6, 7):
         raise DataError(f"{p}: PSINS samples have 6 increments (and an optional time); got "
                         f"{d.shape[1]} columns")
@@ -187,6 +188,23 @@ def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
         notes += (f"read through {p.suffix} decompression (in memory)",)
     return ImuRecording(t, gyro, accel, ("gyro_x", "gyro_y", "gyro_z"),
                         ("accel_x", "accel_y", "accel_z"), 1e3 / interval_ms, "psins", notes)
+
+
+def _psins_bad_row(rows: list[str]) -> str:
+    """What is wrong with the first malformed PSINS sample row (1-based, after the header)."""
+    width = len(rows[0].split())
+    for k, ln in enumerate(rows, start=1):
+        tokens = ln.split()
+        for tok in tokens:
+            try:
+                float(tok)
+            except ValueError:
+                return f"sample row {k} holds {tok[:20]!r}, which is not a number"
+        if len(tokens) != width:
+            last = " (the last row: the file is truncated)" if k == len(rows) else ""
+            return (f"sample row {k} has {len(tokens)} numbers where the rows before it have "
+                    f"{width}{last}")
+    return "the sample rows cannot be read as numbers"
 
 
 def _exact_int_column(path: Path, fmt: str, name: str) -> NDArray | None:
@@ -313,6 +331,9 @@ def read_imu_recording(
         raise InputError(f"--format {fmt} needs a file named {' or '.join(expected)}; "
                          f"got {p.name}")
     table = read_table(p)
+    if not table or len(next(iter(table.values()))) == 0:
+        raise DataError(f"{p} has no data rows (only a header: {', '.join(table) or 'none'}); "
+                        "give a recording with samples")
     gyro_names = _pick(table, _split(gyro_columns), _GYRO_SETS, "gyro", p)
     accel_names = _pick(table, _split(accel_columns), _ACCEL_SETS, "accel", p)
     if not gyro_names and not accel_names:
