@@ -3,6 +3,7 @@ real imu_tk Xsens recording, an independent simulation, Monte Carlo std, identif
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing
 from concurrent.futures import ProcessPoolExecutor
@@ -13,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from inertest.cli import main
-from inertest.errors import IdentifiabilityError
+from inertest.errors import IdentifiabilityError, PlanError
 from inertest.io.plan_file import load_plan
 from inertest.procedures import orientation_free as of
 from inertest.procedures.orientation_free import fit, fit_accelerometer
@@ -28,7 +29,7 @@ DEG = np.pi / 180
 
 
 @pytest.fixture(scope="module")
-def xsens():
+def xsens_data():
     real = ROOT.parent / "shared" / "realdata" / "imu_tk"
     if not real.is_dir():
         pytest.skip("../shared/realdata/imu_tk not present")
@@ -37,7 +38,12 @@ def xsens():
     data = {"t_s": acc[:, 0]}
     data.update({f"acc_{a}": acc[:, k + 1] for k, a in enumerate("xyz")})
     data.update({f"gyr_{a}": gyr[:, k + 1] for k, a in enumerate("xyz")})
-    return fit(load_plan(EXAMPLES / "plan_xsens.toml"), data)
+    return data
+
+
+@pytest.fixture(scope="module")
+def xsens(xsens_data):
+    return fit(load_plan(EXAMPLES / "plan_xsens.toml"), xsens_data)
 
 
 def test_real_static_intervals_have_abs_a_equal_g(xsens):
@@ -58,6 +64,45 @@ def test_real_gyro_carries_gravity_into_the_next_attitude(xsens):
     assert s["after"] < 1.0 and s["before"] > 20.0 and s["after"] < s["before"] / 20
     assert np.max(xsens.transport_angle_deg) < 1.5
     assert xsens.transport_angle_deg.size == len(xsens.intervals) - 1
+
+
+def test_real_auto_threshold_keeps_the_lowest_residual_and_the_checks(xsens, xsens_data):
+    """threshold_factor = "auto" (Tedaldi Sec. IV): k = 2..10 tried, the lowest accelerometer
+    residual kept (k = 3 here, 40 intervals); |a| = g and the carried gravity are no worse
+    than with the plan's k = 6 (0.10 mg, 0.52 deg rms)."""
+    plan = load_plan(EXAMPLES / "plan_xsens.toml")
+    auto = dataclasses.replace(plan, procedure=dataclasses.replace(plan.procedure,
+                                                                   threshold_factor="auto"))
+    res = fit(auto, xsens_data)
+    cands = res.threshold_search
+    assert [c.threshold_factor for c in cands] == list(of.AUTO_THRESHOLD_FACTORS)
+    rms = np.array([c.residual_rms_m_s2 for c in cands])
+    chosen = cands[int(np.nanargmin(rms))]
+    assert res.detection.threshold_factor == chosen.threshold_factor
+    assert len(res.intervals) == chosen.intervals >= 36
+    s_auto, s_fix = res.summary(), xsens.summary()
+    for check in ("gravity_norm_rms", "gravity_transport_rms"):
+        assert s_auto[check]["after"] <= s_fix[check]["after"], check
+    det = res.details()["detector"]
+    assert det["threshold_choice"] == "auto" and len(det["candidates"]) == 9
+
+
+def test_auto_threshold_from_the_plan_file(tmp_path):
+    """"auto" is read from TOML; another text is refused naming the parameter; a simulated
+    session finds all its attitudes with the chosen factor."""
+    plan = _plan(tmp_path)
+    text = (tmp_path / "plan.toml").read_text().replace("window_s = 0.5",
+                                                        'window_s = 0.5\nthreshold_factor = "auto"')
+    (tmp_path / "auto.toml").write_text(text)
+    auto = load_plan(tmp_path / "auto.toml")
+    assert auto.procedure.threshold_factor == "auto" and plan.procedure.threshold_factor == 6.0
+    (tmp_path / "bad.toml").write_text(text.replace('"auto"', '"best"'))
+    with pytest.raises(PlanError, match="threshold_factor"):
+        load_plan(tmp_path / "bad.toml")
+    rng = np.random.default_rng(12)
+    att = Rotation.concatenate([Rotation.identity(), Rotation.random(20, random_state=rng)])
+    res = fit(auto, _session(rng, _truth_matrices(rng), attitudes=att))
+    assert len(res.intervals) == 21 and len(res.threshold_search) == 9
 
 
 def test_real_result_follows_the_triad_conventions(xsens):

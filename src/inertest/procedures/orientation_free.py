@@ -12,6 +12,11 @@ Steps (every number SI inside; conventions of :mod:`inertest.models.triad`)
    Tedaldi Sec. III-C): the variance magnitude of the accelerometer over a ``window_s`` window
    below ``threshold_factor`` x that of the initial period; intervals shorter than
    ``min_interval_s`` dropped. Each interval's mean raw reading ``m_k`` is kept.
+   ``threshold_factor = "auto"`` (Tedaldi Sec. IV; imu_tk tries k = 2..10): the detection and
+   the accelerometer fit of step 2 are run for each k in :data:`AUTO_THRESHOLD_FACTORS` and
+   the k with the lowest accelerometer residual variance ``sum r^2 / (m - 9)`` is kept (imu_tk
+   compares the total cost; per degree of freedom, fewer intervals are not favoured by
+   having fewer terms). Every candidate's count and residual is reported.
 2. **Accelerometer** (Tedaldi Sec. III-A, cost function of the accelerometer): with the triad
    model ``raw = S u + b``, ``S = K (I + M)``, the specific force at rest has the magnitude of
    local gravity ``g`` (the plan's site), so ``S``, ``b`` minimise
@@ -99,6 +104,8 @@ KIND = "orientation-free"
 ACC_COLUMNS = ("acc_x", "acc_y", "acc_z")
 GYR_COLUMNS = ("gyr_x", "gyr_y", "gyr_z")
 #: Fewest static attitudes: the accelerometer has nine parameters (Tedaldi recommend 36-50).
+#: Threshold factors tried by ``threshold_factor = "auto"`` (Tedaldi Sec. IV, imu_tk: 2..10).
+AUTO_THRESHOLD_FACTORS = (2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0)
 MIN_ATTITUDES = 9
 RECOMMENDED_ATTITUDES = 36
 #: An axis direction (x up, x down, ...) farther than this from every attitude is "missing".
@@ -131,8 +138,10 @@ class OrientationFreeSpec:
         Units of the raw columns (``count`` or a specific-force / rate unit).
     init_duration_s : float
         Initial static period ``T_init`` [s]: detector threshold and gyro bias.
-    threshold_factor : float
-        ``k`` of the detector threshold ``k varsigma_init`` [1] (Tedaldi: 2..10).
+    threshold_factor : float or "auto"
+        ``k`` of the detector threshold ``k varsigma_init`` [1] (Tedaldi: 2..10), or
+        ``"auto"``: the k of :data:`AUTO_THRESHOLD_FACTORS` with the lowest accelerometer
+        residual (module docstring, step 1).
     window_s : float
         Detector variance window [s].
     min_interval_s : float
@@ -157,7 +166,7 @@ class OrientationFreeSpec:
     acc_unit: str = "count"
     gyr_unit: str = "count"
     init_duration_s: float = 50.0
-    threshold_factor: float = 6.0
+    threshold_factor: float | str = 6.0
     window_s: float = 1.0
     min_interval_s: float = 1.0
     reference_axis: str = "z"
@@ -171,7 +180,13 @@ class OrientationFreeSpec:
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> OrientationFreeSpec:
         """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`)."""
-        kw = read_fields(params, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        table = dict(params)
+        auto = table.get("threshold_factor") == "auto"
+        if auto:
+            del table["threshold_factor"]
+        kw = read_fields(table, FIELDS, f"[procedure] of kind {KIND}", ignore=("kind",))
+        if auto:
+            kw["threshold_factor"] = "auto"
         spec = cls(**kw)
         if spec.gyr_scale_guess is None and spec.gyr_unit not in RATE_UNITS:
             raise PlanError(
@@ -197,7 +212,8 @@ FIELDS = (
     Field("gyr_unit", "text", default="count", choices=(*COUNT_UNITS, *RATE_UNITS)),
     Field("init_duration_s", default=50.0, positive=True, unit="s",
           doc="initial static period"),
-    Field("threshold_factor", default=6.0, positive=True, doc="detector threshold factor k"),
+    Field("threshold_factor", default=6.0, positive=True,
+          doc='detector threshold factor k, or "auto" (k = 2..10, lowest residual)'),
     Field("window_s", default=1.0, positive=True, unit="s", doc="detector window"),
     Field("min_interval_s", default=1.0, positive=True, unit="s",
           doc="shortest static interval"),
@@ -213,6 +229,26 @@ FIELDS = (
     Field("motion_s", default=2.0, positive=True, unit="s", doc="simulated turn time"),
 )
 SPEC = OrientationFreeSpec
+
+
+@dataclass(frozen=True)
+class ThresholdCandidate:
+    """One factor tried by ``threshold_factor = "auto"``.
+
+    Attributes
+    ----------
+    threshold_factor : float
+        ``k`` [1].
+    intervals : int
+        Static intervals found with it.
+    residual_rms_m_s2 : float
+        ``sqrt(sum r^2 / (m - 9))`` of the accelerometer fit [m/s^2]; NaN when it has fewer
+        than ten intervals or the fit is not identifiable.
+    """
+
+    threshold_factor: float
+    intervals: int
+    residual_rms_m_s2: float
 
 
 @dataclass(frozen=True)
@@ -259,6 +295,9 @@ class OrientationFreeResult(TriadResult):
     noise_scales : tuple of float
         ``(lambda, mu)`` of :class:`NoisePropagation`: residual-estimated over white-noise
         predicted variance of the interval means and of the integrated motions [1].
+    threshold_search : tuple of ThresholdCandidate
+        With ``threshold_factor = "auto"``: every factor tried (the chosen one is
+        ``detection.threshold_factor``); empty otherwise.
 
     Notes
     -----
@@ -275,6 +314,7 @@ class OrientationFreeResult(TriadResult):
     transport_angle_before_deg: NDArray[np.float64] = field(repr=False)
     reference_axis: str = "z"
     noise_scales: tuple[float, float] = (1.0, 1.0)
+    threshold_search: tuple[ThresholdCandidate, ...] = ()
     procedure: str = KIND
 
     def summary(self) -> dict[str, dict[str, float | str]]:
@@ -301,14 +341,23 @@ class OrientationFreeResult(TriadResult):
             acc.pop("covariance", None)
             tri["accelerometer"] = acc
         d["reference_axis"] = self.reference_axis
-        d["detector"] = {
+        detector: dict[str, object] = {
             "threshold_factor": self.detection.threshold_factor,
             "threshold": {"value": self.detection.threshold, "unit": "raw^2"},
             "init_variance_magnitude": {"value": self.detection.init_variance_magnitude,
                                         "unit": "raw^2"},
             "window": {"value": self.detection.window, "unit": "sample"},
             "short_intervals_dropped": self.detection.n_short,
+            "threshold_choice": "auto" if self.threshold_search else "given",
         }
+        if self.threshold_search:
+            detector["candidates"] = [
+                {"threshold_factor": c.threshold_factor, "intervals": c.intervals,
+                 "acc_residual_rms": {"value": c.residual_rms_m_s2 / MILLI_G_TO_M_PER_S2
+                                      if np.isfinite(c.residual_rms_m_s2) else None,
+                                      "unit": "mg"}}
+                for c in self.threshold_search]
+        d["detector"] = detector
         g = self.site_gravity_m_s2
         d["static_intervals"] = [
             {"start": {"value": iv.start_s, "unit": "s"}, "end": {"value": iv.end_s, "unit": "s"},
@@ -648,10 +697,15 @@ def joint_covariance(
     accelerometer and gyro estimates. ``lambda`` and ``mu`` are the noise levels estimated from
     each fit's residuals (``E r^T r = tr(R Sigma_r R^T)`` with ``R = I - J A``; the gyro's
     share of the gravity-direction and bias noise subtracted first); ``lambda = 1`` when the
-    accelerometer has no residual degrees of freedom.
+    accelerometer has no residual degrees of freedom. Data without any sample noise (a
+    noise-free simulation) get equal weights, their level wholly from the residuals.
     """
     m = means.shape[0]
     free = _FREE[axis]
+    if not np.any(var_means > 0):  # noise-free (simulated) means: equal weights, level from r
+        var_means = np.ones_like(var_means)
+    if not np.any(var_rot > 0):
+        var_rot = np.ones_like(var_rot)
     Sinv = np.linalg.inv(S_a)
     u = (means - b_a) @ Sinv.T
     nu = np.linalg.norm(u, axis=1)
@@ -710,6 +764,51 @@ def joint_covariance(
     cov = L @ Sig @ L.T
     return NoisePropagation(covariance=0.5 * (cov + cov.T), acc_noise_scale=lam,
                             gyro_noise_scale=mu)
+
+
+def _detect(acc: NDArray[np.float64], spec: OrientationFreeSpec, k: float) -> StaticDetection:
+    return detect_static_intervals(
+        acc, sample_rate_hz=spec.sample_rate_hz, init_duration_s=spec.init_duration_s,
+        threshold_factor=k, window_s=spec.window_s, min_duration_s=spec.min_interval_s)
+
+
+def choose_threshold(
+    acc: NDArray[np.float64], spec: OrientationFreeSpec, g: float, *, centre: float = 0.0,
+) -> tuple[StaticDetection, tuple[ThresholdCandidate, ...]]:
+    """Tedaldi's automatic threshold (Sec. IV): the k giving the lowest accelerometer residual.
+
+    For each ``k`` in :data:`AUTO_THRESHOLD_FACTORS`: static intervals, their means and the
+    accelerometer fit (:func:`fit_accelerometer`); kept: the lowest residual variance per
+    degree of freedom (ties: the smaller k). ``acc`` (n, 3) [raw SI]; ``centre`` the plan's
+    nominal offset [raw SI] for the coverage message.
+
+    Raises
+    ------
+    IdentifiabilityError
+        When no k gives at least ten intervals with an identifiable fit (lists each k's count).
+    """
+    found: list[tuple[StaticDetection, ThresholdCandidate]] = []
+    for k in AUTO_THRESHOLD_FACTORS:
+        det = _detect(acc, spec, k)
+        rms = float("nan")
+        if det.count > MIN_ATTITUDES:
+            means = np.array([acc[a:b].mean(axis=0) for a, b in det.intervals])
+            try:
+                _, _, r, _ = fit_accelerometer(means, g, spec.reference_axis, centre=centre)
+                rms = float(np.sqrt(r @ r / (det.count - 9)))
+            except IdentifiabilityError:
+                pass
+        found.append((det, ThresholdCandidate(k, det.count, rms)))
+    ok = [(c.residual_rms_m_s2, i) for i, (_, c) in enumerate(found)
+          if np.isfinite(c.residual_rms_m_s2)]
+    if not ok:
+        counts = ", ".join(f"k={c.threshold_factor:g}: {c.intervals}" for _, c in found)
+        raise IdentifiabilityError(
+            f"threshold_factor = \"auto\" found no factor giving more than {MIN_ATTITUDES} "
+            f"static attitudes with an identifiable accelerometer fit ({counts}); record more "
+            "attitudes, each held still longer than min_interval_s, or lower min_interval_s")
+    best = min(ok)[1]
+    return found[best][0], tuple(c for _, c in found)
 
 
 def _trapezoid_weight2(dt: NDArray[np.float64]) -> float:
@@ -772,15 +871,16 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
     fs = spec.sample_rate_hz
     dt = _time_steps(data, n, fs)
     t = np.r_[0.0, np.cumsum(dt)] + (float(np.asarray(data["t_s"])[0]) if "t_s" in data else 0)
-    det = detect_static_intervals(
-        acc, sample_rate_hz=fs, init_duration_s=spec.init_duration_s,
-        threshold_factor=spec.threshold_factor, window_s=spec.window_s,
-        min_duration_s=spec.min_interval_s)
+    search: tuple[ThresholdCandidate, ...] = ()
+    if spec.threshold_factor == "auto":
+        det, search = choose_threshold(acc, spec, g, centre=spec.acc_bias_guess * ra)
+    else:
+        det = _detect(acc, spec, float(spec.threshold_factor))
     iv = det.intervals
     m = det.count
     if m < MIN_ATTITUDES:
         raise IdentifiabilityError(
-            f"found {m} static attitude(s) (threshold_factor {spec.threshold_factor:g}, "
+            f"found {m} static attitude(s) (threshold_factor {det.threshold_factor:g}, "
             f"min_interval_s {spec.min_interval_s:g} s); the accelerometer's 9 parameters need "
             f"at least {MIN_ATTITUDES} (Tedaldi recommend {RECOMMENDED_ATTITUDES}-50): record "
             "more attitudes, each held still, or raise threshold_factor / lower "
@@ -889,6 +989,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
         transport_angle_deg=ang_after, transport_angle_before_deg=ang_before,
         reference_axis=spec.reference_axis, noise_scales=(prop.acc_noise_scale,
                                                           prop.gyro_noise_scale),
+        threshold_search=search,
     )
 
 

@@ -79,9 +79,18 @@ def orientation_free_sections(
                 float(e / MILLI_G_TO_M_PER_S2)]
                for k, (iv, e) in enumerate(zip(result.intervals, result.gravity_error_m_s2,
                                                strict=True))]
+    how = ""
+    if result.threshold_search:
+        tried = ", ".join(
+            f"{c.threshold_factor:g}: {c.intervals} intervals, "
+            + (f"{c.residual_rms_m_s2 / MILLI_G_TO_M_PER_S2:.3g} mg"
+               if np.isfinite(c.residual_rms_m_s2) else "no fit")
+            for c in result.threshold_search)
+        how = (" chosen automatically as the factor with the lowest accelerometer residual "
+               f"(Tedaldi et al. Sec. IV; tried {tried})")
     sec.parts.append(paragraph(
         f"Static intervals found (threshold {result.detection.threshold_factor:g} x the "
-        f"initial variance magnitude, window {result.detection.window} samples; "
+        f"initial variance magnitude{how}, window {result.detection.window} samples; "
         f"{result.detection.n_short} short quiet runs dropped):"))
     sec.parts.append(table_html(["#", "start [s]", "end [s]", "duration [s]",
                                  "calibrated mean |a| − g [mg]"], iv_rows))
