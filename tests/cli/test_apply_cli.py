@@ -126,3 +126,23 @@ def test_ferraris_fit_report_and_missing_turn_through_the_cli(examples_dir, tmp_
     err = capsys.readouterr().err
     assert "no rows with part y_rot" in err and "Kg_y, Mg_xy, Mg_zy" in err
     assert "Traceback" not in err
+
+
+def test_review19_missing_accelerometer_column_refused_unless_only_gyroscope(
+        session, tmp_path, capsys):
+    """Review 19 (bad/of_noaccz.parquet): a recording without acc_z was silently calibrated
+    for the gyro only. Now refused naming acc_z; --only gyroscope corrects the gyro alone."""
+    cal, data = session
+    t = read_table(data)
+    del t["acc_z"]
+    noz = tmp_path / "noz.csv"
+    write_table(noz, t)
+    out = tmp_path / "o.csv"
+    assert main(["apply", str(cal), str(noz), "-o", str(out)]) != 0
+    err = capsys.readouterr().err
+    assert "lacks the raw column(s) acc_z " in err and "--only gyroscope" in err
+    assert "Traceback" not in err and not out.exists()
+    assert main(["apply", str(cal), str(noz), "-o", str(out), "--only", "gyroscope"]) == 0
+    assert "gyroscope -> rad/s" in capsys.readouterr().out
+    got = read_table(out)
+    assert "gyr_x [rad/s]" in got and "acc_x" in got and "acc_x [m/s^2]" not in got

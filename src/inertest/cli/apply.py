@@ -70,9 +70,12 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
               "triad thermal model).")
 @click.option("--extrapolate", is_flag=True,
               help="Thermal model: compensate rows outside the valid range (with a warning).")
+@click.option("--only", type=click.Choice(["accelerometer", "gyroscope"]), default=None,
+              help="Triad calibration: correct only this sensor (by default every sensor the "
+              "calibration holds, and each needs its three raw columns).")
 def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_columns: str,
           acc_unit: str, gyr_unit: str, temperature_column: str | None, time_column: str,
-          thermal_columns: str | None, extrapolate: bool) -> None:
+          thermal_columns: str | None, extrapolate: bool, only: str | None) -> None:
     """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA."""
     check_paths([output], [calibration, data])
     # thermal models load their procedures (scipy.stats): only when a command runs
@@ -98,14 +101,20 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     gyr_cols = _columns(gyr_columns, "--gyr-columns")
     cal = load_calibration(calibration)
     table = read_table(data)
-    use_acc = cal.accelerometer is not None and all(c in table for c in acc_cols)
-    use_gyr = cal.gyroscope is not None and all(c in table for c in gyr_cols)
-    if not (use_acc or use_gyr):
-        wanted = [*(acc_cols if cal.accelerometer else ()), *(gyr_cols if cal.gyroscope else ())]
-        missing = [c for c in wanted if c not in table]
+    use_acc = cal.accelerometer is not None and only in (None, "accelerometer")
+    use_gyr = cal.gyroscope is not None and only in (None, "gyroscope")
+    if only is not None and not (use_acc or use_gyr):
+        raise DataError(f"{calibration} holds no {only} calibration; drop --only or use the "
+                        "other sensor")
+    wanted = [*(acc_cols if use_acc else ()), *(gyr_cols if use_gyr else ())]
+    missing = [c for c in wanted if c not in table]
+    if missing:
+        others = [s for s, u in (("accelerometer", use_acc), ("gyroscope", use_gyr)) if u]
+        hint = (f", or correct one sensor only with --only {' / --only '.join(others)}"
+                if len(others) == 2 else "")
         raise DataError(
             f"{data} lacks the raw column(s) {', '.join(missing)} (found: {', '.join(table)}); "
-            "name them with --acc-columns x,y,z / --gyr-columns x,y,z"
+            f"name them with --acc-columns x,y,z / --gyr-columns x,y,z{hint}; nothing written"
         )
     out = dict(table)
     units: dict[str, str] = {}
