@@ -62,7 +62,9 @@ def test_openvins_nested_and_opencv_header(tmp_path):
                  "  gyroscope_noise_density: 1.6968e-04\n"
                  "  gyroscope_random_walk: 1.9393e-05\n"
                  "  rostopic: /imu0\n  update_rate: 200.0\n")
-    got = read_kalibr_yaml(p)
+    notes = []
+    got = read_kalibr_yaml(p, notes=notes)
+    assert len(notes) == 1 and "no unit comment" in notes[0]
     assert got == {"gyroscope_noise_density": 1.6968e-04, "gyroscope_random_walk": 1.9393e-05,
                    "accelerometer_noise_density": 2e-3, "accelerometer_random_walk": 3e-3,
                    "update_rate": 200.0}
@@ -85,3 +87,31 @@ def test_bad_yaml(tmp_path, text, match):
 def test_keys_are_kalibrs():
     assert KEYS == ("gyroscope_noise_density", "gyroscope_random_walk",
                     "accelerometer_noise_density", "accelerometer_random_walk")
+
+
+def test_review19_unit_comments_converted_contradicting_refused_missing_warned(tmp_path):
+    """Review 19: a yaml whose comments state other units was read as Kalibr's SI silently.
+    0.002 deg/sqrt(h) = 0.002 (pi/180) / 60 rad/sqrt(s); 20 ug/sqrt(Hz) = 20e-6 g0."""
+    p = tmp_path / "units.yaml"
+    p.write_text("gyroscope_noise_density: 0.002  # [deg/sqrt(h)]\n"
+                 "gyroscope_random_walk: 1.0e-09 # [rad/s^2/sqrt(Hz)]\n"
+                 "accelerometer_noise_density: 20 # [ug/sqrt(Hz)]\n"
+                 "accelerometer_random_walk: 1.0e-05\nupdate_rate: 100.0\n")
+    notes = []
+    got = read_kalibr_yaml(p, notes=notes)
+    assert got["gyroscope_noise_density"] == pytest.approx(0.002 * math.pi / 180 / 60,
+                                                           rel=1e-12)
+    assert got["accelerometer_noise_density"] == pytest.approx(20e-6 * 9.80665, rel=1e-12)
+    assert got["gyroscope_random_walk"] == 1e-9 and got["accelerometer_random_walk"] == 1e-5
+    assert any("deg/sqrt(h) read as" in n for n in notes)
+    assert any("no unit comment for accelerometer_random_walk;" in n for n in notes)
+    with pytest.warns(UserWarning) as caught:
+        read_kalibr_yaml(p)
+    assert any("no unit comment" in str(w.message) for w in caught)
+    p.write_text("gyroscope_noise_density: 0.002  # [deg/h]\n")
+    with pytest.raises(DataError, match=r"\[deg/h\], which is not a unit of Kalibr's "
+                                         r"rad/s/sqrt\(Hz\)"):
+        read_kalibr_yaml(p)
+    p.write_text("gyroscope_noise_density: 0.002  # [furlong/fortnight]\n")
+    with pytest.raises(DataError, match="cannot read"):
+        read_kalibr_yaml(p)

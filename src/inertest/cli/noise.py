@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import check_paths, echo_json, print_table
+from inertest.cli._common import check_paths, echo_json, input_identity, print_table
 from inertest.errors import DataError, InputError
 from inertest.io.imu_recording import FORMATS, TIME_UNITS, read_imu_recording
 from inertest.results import envelope
@@ -76,7 +76,11 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
             kalibr_out.resolve().parent == report_dir.resolve()):
         raise InputError(f"--kalibr {kalibr_out} is inside the report folder {report_dir}; "
                          "write it elsewhere")
-    claimed = read_kalibr_yaml(compare_yaml) if compare_yaml is not None else None
+    yaml_notes: list[str] = []
+    claimed = (read_kalibr_yaml(compare_yaml, notes=yaml_notes) if compare_yaml is not None
+               else None)
+    for m in yaml_notes:
+        click.echo(safe_line(f"warning: {m}"), err=True)
     rec = read_imu_recording(data, fmt=fmt, time_column=time_column, time_unit=time_unit,
                              gyro_columns=gyro_columns, accel_columns=accel_columns,
                              gyro_unit=gyro_unit, accel_unit=accel_unit)
@@ -103,7 +107,8 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
 
         html = page(f"IMU noise of {data.name}", imu_noise_sections(result, comparisons),
                     subtitle="Overlapping Allan deviation (NIST SP 1065), PSD, IEEE Std "
-                             "952-1997 Annex C terms, Kalibr parameters")
+                             "952-1997 Annex C terms, Kalibr parameters",
+                    identity=input_identity([data, compare_yaml]))
         with target_directory(report_dir, inputs=[p for p in (data, compare_yaml) if p]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if kalibr_out is not None:

@@ -22,7 +22,11 @@ from __future__ import annotations
 
 import math
 import os
+import re
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 from inertest import __version__
 from inertest.errors import DataError
@@ -97,17 +101,70 @@ def write_kalibr_yaml(path: str | os.PathLike[str], result: ImuNoiseResult, *,
     return write_text(path, kalibr_yaml_text(result, source=source))
 
 
-def read_kalibr_yaml(path: str | os.PathLike[str]) -> dict[str, float | None]:
+#: Kalibr's unit of each key (values are read in it, after conversion of a stated unit).
+KALIBR_UNITS = {
+    "gyroscope_noise_density": "rad/s/sqrt(Hz)",
+    "gyroscope_random_walk": "rad/s^2/sqrt(Hz)",
+    "accelerometer_noise_density": "m/s^2/sqrt(Hz)",
+    "accelerometer_random_walk": "m/s^3/sqrt(Hz)",
+    "update_rate": "Hz",
+}
+
+
+def _noise_unit(unit: str) -> tuple[float, tuple[float, ...]]:
+    """Factor to SI and dimension of a unit with at most square roots: ``deg/sqrt(h)``.
+
+    ``sqrt(U)`` after ``/`` divides, elsewhere multiplies; the rest is a compound unit of
+    :func:`inertest.units.compound_unit`.
+    """
+    from inertest.units import compound_unit
+
+    u = unit.replace(" ", "").replace("√", "sqrt")
+    factor, dim = 1.0, np.zeros(6)
+    for m in re.finditer(r"(/?)sqrt\(([^()]*)\)", u):
+        f, d = compound_unit(m.group(2))
+        sign = -0.5 if m.group(1) else 0.5
+        factor *= f**sign
+        dim += sign * np.asarray(d, dtype=float)
+    rest = re.sub(r"/?\*?sqrt\([^()]*\)", "", u).strip("*") or "1"
+    f, d = compound_unit(rest)
+    return factor * f, tuple(dim + np.asarray(d, dtype=float))
+
+
+def _unit_comments(text: str) -> dict[str, str]:
+    """``key: value  # [unit] ...``: the bracketed unit of each key's own line."""
+    out = {}
+    for ln in text.splitlines():
+        m = re.match(r"\s*([A-Za-z_]+)\s*:[^#]*#\s*\[([^\]]*)\]", ln)
+        if m and m.group(1) in KALIBR_UNITS:
+            out[m.group(1)] = m.group(2).strip()
+    return out
+
+
+def read_kalibr_yaml(path: str | os.PathLike[str], *, notes: list[str] | None = None
+                     ) -> dict[str, float | None]:
     """The noise parameters of a Kalibr or OpenVINS IMU yaml (missing keys -> None).
 
     Accepts the keys at the top level (Kalibr ``imu.yaml``) or under one ``imuN`` mapping
     (OpenVINS ``kalibr_imu_chain.yaml``; its OpenCV ``%YAML:1.0`` line is skipped). Also
-    returns ``update_rate`` [Hz] when present.
+    returns ``update_rate`` [Hz] when present. Values are in Kalibr's units
+    (:data:`KALIBR_UNITS`): a unit comment on the key's line, ``key: value  # [unit]`` (as
+    inertest writes it), is read and converted (``deg/sqrt(h)``, ``ug/sqrt(Hz)``, ...); a unit
+    comment of another dimension, or one that cannot be read, is refused. Keys without a unit
+    comment are taken in Kalibr's unit, with a note.
+
+    Parameters
+    ----------
+    notes : list of str, optional
+        Receives the notes (conversions, assumed units); without it they are warnings.
     """
     import yaml
 
+    from inertest.errors import UnitError
+
     p = Path(path)
     text = p.read_text(encoding="utf-8")
+    stated = _unit_comments(text)
     lines = text.splitlines()
     if lines and lines[0].startswith("%YAML:"):
         text = "\n".join(lines[1:])
@@ -137,4 +194,36 @@ def read_kalibr_yaml(path: str | os.PathLike[str]) -> dict[str, float | None]:
         out[k] = float(v)
     if all(out[k] is None for k in KEYS):
         raise DataError(f"{p} has no value for any of {', '.join(KEYS)}; fix the file")
+    said: list[str] = []
+    assumed = []
+    for k, v in out.items():
+        if v is None:
+            continue
+        want = KALIBR_UNITS[k]
+        unit = stated.get(k)
+        if unit is None:
+            if k != "update_rate":
+                assumed.append(k)
+            continue
+        try:
+            f, dim = _noise_unit(unit)
+        except UnitError:
+            raise DataError(f"{p}: {k} states the unit [{unit}], which inertest cannot read; "
+                            f"write it in Kalibr's unit {want} (or e.g. deg/sqrt(h), "
+                            "ug/sqrt(Hz))") from None
+        f0, dim0 = _noise_unit(want)
+        if not np.allclose(dim, dim0):
+            raise DataError(f"{p}: {k} states the unit [{unit}], which is not a unit of "
+                            f"Kalibr's {want}; fix the value or its unit comment")
+        if not math.isclose(f, f0, rel_tol=1e-12):
+            out[k] = v * f / f0
+            said.append(f"{p.name}: {k} = {v:g} {unit} read as {out[k]:.6g} {want}")
+    if assumed:
+        said.append(f"{p.name}: no unit comment for {', '.join(assumed)}; Kalibr's units "
+                    f"assumed ({', '.join(KALIBR_UNITS[k] for k in assumed)})")
+    if notes is not None:
+        notes.extend(said)
+    else:
+        for msg in said:
+            warnings.warn(msg, UserWarning, stacklevel=2)
     return out
