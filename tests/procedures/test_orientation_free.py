@@ -356,3 +356,24 @@ def test_readme_example_runs_on_the_shipped_recording(capsys):
     assert len(cross["rows"]) == 9 and len(cross["columns"]) == 12
     assert np.array(cross["value"]).shape == (9, 12) and np.any(np.array(cross["value"]) != 0)
     assert doc["result"]["noise_scales"]["gyro_motions"] > 1  # real data: beyond white noise
+
+
+def test_review19_time_gap_refused_and_a_failed_gyro_check_is_said():
+    """Review 19 (bad/of_gap.parquet): 5 s cut out of the shipped Xsens recording after
+    t = 200 s was calibrated (exit 0) though the gyro check failed at 12.9 deg. With t_s the
+    gap is refused, naming it; without t_s it cannot be seen, and the failed gyro check is in
+    the checks and in the messages."""
+    from inertest.errors import DataError
+    from inertest.io.data_file import read_table
+
+    table = read_table(EXAMPLES / "xsens_mti.parquet")
+    keep = (table["t_s"] <= 200.0) | (table["t_s"] > 205.0)
+    data = {k: np.asarray(v)[keep] for k, v in table.items()}
+    plan = load_plan(EXAMPLES / "plan_xsens.toml")
+    with pytest.raises(DataError, match=r"'t_s' has 1 gap\(s\) in time, the first of 5\.0"):
+        fit(plan, data)
+    del data["t_s"]
+    res = fit(plan, data)
+    (check,) = [c for c in res.to_dict()["checks"] if c["name"].startswith("gyro carries")]
+    assert check["verdict"] == "fail"
+    assert any(m.startswith("check failed: the calibrated gyro") for m in res.messages)

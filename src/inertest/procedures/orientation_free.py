@@ -95,7 +95,7 @@ from inertest.estimation.static_detection import StaticDetection, detect_static_
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
 from inertest.plan import Field, Plan, read_fields
-from inertest.procedures.spec import require_columns
+from inertest.procedures.spec import check_sample_rate, check_time_gaps, require_columns
 from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
 from inertest.results import Estimate, Identification
 from inertest.units import ACCEL_UNITS, COUNT_UNITS, MILLI_G_TO_M_PER_S2, RATE_UNITS
@@ -838,6 +838,8 @@ def _time_steps(data: Mapping[str, object], n: int, fs: float) -> NDArray[np.flo
         t = np.asarray(data["t_s"], dtype=float)
         dt = np.diff(t)
         if t.size == n and np.all(np.isfinite(dt)) and np.all(dt > 0):
+            check_sample_rate(data, fs, source=KIND)  # type: ignore[arg-type]
+            check_time_gaps(t, name="t_s", source=KIND)
             return dt
         raise DataError("column t_s must increase strictly, one time per sample [s]; "
                         "repair it or drop it (then 1 / sample_rate_hz is used)")
@@ -965,6 +967,12 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
                 triad.reversed_axes_message(p_g, "gyroscope", "gyr_{}")):
         if msg is not None:
             messages.append(msg)
+    rms_ang = float(np.sqrt(np.mean(np.square(ang_after)))) if ang_after.size else 0.0
+    if rms_ang >= TRANSPORT_TOLERANCE_DEG:
+        messages.append(f"check failed: the calibrated gyro carries gravity to the next attitude "
+                        f"with an rms error of {rms_ang:.3g} deg (tolerance "
+                        f"{TRANSPORT_TOLERANCE_DEG:g} deg): do not use the gyro calibration; "
+                        "look for gaps, saturation or a wrong sample rate in the recording")
     ident = Identification(
         coefficients=coefficients, combinations=(), not_separable=not_sep,
         covariance=cov_out, names=tuple(coefficients), noise_sigma=float(

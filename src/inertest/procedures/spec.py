@@ -133,3 +133,36 @@ def check_sample_rate(
             f"{source}: the plan's sample_rate_hz = {sample_rate_hz:g} Hz, but the time column "
             f"{name!r} steps by {step:.6g} s ({rate:.6g} Hz); fix sample_rate_hz in the plan "
             "(or the time column)")
+
+
+#: A time step longer than this many times the median step is a gap in the recording.
+GAP_STEP_FACTOR = 2.5
+
+
+def check_time_gaps(time_s: NDArray, *, name: str = "t_s", source: str = "data",
+                    factor: float = GAP_STEP_FACTOR) -> None:
+    """Refuse a recording whose time column jumps by more than ``factor`` median steps.
+
+    Procedures that integrate the rate between static intervals need continuous samples: a
+    gap hides a rotation that no sample measured. A single dropped sample (two steps) passes.
+
+    Raises
+    ------
+    DataError
+        Naming the column, the time and length of the first gap, and the fix.
+    """
+    t = np.asarray(time_s, dtype=float)
+    if t.size < 3:
+        return
+    dt = np.diff(t)
+    step = float(np.median(dt))
+    if not (np.isfinite(step) and step > 0):
+        return
+    gaps = np.flatnonzero(dt > factor * step)
+    if gaps.size:
+        k = int(gaps[0])
+        raise DataError(
+            f"{source}: column {name!r} has {gaps.size} gap(s) in time, the first of "
+            f"{dt[k]:.6g} s after t = {t[k]:.6g} s (the median step is {step:.6g} s); the "
+            "integration between static intervals needs continuous samples: record again, "
+            "or cut the recording at the gap")
