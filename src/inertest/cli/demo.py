@@ -6,16 +6,6 @@ from pathlib import Path
 
 import click
 
-from inertest.cli._common import print_identity
-from inertest.cli.procedure import print_result
-from inertest.demo import (
-    find_examples,
-    run_campaign,
-    run_noise,
-    run_thermal,
-    write_campaign_report,
-)
-
 
 @click.command()
 @click.option("--examples", "examples_dir", type=click.Path(file_okay=False, path_type=Path),
@@ -25,6 +15,17 @@ from inertest.demo import (
               help="Where to write the HTML report.")
 def demo(examples_dir: Path | None, report_dir: Path) -> None:
     """Simulate the example campaign (examples/demo.toml), fit each test, print and report."""
+    # the campaign loads procedures, budgets (scipy.stats) and reports: only when it runs
+    from inertest.cli._common import print_identity
+    from inertest.cli.procedure import print_result
+    from inertest.demo import (
+        find_examples,
+        run_campaign,
+        run_noise,
+        run_thermal,
+        write_campaign_report,
+    )
+
     folder = examples_dir if examples_dir is not None else find_examples()
     tests = run_campaign(folder / "demo.toml")
     for t in tests:

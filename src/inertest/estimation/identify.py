@@ -14,9 +14,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 import scipy.special
-import scipy.stats
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import IdentifiabilityError, InertestWarning, InputError, PlanError
@@ -524,6 +522,8 @@ class _Reml:
         i = int(np.argmin(vals))
         best_t, best = float(grid[i]), float(vals[i])
         lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
+        import scipy.optimize  # ~0.1 s: only for a fitted AR(1) noise model
+
         opt = scipy.optimize.minimize_scalar(
             lambda lt: nll(float(np.exp(lt)))[0], bounds=(lo, hi), method="bounded",
             options={"xatol": 1e-3})
@@ -826,13 +826,13 @@ def _checks(
     p: float | None = None
     if given and model == "white":
         statistic = "chi-square of the whitened unit residuals against the given noise"
-        p = float(scipy.stats.chi2.sf(chi2, dof)) if dof > 0 else None
+        p = _chi2_sf(chi2, dof) if dof > 0 else None
     elif model == "white" and np.isfinite(sw2) and dof > 0:
         statistic = ("lack of fit: scatter of the unit means about the model against the "
                      "scatter within units (dof * F)")
         F = float(np.sum(u.counts * resid**2)) / dof / sw2
         chi2 = dof * F
-        p = float(scipy.stats.f.sf(F, dof, u.n_rows - G))
+        p = float(scipy.special.fdtrc(dof, u.n_rows - G, F))  # = scipy.stats.f.sf
     else:
         statistic = ("sum of squared whitened unit residuals (noise level fitted to these "
                      "residuals: not a test)")
@@ -855,9 +855,9 @@ def _checks(
             mean = -float(np.trace(QSQ))
             var = 2 * ((G - k) / 2 - 2 * float(np.sum(SQ**2)) + float(np.sum(QSQ**2)))
             serial += (float(es[:-k] @ es[k:]) - mean) ** 2 / max(var, 1e-300)
-        serial_p = float(scipy.stats.chi2.sf(serial, lags))
+        serial_p = _chi2_sf(serial, lags)
     z = e / np.sqrt(np.clip(1 - h, 1e-12, None))
-    thr = max(4.0, float(scipy.stats.norm.isf(alpha / (2 * G))))
+    thr = max(4.0, -float(scipy.special.ndtri(alpha / (2 * G))))  # = scipy.stats.norm.isf
     outliers = tuple(Outlier(u.label(int(i)), float(z[i]))
                      for i in np.flatnonzero(np.abs(z) > thr))
     bad = (p is not None and p < alpha) or (serial_p is not None and serial_p < alpha)
@@ -882,3 +882,13 @@ def _misfit_message(c: ModelChecks) -> str:
     return (f'the model with "{c.noise_model}" noise does not fit the data: {"; ".join(why)}; '
             "check the labels (mounting, angle, position), the settling of the table, and the "
             "noise model; the uncertainties are not reliable")
+
+
+def _chi2_sf(x: float, dof: int) -> float:
+    """Upper tail probability of chi-square with ``dof`` degrees of freedom at ``x``.
+
+    ``Q(dof/2, x/2)`` (regularised upper incomplete gamma), the function behind
+    ``scipy.stats.chi2.sf``; scipy.special is used so that scipy.stats (~1 s to import) is
+    not loaded by every fit.
+    """
+    return float(scipy.special.chdtrc(dof, x))
