@@ -40,7 +40,7 @@ from inertest.lab import (
     read_equipment,
     select_equipment,
 )
-from inertest.plan import Plan
+from inertest.plan import Plan, did_you_mean
 from inertest.results import with_blocks
 
 if TYPE_CHECKING:
@@ -271,7 +271,8 @@ def file_run(
     ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
     report.
     """
-    from inertest.store import HistoryStore, RunRecord, StoreError
+    if store is not False and store is not None:  # SQLAlchemy, Alembic: only when storing
+        from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
     test = identity_block(plan.test, lab=lab, tested_at=tested_at, software_version=version,
@@ -395,12 +396,18 @@ def _utc(t: datetime) -> datetime:
 
 @dataclass(frozen=True)
 class BatchTask:
-    """One (plan, data) pair of a batch, with its options."""
+    """One (plan, data) pair of a batch, with its options.
+
+    ``spec`` and ``equipment`` (files, as ``inertest fit --spec --equipment``) are read and
+    applied where the fit runs, so the filed run carries its uncertainty budget and verdicts.
+    """
 
     plan: Path
     data: Path
     sigma: float | None = None
     report_dir: Path | None = None
+    spec: Path | None = None
+    equipment: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -412,47 +419,98 @@ class BatchItem:
     error: str | None
 
 
+_RUN_KEYS = ("plan", "data", "sigma", "report", "spec", "equipment")
+_DEFAULT_KEYS = ("sigma", "spec", "equipment")
+
+
 def read_manifest(path: PathLike) -> list[BatchTask]:
     """Read a batch manifest (TOML).
 
-    ``[[run]]`` tables with ``plan``, ``data``, optional ``sigma`` and ``report``; paths are
-    relative to the manifest's folder.
+    ``[[run]]`` tables with ``plan``, ``data``, optional ``sigma``, ``report``, ``spec`` (an
+    instrument specification: verdicts) and ``equipment`` (a lab equipment file: uncertainty
+    budget); an optional ``[defaults]`` table gives ``sigma``, ``spec`` and ``equipment`` for
+    every run that does not name its own. Paths are relative to the manifest's folder.
     """
     mpath = Path(path)
     doc = read_toml(mpath, "batch manifest")
     runs = doc.get("run")
-    unknown = sorted(set(doc) - {"run"})
+    unknown = sorted(set(doc) - {"run", "defaults"})
     if unknown:
-        raise PlanError(f"batch manifest {mpath}: unknown table(s) {', '.join(unknown)}; "
-                        "list the runs as [[run]] tables")
+        raise PlanError(f"batch manifest {mpath}: unknown table(s) {', '.join(unknown)}"
+                        f"{did_you_mean(unknown[0], ('run', 'defaults'))}; list the runs as "
+                        "[[run]] tables (shared spec, equipment, sigma in [defaults])")
     if not isinstance(runs, list) or not runs:
         raise PlanError(f"batch manifest {mpath} lists no [[run]] tables with plan and data")
+    defaults = doc.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise PlanError(f"batch manifest {mpath}: defaults must be a table ([defaults])")
+    _known_keys(defaults, _DEFAULT_KEYS, f"batch manifest {mpath}, [defaults]")
     tasks = []
     for k, r in enumerate(runs, start=1):
-        extra = sorted(set(r) - {"plan", "data", "sigma", "report"})
-        if extra or "plan" not in r or "data" not in r:
-            raise PlanError(f"batch manifest {mpath}, run {k}: needs plan and data (optional "
-                            f"sigma, report); unknown: {', '.join(extra) or 'none'}")
-        sigma = r.get("sigma")
+        where = f"batch manifest {mpath}, run {k}"
+        if not isinstance(r, dict):
+            raise PlanError(f"{where}: each run must be a [[run]] table with plan and data")
+        _known_keys(r, _RUN_KEYS, where)
+        if "plan" not in r or "data" not in r:
+            raise PlanError(f"{where}: needs plan and data (optional sigma, report, spec, "
+                            "equipment)")
+        opts = {**defaults, **r}
+        sigma = opts.get("sigma")
         if sigma is not None and (isinstance(sigma, bool) or not isinstance(sigma, int | float)):
-            raise PlanError(f"batch manifest {mpath}, run {k}: sigma must be a number")
+            raise PlanError(f"{where}: sigma must be a number")
+
+        def rel(key: str, opts: dict = opts, where: str = where) -> Path | None:
+            v = opts.get(key)
+            if v is None:
+                return None
+            if not isinstance(v, str) or not v:
+                raise PlanError(f'{where}: {key} must be a file path (text), got {v!r}')
+            return mpath.parent / v
+
         tasks.append(BatchTask(
-            plan=mpath.parent / str(r["plan"]), data=mpath.parent / str(r["data"]),
-            sigma=None if sigma is None else float(sigma),
-            report_dir=None if r.get("report") is None else mpath.parent / str(r["report"])))
+            plan=rel("plan"), data=rel("data"),  # type: ignore[arg-type]
+            sigma=None if sigma is None else float(sigma), report_dir=rel("report"),
+            spec=rel("spec"), equipment=rel("equipment")))
     return tasks
 
 
-def _compute(task: BatchTask) -> tuple[Any, Plan, str, str, tuple[str, ...], dict[str, object]]:
-    """Worker side of a batch task: read and fit (no database, no report)."""
+def _known_keys(table: Mapping[str, Any], known: Sequence[str], where: str) -> None:
+    extra = sorted(set(table) - set(known))
+    if extra:
+        raise PlanError(f"{where}: unknown key(s) {', '.join(extra)}"
+                        f"{did_you_mean(extra[0], known)}; known: {', '.join(known)}")
+
+
+def _check_judging_files(todo: Sequence[BatchTask]) -> None:
+    """Read every spec and lab file the tasks name once, before any fit.
+
+    A bad one stops the batch with nothing stored; the workers read them again where they run.
+    """
+    for spec in sorted({t.spec for t in todo if t.spec is not None}):
+        _spec(spec)
+    for lab in sorted({t.equipment for t in todo if t.equipment is not None}):
+        _lab(lab)
+
+
+def _compute(task: BatchTask) -> tuple[Any, ...]:
+    """Worker side of a batch task: read, fit and judge (no database, no report)."""
     p = load_plan(task.plan)
+    lab, lab_source = _lab(task.equipment)
+    used: tuple[Equipment, ...] = ()
+    if lab is not None and p.test is not None:
+        used = select_equipment(lab, p.test.equipment, plan_source=_source("plan", task.plan),
+                                lab_source=lab_source)
+    spec_doc = _spec(task.spec)
     d = load_data(task.data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=task.sigma)
+    budget, conformance = (judge(p, result, used, spec_doc)
+                           if lab is not None or spec_doc is not None else (None, None))
     digest = file_sha256(task.data)
     return (result, p, task.plan.read_text(encoding="utf-8"), digest,
-            tuple(str(w.message) for w in caught), _data_summary(task.data, d, digest))
+            tuple(str(w.message) for w in caught), _data_summary(task.data, d, digest),
+            lab, lab_source, budget, conformance)
 
 
 def run_batch(
@@ -510,7 +568,9 @@ def run_batch(
         raise PlanError(f"max_pending must be a whole number >= 1, got {max_pending!r}")
     for t in todo:
         if t.report_dir is not None:
-            check_outputs([t.report_dir], [t.plan, t.data])
+            check_outputs([t.report_dir], [x for x in (t.plan, t.data, t.spec, t.equipment)
+                                           if x is not None])
+    _check_judging_files(todo)
     if executor is not None or workers == 1 or len(todo) < 2:
         return _file_all(todo, executor, store=store, allow_duplicate=allow_duplicate,
                          tested_at=tested_at, progress=progress, max_pending=max_pending)
@@ -580,11 +640,15 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
             submit_up_to(k + window)
             fut = pending.pop(k)
             try:
-                result, p, plan_text, digest, msgs, summary = fut.result()
+                (result, p, plan_text, digest, msgs, summary, lab, lab_source, budget,
+                 conformance) = fut.result()
                 outcome = file_run(
                     result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
                     tested_at=when, store=db if db else False, report_dir=t.report_dir,
-                    allow_duplicate=allow_duplicate, warnings_=msgs, inputs=[t.plan, t.data])
+                    allow_duplicate=allow_duplicate, warnings_=msgs,
+                    inputs=[x for x in (t.plan, t.data, t.spec, t.equipment) if x is not None],
+                    lab=lab, lab_source=lab_source, plan_source=_source("plan", t.plan),
+                    budget=budget, conformance=conformance)
                 item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
                 item = BatchItem(t, None, str(exc))

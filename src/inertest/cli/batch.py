@@ -9,9 +9,11 @@ from typing import Any
 
 import click
 
+from inertest.cli import safe_line
 from inertest.cli._common import echo_json, print_table
+from inertest.cli._verdicts import verdict_summary
 from inertest.errors import InputError
-from inertest.runner import BatchItem, read_manifest, run_batch
+from inertest.runner import BatchItem, RunOutcome, read_manifest, run_batch
 
 
 @click.command()
@@ -35,8 +37,11 @@ def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, d
           allow_duplicate: bool, progress: bool | None, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
 
-    Each run is its own transaction: a run that fails stores nothing and does not stop the
-    others. The exit status is 1 when any run failed.
+    A run (or the manifest's [defaults] table) may name spec (an instrument specification) and
+    equipment (the lab equipment file): its budget and verdicts are filed with it, and a line
+    per run gives its overall verdict and worst quantity. Each run is its own transaction: a
+    run that fails stores nothing and does not stop the others. The exit status is 1 when any
+    run failed (not for a failed verdict: read "conformance" in the JSON).
     """
     store: bool | str = False if no_store else (db or True)
     tasks = read_manifest(manifest)
@@ -45,28 +50,48 @@ def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, d
                           allow_duplicate=allow_duplicate, progress=advance)
     failed = [i for i in items if i.error is not None]
     if as_json:
-        echo_json({"kind": "batch", "runs": [
-            {"plan": str(i.task.plan), "data": str(i.task.data),
-             "result": None if i.outcome is None else i.outcome.result.to_dict(),
-             "stored_run": None if i.outcome is None else i.outcome.stored_run,
-             "error": i.error} for i in items]})
+        echo_json({"kind": "batch", "runs": [_run_json(i) for i in items]})
     else:
         rows = []
         for i in items:
             if i.outcome is None:
-                rows.append([str(i.task.data), "-", "-", f"failed: {i.error}"])
+                rows.append([str(i.task.data), "-", "-", f"failed: {i.error}", "-"])
             else:
                 o = i.outcome
                 rows.append([str(i.task.data), o.result.kind, o.plan.instrument.serial or "-",
-                             "stored" if o.stored_run else "fitted (not stored)"])
-        print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome"], rows)
+                             "stored" if o.stored_run else "fitted (not stored)",
+                             _overall(o)])
+        print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome", "verdict"],
+                    rows)
+        for k, i in enumerate(items, start=1):
+            if i.outcome is not None:
+                click.echo(safe_line(f"run {k} ({i.task.data}): verdict "
+                                     f"{verdict_summary(_conformance(i.outcome))}"))
     if failed:
         first = failed[0]
-        from inertest.cli import safe_line
-
         click.echo(safe_line(f"error: {len(failed)} of {len(items)} runs failed (nothing stored "
                              f"for them); first: {first.task.data}: {first.error}"), err=True)
         raise SystemExit(1)
+
+
+def _conformance(o: RunOutcome) -> dict[str, object] | None:
+    return None if o.conformance is None else o.conformance.to_dict()
+
+
+def _overall(o: RunOutcome) -> str:
+    return "-" if o.conformance is None else o.conformance.overall
+
+
+def _run_json(i: BatchItem) -> dict[str, object]:
+    """One run of ``--json``: the fit result, and the budget and verdicts when judged."""
+    o = i.outcome
+    return {"plan": str(i.task.plan), "data": str(i.task.data),
+            "spec": None if i.task.spec is None else str(i.task.spec),
+            "equipment": None if i.task.equipment is None else str(i.task.equipment),
+            "result": None if o is None else o.result.to_dict(),
+            "uncertainty_budget": None if o is None or o.budget is None else o.budget.to_dict(),
+            "conformance": None if o is None else _conformance(o),
+            "stored_run": None if o is None else o.stored_run, "error": i.error}
 
 
 @contextmanager
