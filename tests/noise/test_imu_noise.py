@@ -167,3 +167,17 @@ def test_bad_input():
         analyse_imu_noise(None, y, None, rate_hz=RATE)
     with pytest.raises(DataError, match="at least 64"):
         analyse_imu_noise(None, np.zeros(20), None, rate_hz=RATE)
+
+
+def test_review19_bound_of_a_fitted_term_is_not_below_its_estimate():
+    """Review 19: on synthetic white noise N's bound_95 (6.48e-5) came out below its own
+    estimate 7.125e-5 +- 3.6e-7. A resolved term's bound is now at least value + 1.645 std,
+    and the JSON names the bound's definition."""
+    y = kalibr_generator(50_000, 7e-5, 0.0, seed=5)
+    c = analyse_imu_noise(None, y, None, rate_hz=RATE).channels[0]
+    d = c.density
+    assert d.status == "fitted"
+    assert d.bound_95 >= d.value + 1.645 * d.std
+    doc = d.to_dict()
+    assert "tangent-line bound" in doc["bound_definition"]
+    assert c.random_walk.bound_95 >= c.random_walk.value

@@ -158,8 +158,15 @@ class KalibrTerm:
     ``tau_s`` (``status == "bound"``, ``std`` None: the true value is at most this).
     ``bound_95`` is the same tangent bound on upper confidence limits of the measured
     deviations that hold jointly over all taus with 95 % (chi-squared with the EDF of NIST
-    SP 1065, Bonferroni: 1 - 0.05/n one-sided per point).
+    SP 1065, Bonferroni: 1 - 0.05/n one-sided per point); for a fitted term it is never below
+    ``value + 1.645 std`` (the one-sided 95 % limit of the estimate).
     """
+
+    #: How ``bound_95`` is defined (written into the JSON beside it).
+    BOUND_DEFINITION = (
+        "tangent-line bound: the minimum over all measured averaging times of the -1/2 (N) or "
+        "+1/2 (K) slope line through the one-sided upper confidence limit of the Allan "
+        "deviation, jointly 95 % (Bonferroni); for a fitted term at least value + 1.645 std")
 
     parameter: str  # "noise_density" or "random_walk"
     term: str  # "N" or "K"
@@ -174,7 +181,8 @@ class KalibrTerm:
         """JSON-ready mapping."""
         return {"parameter": self.parameter, "term": self.term, "status": self.status,
                 "value": self.value, "std": self.std, "tau_s": self.tau_s,
-                "bound_95": self.bound_95, "unit": self.unit}
+                "bound_95": self.bound_95, "bound_definition": self.BOUND_DEFINITION,
+                "unit": self.unit}
 
 
 @dataclass(frozen=True)
@@ -414,6 +422,8 @@ def _kalibr_term(kind: str, term: str, model: NoiseModel, dev: DeviationResult) 
     unit = _KALIBR_UNITS[(kind, term)]
     if nt.resolved and nt.value is not None:
         tau = 1.0 if term == "N" else 3.0
+        # a bound is never below a resolved estimate's own one-sided 95 % limit
+        bound_95 = max(bound_95, nt.value + 1.645 * (nt.std or 0.0))
         return KalibrTerm(parameter, term, "fitted", nt.value, nt.std, tau, bound_95, unit)
     return KalibrTerm(parameter, term, "bound", float(line[i]), None, float(taus[i]),
                       bound_95, unit)
