@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ import pytest
 from inertest.api import fit, load_plan, simulate
 from inertest.cli import main
 from inertest.conformance import spec_from_mapping
+from inertest.errors import InertestWarning
 from inertest.plan_check import NoiseModel, check_plan, predict_std
 from noise_generators import noise as mc_noise
 
@@ -162,3 +164,102 @@ def test_cli_bad_noise_file_is_one_clean_line(examples_dir, tmp_path, capsys, te
                  str(examples_dir / "specs" / "floated_gyro.toml"), "--noise", str(bad)]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and err.count("\n") == 1
+
+
+# --- plans whose simulation needs a scale factor (triads, dividing head) ---------------------
+
+
+def _scatter(plan, truth, kind, s, reps, seed):
+    """Std of each quantity over ``reps`` simulated+fitted tests (noise_generators noise)."""
+    clean = simulate(plan, truth, noise=0.0, rng=0)
+    outputs = [c for c in clean if c.startswith("output")]
+    rows = np.arange(len(clean[outputs[0]]))
+    rng = np.random.default_rng(seed)
+    draws = {c: mc_noise(kind, rng, reps, rows // plan.procedure.samples_per_position, s)
+             for c in outputs}
+    est: dict[str, list[float]] = {}
+    for k in range(reps):
+        with warnings.catch_warnings():  # a replicate's chance misfit warning (p < 0.05)
+            warnings.simplefilter("ignore", InertestWarning)
+            r = fit(plan, {**clean, **{c: clean[c] + draws[c][k] for c in outputs}})
+        for name, v in {**{n: x.value for n, x in r.coefficients.items()},
+                        **{c.name: c.value for c in r.combinations}}.items():
+            est.setdefault(name, []).append(v)
+    return {k: np.std(v, ddof=1) for k, v in est.items()}
+
+
+@pytest.mark.parametrize("folder, spec, sigma, given_truth, reps", [
+    ("triad_multiposition", "accelerometer_triad.toml", 2.0, False, 120),  # nominal K
+    ("accelerometer_multipoint", "accelerometer.toml", 1e-6, True, 150),   # K1 of truth.toml
+])
+def test_scale_factor_plans_predict_the_scatter_of_fitted_tests(examples_dir, folder, spec,
+                                                                sigma, given_truth, reps):
+    from inertest.conformance import read_spec
+    from inertest.io.plan_file import load_truth
+
+    plan = load_plan(examples_dir / folder / "plan.toml")
+    truth = load_truth(examples_dir / folder / "truth.toml")
+    out = check_plan(plan, read_spec(examples_dir / "specs" / spec),
+                     NoiseModel(sigma=sigma, unit=plan.instrument.output_unit),
+                     truth=truth if given_truth else None)
+    assert out.plan.method.startswith("closed form")
+    assert {c.status for c in out.plan.limits} == {"verifiable"}
+    # the reference: tests simulated from the shipped truth (not the nominal), fitted with the
+    # noise model that matches the noise (as plan-check predicts)
+    scatter = _scatter(_with(plan, noise_model="white"), truth, "white", sigma, reps, 21)
+    for k, (std, _) in out.plan.std_a.items():
+        assert 0.8 < std / scatter[k] < 1.25, (k, std / scatter[k])
+
+
+def test_cli_takes_the_truth_beside_the_plan_or_says_what_to_give(examples_dir, tmp_path,
+                                                                 capsys):
+    noise = tmp_path / "noise.toml"
+    noise.write_text("sigma = 1e-6\n")
+    plan = examples_dir / "accelerometer_multipoint" / "plan.toml"
+    argv = ["--spec", str(examples_dir / "specs" / "accelerometer.toml"), "--noise", str(noise)]
+    assert main(["plan-check", str(plan), *argv, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert "accelerometer_multipoint/truth.toml beside the plan" in doc["nominal_instrument"]
+    alone = tmp_path / "plan.toml"  # no truth.toml beside it
+    alone.write_text(plan.read_text())
+    assert main(["plan-check", str(alone), *argv]) == 2
+    err = capsys.readouterr().err
+    assert "needs K1" in err and "--truth FILE" in err and err.count("\n") == 1
+
+
+# --- Monte Carlo for random walk / flicker: adaptive replicates ------------------------------
+
+
+def test_std_relative_error_matches_the_spread_of_sample_stds():
+    from inertest.plan_check import std_relative_error
+
+    rng = np.random.default_rng(3)
+    for draw, n in ((lambda size: rng.normal(size=size), 60),
+                    (lambda size: rng.uniform(size=size), 60),     # kurtosis 1.8
+                    (lambda size: rng.laplace(size=size), 200)):   # kurtosis 6
+        x = draw((4000, n))
+        s = x.std(axis=1, ddof=1)
+        spread = s.std() / s.mean()
+        predicted = np.mean([std_relative_error(row) for row in x[:400]])
+        assert predicted == pytest.approx(spread, rel=0.15)
+
+
+def test_random_walk_monte_carlo_stops_early_and_agrees_with_fitted_tests(examples_dir):
+    plan = load_plan(examples_dir / "local_level_tumble" / "plan.toml")
+    n = len(plan.procedure.positions) * plan.procedure.samples_per_position
+    noise = NoiseModel(sigma=SIGMA, random_walk=3 * SIGMA / np.sqrt(n), unit="mA")
+    predicted, method, _, _ = predict_std(plan, noise, n_mc=400)
+    reps = int(method.split(":")[1].split()[0])
+    assert 50 <= reps <= 100  # relative error < 10 %: about 1 / sqrt(2 n) for normal estimates
+    scatter = _scatter(_with(plan, noise_model="random-walk"), {}, "random-walk", SIGMA, 200, 8)
+    for k, (std, _) in predicted.items():
+        # prediction 10 % and reference 5 % relative error: 0.75-1.33 is about 2.5 sigma
+        assert 0.75 < std / scatter[k] < 1.33, (k, std / scatter[k])
+
+
+def test_candidates_are_judged_cheapest_first_and_stop_at_the_suggestion(plan):
+    noise = NoiseModel(sigma=SIGMA, unit="mA")
+    std_di = predict_std(plan, noise)[0]["DI"][0]
+    out = check_plan(plan, _spec(0.85 * 3 * 2 * std_di), noise)  # dwell x2 verifies
+    assert out.suggestion is not None and out.candidates[-1] is out.suggestion
+    assert [c.label.split(" (")[0] for c in out.candidates] == ["dwell x2"]

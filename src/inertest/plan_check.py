@@ -4,8 +4,12 @@
 noise model, before anything is measured, and compares it with each limit of an instrument
 specification (:mod:`inertest.conformance`):
 
-1. The test is simulated noise-free (the plan's kinematics, a nominal instrument: the given truth
-   or zero coefficients) and fitted by the procedure's own identification front.
+1. The test is simulated noise-free (the plan's kinematics, a nominal instrument: the given truth,
+   or zero coefficients with the plan's nominal scale factor where it has one, e.g. a triad's
+   ``nominal_scale_factor``) and fitted by the procedure's own identification front. A procedure
+   whose simulation needs coefficients the plan does not give (the scale factor ``K1`` of a
+   pendulous accelerometer, ``K`` of a counting gyro) raises :class:`NominalTruthError` naming
+   them; ``inertest plan-check`` then takes the ``truth.toml`` beside the plan, if any.
 2. Predicted Type-A standard uncertainty:
 
    - **white noise** (``sigma`` per reading): the fit of the noise-free data with the white
@@ -17,10 +21,14 @@ specification (:mod:`inertest.conformance`):
      fit with ``sigma_eff^2 = sigma^2 + n sigma_pos^2`` (the means are independent with variance
      ``sigma^2 / n + sigma_pos^2``), which is what the fit's ``position-offsets`` model
      estimates;
-   - **random walk or flicker**, or unequal positions: a Monte Carlo of ``n_mc`` (default 200)
-     simulated tests with that noise added to the output and fitted with the matching noise
-     model; the scatter of the estimates is the prediction (:attr:`Prediction.method` says
-     which).
+   - **random walk or flicker**, or unequal positions: a Monte Carlo of simulated tests with
+     that noise added to the output and fitted with the matching noise model; the scatter of the
+     estimates is the prediction (:attr:`Prediction.method` says which). The replicates run in
+     blocks of 25 until the relative standard error of every std, ``0.5 sqrt((kurtosis -
+     (n - 3)/(n - 1)) / n)`` (about ``1 / sqrt(2 n)`` for normal estimates), is below
+     ``rel_error`` (default 10 %: about 50-75 tests), at most ``n_mc`` (default 200). Every
+     candidate plan draws its noise from the same seed (common random numbers), so the
+     comparison between candidates is not blurred by independent draws.
 3. Type B: the uncertainty budget of the plan's equipment and the site gravity
    (:func:`inertest.budget.uncertainty_budget`), and ``U = k u_c`` with ``k = 2`` (GUM G.6.6:
    many degrees of freedom).
@@ -34,7 +42,8 @@ specification (:mod:`inertest.conformance`):
 5. For limits that are not verifiable, the cheapest change among a longer dwell (x2, x4), more
    positions or repeats (x2) and a second position set where the procedure has one (the missing
    mountings of a polar tumble) that makes every such limit verifiable, cost measured by the
-   number of readings.
+   number of readings. Candidates are judged cheapest first and the search stops at the first
+   that verifies (a dearer one could not be the suggestion).
 
 Noise file (TOML or JSON), in the plan's output unit unless ``unit`` says otherwise::
 
@@ -93,6 +102,10 @@ STATUSES = ("verifiable", "marginal", "not verifiable", "not determined")
 
 class NoiseFileError(PlanError):
     """A noise file is missing, malformed or does not fit the plan."""
+
+
+class NominalTruthError(PlanError):
+    """The plan's simulation needs nominal coefficients (a scale factor) that were not given."""
 
 
 @dataclass(frozen=True)
@@ -229,6 +242,8 @@ class PlanCheck:
         The decision rule in words.
     not_determined : tuple of str
         What the plan cannot determine, and why (from the fit).
+    nominal : str
+        The nominal instrument simulated (where its coefficients came from).
     """
 
     plan: Prediction
@@ -238,6 +253,7 @@ class PlanCheck:
     tur: float
     rule: str
     not_determined: tuple[str, ...]
+    nominal: str = "zero coefficients (the plan's nominal scale factor where it has one)"
 
     @property
     def ok(self) -> bool:
@@ -247,7 +263,8 @@ class PlanCheck:
     def to_dict(self) -> dict[str, object]:
         """The ``plan-check`` JSON document."""
         return {"kind": "plan-check", "rule": self.rule, "test_uncertainty_ratio": self.tur,
-                "noise": self.noise.to_dict(), "plan": self.plan.to_dict(),
+                "noise": self.noise.to_dict(), "nominal_instrument": self.nominal,
+                "plan": self.plan.to_dict(),
                 "all_verifiable": self.ok, "not_determined": list(self.not_determined),
                 "suggestion": None if self.suggestion is None else self.suggestion.to_dict(),
                 "candidates": [c.to_dict() for c in self.candidates]}
@@ -410,7 +427,16 @@ def _simulate(plan: Plan, truth: Mapping[str, float]) -> tuple[dict[str, Any], l
     module = procedure_module(plan.kind)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        clean = module.simulate(plan, dict(truth), noise=0.0, rng=0)
+        try:
+            clean = module.simulate(plan, dict(truth), noise=0.0, rng=0)
+        except PlanError as exc:
+            if truth:
+                raise
+            raise NominalTruthError(
+                f"{plan.kind}: plan-check simulates the test on a nominal instrument, and zero "
+                f"coefficients do not make one ({exc}); give the nominal coefficients with "
+                "--truth FILE (a [coefficients] table like examples/*/truth.toml; the scale "
+                "factors suffice)") from None
         noisy = module.simulate(plan, dict(truth), noise=1.0, rng=0)
     outputs = [k for k in clean if np.asarray(clean[k]).dtype.kind == "f"
                and not np.array_equal(np.asarray(clean[k]), np.asarray(noisy[k]))]
@@ -454,9 +480,13 @@ def _noise(noise: NoiseModel, pos: np.ndarray, rng: np.random.Generator) -> np.n
 
 
 def predict_std(plan: Plan, noise: NoiseModel, *, truth: Mapping[str, float] | None = None,
-                n_mc: int = 200, rng: np.random.Generator | int | None = 0
+                n_mc: int = 200, rng: np.random.Generator | int | None = 0,
+                rel_error: float = 0.1,
                 ) -> tuple[dict[str, tuple[float, str]], str, Any, int]:
     """Predicted Type-A std of every quantity the plan determines (module docstring, step 2).
+
+    ``n_mc`` is the most Monte Carlo tests run; they stop earlier when every std's relative
+    standard error is below ``rel_error`` (0 runs all ``n_mc``).
 
     Returns
     -------
@@ -492,23 +522,57 @@ def predict_std(plan: Plan, noise: NoiseModel, *, truth: Mapping[str, float] | N
     gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
     samples: dict[str, list[float]] = {}
     units: dict[str, str] = {}
-    for _ in range(n_mc):
-        d = dict(data)
-        for c in outputs:
-            d[c] = np.asarray(data[c], dtype=float) + _noise(noise, pos, gen)
-        try:
-            q = quantities_of(_fit(mc_plan, d, None))
-        except InertestError:
-            continue
-        for k, (v, _, u) in q.items():
-            samples.setdefault(k, []).append(v)
-            units[k] = u
+    done = 0
+    err = math.inf
+    while done < n_mc:
+        for _ in range(min(_MC_BLOCK, n_mc - done)):
+            done += 1
+            d = dict(data)
+            for c in outputs:
+                d[c] = np.asarray(data[c], dtype=float) + _noise(noise, pos, gen)
+            try:
+                q = quantities_of(_fit(mc_plan, d, None))
+            except InertestError:
+                continue
+            for k, (v, _, u) in q.items():
+                samples.setdefault(k, []).append(v)
+                units[k] = u
+        if samples:
+            err = max(std_relative_error(v) for v in samples.values())
+            if done >= min(_MC_MIN, n_mc) and err < rel_error:
+                break
     if not samples:
         raise PlanError(f"{plan.kind}: no simulated test could be fitted with the "
                         f"{model} noise model")
     std = {k: (float(np.std(v, ddof=1)), units[k]) for k, v in samples.items()}
-    return std, (f"Monte Carlo: {n_mc} simulated tests with the noise model added, fitted with "
-                 f"noise_model = {model}; std = scatter of the estimates"), nominal, n
+    fitted = min(len(v) for v in samples.values())
+    return std, (f"Monte Carlo: {fitted} simulated tests with the noise model added, fitted "
+                 f"with noise_model = {model}; std = scatter of the estimates (relative "
+                 f"standard error {err:.0%})"), nominal, n
+
+
+#: Monte Carlo replicates per block, and the fewest before the relative error may stop it.
+_MC_BLOCK = 25
+_MC_MIN = 50
+
+
+def std_relative_error(x: Sequence[float]) -> float:
+    """Relative standard error of the sample std of ``x`` (inf for fewer than 4 values).
+
+    ``SE(s) / s = 0.5 SE(s^2) / s^2`` with ``Var(s^2) = sigma^4 (kurtosis - (n - 3)/(n - 1)) / n``
+    (the variance of the sample variance for any distribution with a fourth moment); ``1 /
+    sqrt(2 (n - 1))`` for normal values.
+    """
+    a = np.asarray(x, dtype=float)
+    n = a.size
+    if n < 4:
+        return math.inf
+    d = a - a.mean()
+    m2 = float(np.mean(d**2))
+    if m2 == 0:
+        return 0.0
+    kurt = float(np.mean(d**4)) / m2**2
+    return 0.5 * math.sqrt(max(kurt - (n - 3) / (n - 1), 0.0) / n)
 
 
 def _tolerance(lim: Any) -> float:
@@ -521,8 +585,10 @@ def _tolerance(lim: Any) -> float:
 
 def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
            equipment: Sequence[Equipment], truth: Mapping[str, float] | None, n_mc: int,
-           tur: float, rng: np.random.Generator | int | None) -> tuple[Prediction, Any]:
-    std, method, nominal, n = predict_std(plan, noise, truth=truth, n_mc=n_mc, rng=rng)
+           tur: float, rng: np.random.Generator | int | None,
+           rel_error: float) -> tuple[Prediction, Any]:
+    std, method, nominal, n = predict_std(plan, noise, truth=truth, n_mc=n_mc, rng=rng,
+                                          rel_error=rel_error)
     budget = uncertainty_budget(plan, nominal, equipment)
     names = set(std)
     model_names = set(nominal.identification.names)
@@ -596,7 +662,8 @@ def candidate_changes(plan: Plan) -> list[tuple[str, Plan]]:
 def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
                equipment: Sequence[Equipment] = (), truth: Mapping[str, float] | None = None,
                tur: float = DEFAULT_TUR, n_mc: int = 200,
-               rng: np.random.Generator | int | None = 0) -> PlanCheck:
+               rng: np.random.Generator | int | None = 0, rel_error: float = 0.1,
+               nominal: str | None = None) -> PlanCheck:
     """Predict each limited quantity's U and whether the plan can verify its limit.
 
     Parameters
@@ -609,15 +676,22 @@ def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
     equipment : sequence of Equipment
         Lab records of the plan's equipment (their Type B enters U).
     truth : mapping, optional
-        Nominal coefficients to simulate with (default zero; a plan whose fit needs a scale
-        factor needs them).
+        Nominal coefficients to simulate with (default zero, with the plan's nominal scale
+        factor where it has one; :class:`NominalTruthError` when the simulation needs a scale
+        factor the plan does not give).
     tur : float
         Test uncertainty ratio: verifiable when U <= tolerance / tur (default 3).
     n_mc : int
-        Simulated tests of the Monte Carlo (non-white noise with unequal positions, random walk,
-        flicker).
+        Most simulated tests of the Monte Carlo (non-white noise with unequal positions, random
+        walk, flicker).
     rng : Generator, int or None
-        For the Monte Carlo.
+        For the Monte Carlo; an int (or None: 0) seeds every candidate plan alike.
+    rel_error : float
+        The Monte Carlo stops when every std's relative standard error is below this (0: always
+        ``n_mc`` tests).
+    nominal : str, optional
+        Where ``truth`` came from, for the output (default: "zero coefficients ..." or "the
+        given truth").
 
     Returns
     -------
@@ -626,8 +700,14 @@ def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
     """
     if not tur >= 1:
         raise PlanError(f"the test uncertainty ratio must be >= 1, got {tur!r}")
-    base, nominal = _judge("plan as written", plan, spec, noise, equipment, truth, n_mc, tur,
-                           rng)
+    if not rel_error >= 0:
+        raise PlanError(f"rel_error must be >= 0, got {rel_error!r}")
+    if isinstance(rng, np.random.Generator):  # one stream for every candidate: a seed
+        rng = int(rng.integers(2**63))
+    elif rng is None:
+        rng = 0
+    base, fitted = _judge("plan as written", plan, spec, noise, equipment, truth, n_mc, tur,
+                          rng, rel_error)
     rule = (f"verifiable when U (k = 2, Type A predicted + Type B of the equipment) <= "
             f"tolerance / {tur:g} (test uncertainty ratio {tur:g}:1); marginal when below the "
             "tolerance (a guarded pass, ILAC-G8:09/2019 w = U, only for an instrument well inside "
@@ -636,22 +716,38 @@ def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
     suggestion = None
     if not base.ok and any(c.status != "not determined" for c in base.limits if
                            c.status != "verifiable"):
-        for label, p in candidate_changes(plan):
+        wanted = {c.quantity for c in base.limits if c.status in ("marginal", "not verifiable")}
+        for label, p in _by_cost(candidate_changes(plan), truth or {}):
             try:
-                pred, _ = _judge(label, p, spec, noise, equipment, truth, n_mc, tur, rng)
+                pred, _ = _judge(label, p, spec, noise, equipment, truth, n_mc, tur, rng,
+                                 rel_error)
             except InertestError:
                 continue
             candidates.append(pred)
-        candidates.sort(key=lambda c: c.readings)
-        wanted = {c.quantity for c in base.limits if c.status in ("marginal", "not verifiable")}
-        for c in candidates:
-            if all(x.status == "verifiable" for x in c.limits if x.quantity in wanted):
-                suggestion = c
+            if all(x.status == "verifiable" for x in pred.limits if x.quantity in wanted):
+                suggestion = pred
                 break
+    if nominal is None:
+        nominal = ("the given truth" if truth else
+                   "zero coefficients (the plan's nominal scale factor where it has one)")
     return PlanCheck(base, suggestion, tuple(candidates), noise, tur, rule,
-                     tuple(nominal.identification.not_separable))
+                     tuple(fitted.identification.not_separable), nominal)
+
+
+def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
+             ) -> list[tuple[str, Plan]]:
+    """The candidate plans, fewest readings first (a noise-free simulation counts them)."""
+    costed = []
+    for label, p in changes:
+        try:
+            data, _ = _simulate(p, truth)
+        except InertestError:
+            continue
+        costed.append((len(next(iter(data.values()))), label, p))
+    costed.sort(key=lambda c: c[0])  # stable: ties keep candidate_changes' order
+    return [(label, p) for _, label, p in costed]
 
 
 __all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "LimitCheck", "NoiseFileError", "NoiseModel",
-           "PlanCheck", "Prediction", "STATUSES", "candidate_changes", "check_plan",
-           "predict_std", "read_noise"]
+           "NominalTruthError", "PlanCheck", "Prediction", "STATUSES", "candidate_changes",
+           "check_plan", "predict_std", "read_noise", "std_relative_error"]

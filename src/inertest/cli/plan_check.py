@@ -25,19 +25,25 @@ EXIT_NOT_VERIFIABLE = 1
 @click.option("--equipment", type=_FILE, default=None,
               help="Lab equipment file: the Type B of the plan's [test] equipment enters U.")
 @click.option("--truth", type=_FILE, default=None,
-              help="Nominal coefficients to simulate with (default zero).")
+              help="Nominal coefficients to simulate with (default zero, with the plan's "
+              "nominal scale factor; when the procedure needs a scale factor the plan does not "
+              "give, the truth.toml beside the plan).")
 @click.option("--sample-interval", "sample_interval_s", type=float, default=None,
               help="Seconds between readings, to map Allan terms (default: the plan's rate).")
 @click.option("--tur", type=click.FloatRange(min=1.0), default=3.0, show_default=True,
               help="Test uncertainty ratio: a limit is verifiable when U <= tolerance / TUR.")
 @click.option("--mc", "n_mc", type=click.IntRange(min=20), default=200, show_default=True,
-              help="Simulated tests of the Monte Carlo (noise other than white or equal "
-              "position offsets).")
+              help="Most simulated tests of the Monte Carlo (noise other than white or equal "
+              "position offsets); it stops earlier once every std is known to --mc-error.")
+@click.option("--mc-error", "rel_error", type=click.FloatRange(min=0.0), default=0.1,
+              show_default=True,
+              help="Relative standard error of the Monte Carlo std at which it stops (0: run "
+              "all --mc tests).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | None,
                truth: Path | None, sample_interval_s: float | None, tur: float, n_mc: int,
-               seed: int, as_json: bool) -> None:
+               rel_error: float, seed: int, as_json: bool) -> None:
     """Predict each limited quantity's U from PLAN and a noise model, before testing.
 
     A limit is verifiable when the predicted U (k = 2: Type A from the plan and the noise,
@@ -52,7 +58,7 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
     from inertest.conformance import read_spec
     from inertest.io.plan_file import load_truth
     from inertest.lab import read_equipment, select_equipment
-    from inertest.plan_check import check_plan, read_noise
+    from inertest.plan_check import NominalTruthError, check_plan, read_noise
 
     p = load_plan(plan)
     spec = read_spec(spec_path)
@@ -62,7 +68,17 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
         used = select_equipment(read_equipment(equipment), p.test.equipment,
                                 plan_source=f"plan {plan}", lab_source=f"lab file {equipment}")
     tr = load_truth(truth) if truth is not None else None
-    out = check_plan(p, spec, noise, equipment=used, truth=tr, tur=tur, n_mc=n_mc, rng=seed)
+    kw = {"equipment": used, "tur": tur, "n_mc": n_mc, "rng": seed, "rel_error": rel_error}
+    try:
+        out = check_plan(p, spec, noise, truth=tr,
+                         nominal=None if truth is None else f"the truth file {truth}", **kw)
+    except NominalTruthError:
+        beside = plan.parent / "truth.toml"
+        if truth is not None or not beside.is_file():
+            raise
+        out = check_plan(p, spec, noise, truth=load_truth(beside),
+                         nominal=f"the truth file {beside} beside the plan (the procedure "
+                         "needs a scale factor; --truth FILE to give another)", **kw)
     if as_json:
         echo_json(out.to_dict())
     else:
@@ -82,6 +98,7 @@ def _print(out) -> None:  # noqa: ANN001 - PlanCheck
         f"random-walk step {n.random_walk:.3g}, flicker {n.flicker:.3g} {n.unit}"))
     for note in n.notes:
         click.echo(safe_line(f"  {note}"))
+    click.echo(safe_line(f"nominal instrument: {out.nominal}"))
     click.echo(safe_line(f"prediction: {out.plan.method}"))
     header = ["quantity", "limit", "predicted std (Type A)", "Type B", "U (k = 2)",
               "U / tolerance", "status"]
