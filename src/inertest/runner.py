@@ -271,7 +271,8 @@ def file_run(
     ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
     report.
     """
-    from inertest.store import HistoryStore, RunRecord, StoreError
+    if store is not False and store is not None:  # SQLAlchemy, Alembic: only when storing
+        from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
     test = identity_block(plan.test, lab=lab, tested_at=tested_at, software_version=version,

@@ -31,10 +31,11 @@ from inertest.runner import BatchItem, RunOutcome, read_manifest, run_batch
               help="File data files that are already stored for their instrument and procedure.")
 @click.option("--progress/--no-progress", default=None,
               help="Progress bar on stderr (default: when stderr is a terminal).")
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar (as --no-progress).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: the result envelope of every run, or its error.")
 def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, db: str | None,
-          allow_duplicate: bool, progress: bool | None, as_json: bool) -> None:
+          allow_duplicate: bool, progress: bool | None, quiet: bool, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
 
     A run (or the manifest's [defaults] table) may name spec (an instrument specification) and
@@ -45,7 +46,8 @@ def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, d
     """
     store: bool | str = False if no_store else (db or True)
     tasks = read_manifest(manifest)
-    with _progress_bar(len(tasks), progress) as advance, _dask_client(scheduler) as client:
+    show = False if quiet else progress
+    with _progress_bar(len(tasks), show) as advance, _dask_client(scheduler) as client:
         items = run_batch(tasks, executor=client, workers=workers, store=store,
                           allow_duplicate=allow_duplicate, progress=advance)
     failed = [i for i in items if i.error is not None]
