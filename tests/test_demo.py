@@ -37,3 +37,20 @@ def test_demo_prints_truth_vs_estimate_and_writes_report(tmp_path, examples_dir,
         assert all(float(before) > 1.0 and float(after) < 0.2 for before, after in drift)
         stem = entry["plan"].split("/")[0]
         assert (rep / f"{stem}.csv").exists() and (rep / f"{stem}_held_out.csv").exists()
+    # one verdict line per test, after its table; the references are the example truths against
+    # the example limits, decided by hand (U is ~0.02 of each tolerance or less):
+    verdicts = re.findall(r"^verdict(?: \((.+?)\))?: (.+)$", out, flags=re.M)
+    assert len(verdicts) == len(campaign) and all(v for _, v in verdicts)
+    by_title = dict(zip([t["title"] for t in campaign], verdicts, strict=True))
+    # triad: B_x, B_y, B_z = 12.5, -8.3, 21 mg against |B| <= 5 mg (simple acceptance)
+    assert by_title["Accelerometer triad, 12 positions"][1].startswith(
+        "fail: worst B_z = 21") and "(3 of 4 limits fail)" in by_title[
+        "Accelerometer triad, 12 positions"][1]
+    # polar tumble: DI, DO, DS = 0.85, -0.62, 0.31 deg/h/g, inside 1, 1, 0.5 by > 0.15
+    assert by_title["Polar-axis tumble"] == ("Example spec, navigation-grade floated gyro",
+                                             "pass (3 of 3 limits)")
+    # dividing head: KIP = 20 ug/g^2 exactly at its limit of 20: conditional either way
+    assert re.match(r"conditional (pass|fail): worst KIP ", by_title[
+        "Accelerometer on a dividing head (multipoint)"][1])
+    no_spec = [t["title"] for t in campaign if "spec" not in t]
+    assert no_spec and all(by_title[t] == ("", "- (no specification)") for t in no_spec)

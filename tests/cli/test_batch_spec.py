@@ -72,7 +72,7 @@ def test_summary_line_per_run_names_the_overall_verdict_and_worst_quantity(manif
     lines = [x for x in capsys.readouterr().out.splitlines() if x.startswith("run ")]
     assert len(lines) == 3
     assert "good.csv): verdict pass (4 of 4 limits)" in lines[0]
-    assert "bad.csv): verdict fail: worst B_x = " in lines[1]
+    assert "bad.csv): verdict fail: worst B_z = 21" in lines[1]  # the furthest outside
     assert "(3 of 4 limits fail)" in lines[1]
     assert "plain.csv): verdict - (no specification)" in lines[2]
 

@@ -17,6 +17,7 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
     """Simulate the example campaign (examples/demo.toml), fit each test, print and report."""
     # the campaign loads procedures, budgets (scipy.stats) and reports: only when it runs
     from inertest.cli._common import print_identity
+    from inertest.cli._verdicts import verdict_summary
     from inertest.cli.procedure import print_result
     from inertest.demo import (
         find_examples,
@@ -32,6 +33,9 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         click.echo(f"\n{t.title} ({t.plan_path}; noise {t.noise:g} per reading, seed {t.seed})")
         print_identity(t.to_dict())
         print_result(t.result, truth=t.truth_deg_h)
+        spec = "" if t.conformance is None else f" ({t.conformance.spec_name})"
+        click.echo(f"verdict{spec}: "
+                   f"{verdict_summary(None if t.conformance is None else t.conformance.to_dict())}")
     noise = run_noise(folder / "demo.toml")
     for n in noise:
         from inertest.cli._common import print_table
