@@ -36,7 +36,7 @@ def test_table_output_with_example_plot_and_report(tmp_path, capsys):
     assert main(["ins-errors", "--example", "--step", "60", "--plot", str(png),
                  "--report", str(html)]) == 0
     out = capsys.readouterr().out
-    assert "84.400 min" in out  # the source chose R for an 84.4 min Schuler period
+    assert "84.40 min" in out  # the source chose R for an 84.4 min Schuler period
     assert "Foucault" not in out  # simplified model, as in the source
     assert "eN*cos(L)" in out and "-eN*cos(L)" not in out and "bE/g" in out
     assert "sign convention: errors = computed - true" in out

@@ -19,6 +19,10 @@ from inertest.report.rounding import format_column, format_number, round_to_unce
     (6.1e-11, 0.061, ("0.000", "0.061")),
     # the std's rounding carries to the next decade: 0.0996 -> 0.10
     (3.14159, 0.0996, ("3.14", "0.10")),
+    # a scale factor of order 1 known to 3e-7 relative: all its digits down to the std's second
+    (1.2345004612, 3.4e-7, ("1.23450046", "0.00000034")),
+    # a value smaller than its std, in scientific notation: its last digit at the std's second
+    (-7.04e-8, 1.5e-7, ("-7e-08", "1.5e-07")),
 ])
 def test_gum_rounding(value, std, expected):
     assert round_to_uncertainty(value, std) == expected

@@ -199,3 +199,41 @@ def check_paths(outputs: Iterable[Path | None], inputs: Iterable[Path | None]) -
         if key in seen:
             raise OutputPathError(f"two outputs are the same file {o}; give each its own path")
         seen[key] = o
+
+
+def input_identity(
+    files: Iterable[str | os.PathLike[str] | None] = (), *, source: str | None = None,
+    serial: str | None = None,
+) -> list[list[str]]:
+    """Identity rows of an analysis page: each input file and its SHA-256, or its source.
+
+    Then the options the command was given (``--name value``, from the click context: those
+    that differ from their default) and the instrument serial when given. ``source`` states
+    an input that is not a file (``"simulated, seed 3"``, ``"built-in example"``).
+    """
+    from inertest.io.data_file import file_sha256
+
+    rows: list[list[str]] = []
+    for f in files:
+        if f is None:
+            continue
+        p = Path(f)
+        rows += [["input file", p.name], [f"SHA-256 of {p.name}", file_sha256(p)]]
+    if source:
+        rows.append(["input", source])
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:
+        opts = []
+        for prm in ctx.command.params:
+            if not isinstance(prm, click.Option) or prm.name is None:
+                continue
+            v = ctx.params.get(prm.name)
+            if v is None or v is False or v == prm.default or v == ():
+                continue
+            flag = max(prm.opts, key=len)
+            opts.append(flag if v is True else
+                        f"{flag} {' '.join(map(str, v)) if isinstance(v, tuple) else v}")
+        rows.append(["command", " ".join([ctx.command_path, *opts])])
+    if serial:
+        rows.append(["instrument serial", str(serial)])
+    return rows

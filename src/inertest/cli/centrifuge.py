@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from inertest.cli._common import check_paths, echo_json, print_table
+from inertest.cli._common import check_paths, echo_json, input_identity, print_table
 from inertest.errors import PlanError
 from inertest.io.atomic import write_text
 from inertest.io.plan_file import read_toml
@@ -51,7 +51,9 @@ def centrifuge_study(plan_file: Path, as_json: bool, report: Path | None,
     plan = cs.plan_from_mapping(doc, source=str(plan_file))
     result = cs.run_study(plan, fit_inputs, monte_carlo_runs=monte_carlo)
     if report is not None:
-        write_text(report, study_page(result))
+        write_text(report, study_page(result, identity=input_identity(
+            [plan_file], source="simulated from the study plan (white noise; Monte Carlo seed "
+                                f"{plan.seed})")))
     if as_json:
         echo_json(result.to_dict())
         return

@@ -16,6 +16,7 @@ import numpy as np
 from inertest.cli._common import check_paths, echo_json, print_table
 from inertest.errors import InputError, PlanError
 from inertest.plan import Plan
+from inertest.report.rounding import format_number, round_to_uncertainty
 
 if TYPE_CHECKING:
     from inertest.models.triad import TriadCalibration
@@ -155,16 +156,24 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
                            instrument=instrument_block(p.instrument),
                            identification={"coefficients": d["coefficients"]}, result=body))
         return
-    rows = [[h.iteration, f"{h.attitude_error_rms_arcsec:.4g}",
-             ", ".join(f"{v:+.4g}" for v in h.scale_correction_ppm),
-             f"{np.max(np.abs(h.misalignment_correction_urad)):.4g}"] for h in result.history]
+    rows = [[h.iteration, format_number(float(h.attitude_error_rms_arcsec)),
+             ", ".join(format_number(float(v)) for v in h.scale_correction_ppm),
+             format_number(float(np.max(np.abs(h.misalignment_correction_urad))))]
+            for h in result.history]
     print_table("navigation-mode iterations", ["iteration", "attitude error rms [arcsec]",
                                                "dK x, y, z [ppm]", "max |dM| [urad]"], rows)
     coef = d["coefficients"]
     print_table("calibration after the iteration", ["quantity", "value", "std", "unit"],
-                [[k, f"{v['value']:.9g}", "-" if v["std"] is None else f"{v['std']:.2g}",
-                  v["unit"]] for k, v in coef.items()])  # type: ignore[union-attr]
+                [[k, *_value_std(v), v["unit"]]  # type: ignore[index]
+                 for k, v in coef.items()])  # type: ignore[union-attr]
     click.echo("converged" if result.converged else
                f"not converged after {max_iterations} iterations")
     if report_dir is not None:
         click.echo(f"report: {report_dir / 'index.html'}")
+
+
+def _value_std(v: dict) -> list[str]:
+    """Value and std as printed (GUM 7.2.6); ``"-"`` for a missing std."""
+    val, std = round_to_uncertainty(float(v["value"]), None if v["std"] is None
+                                    else float(v["std"]))
+    return [val, std or "-"]

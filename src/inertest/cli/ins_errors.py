@@ -13,10 +13,12 @@ from inertest.cli._common import (
     check_paths,
     echo_json,
     figure_format,
+    input_identity,
     parse_float_list,
     print_table,
     save_figure,
 )
+from inertest.report.rounding import format_number
 from inertest.units import (
     DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S,
     DEG_PER_SQRT_H_TO_RAD_PER_SQRT_S,
@@ -158,7 +160,10 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         save_figure(fig, plot)
     if report is not None:
         html = page("INS error propagation", ins_error_sections(
-            resp, periods, closed_form_table=table, sigma=sigma), subtitle=scenario.name)
+            resp, periods, closed_form_table=table, sigma=sigma), subtitle=scenario.name,
+            identity=input_identity([scenario_file], source=(
+                f"built-in example: {scenario.name}" if example else None if scenario_file
+                else "scenario from the command's options")))
         write_text(report, html)
     if as_json:
         out: dict[str, Any] = {"t": resp.t.tolist()}
@@ -184,7 +189,7 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
     if sigma is not None:
         print_table(f"1-sigma from the random sources at t = {resp.t[-1] / 3600:g} h",
                     [f"{st} [{DISPLAY_UNITS[st][0]}]" for st in STATES],
-                    [[f"{sigma[-1, i] * DISPLAY_UNITS[st][1]:.4g}"
+                    [[format_number(float(sigma[-1, i] * DISPLAY_UNITS[st][1]), digits=2)
                       for i, st in enumerate(STATES)]])
     if table is not None and closed_forms:
         print_table("constant + secular parts (final value theorem; fitted = from the solution)",

@@ -12,10 +12,12 @@ from inertest.cli._common import (
     check_paths,
     echo_json,
     figure_format,
+    input_identity,
     parse_float_list,
     print_table,
     save_figure,
 )
+from inertest.report.rounding import format_number
 from inertest.units import (
     DEG_PER_H_TO_RAD_PER_S,
     DEG_PER_S_TO_RAD_PER_S,
@@ -125,9 +127,9 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
     print_table("stator rotation modulation: residual drift after whole-period integration",
                 ["stator [Hz]", "RMS residual [deg/h]", "no modulation [deg/h]", "delay [s]",
                  "bandwidth [Hz]"],
-                [[f"{r['stator_hz']:g}", f"{r['rms_residual_modulated_deg_h']:.3g}",
-                  f"{r['rms_residual_fixed_deg_h']:.3g}", f"{r['delay_s']:.3g}",
-                  f"{r['bandwidth_hz']:.3g}"] for r in rows])
+                [[format_number(float(r[k])) for k in
+                  ("stator_hz", "rms_residual_modulated_deg_h", "rms_residual_fixed_deg_h",
+                   "delay_s", "bandwidth_hz")] for r in rows])
     if plot is not None:
         click.echo(f"figure: {plot}")
 
@@ -219,7 +221,10 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         save_figure(fig, plot)
     if report is not None:
         write_text(report, page("Rotation modulation of a strapdown INS", system_sections(runs),
-                                subtitle=f"latitude {latitude_deg:g} deg, {hours:g} h"))
+                                subtitle=f"latitude {latitude_deg:g} deg, {hours:g} h",
+                                identity=input_identity(
+                                    source="simulated (noise-free): IMU errors and scheme from "
+                                           "the command's options")))
     if as_json:
         common = {"latitude_deg": latitude_deg, "imu": _imu_json(imu),
                   "vertical_channel": "not modelled"}

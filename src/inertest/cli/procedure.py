@@ -21,6 +21,7 @@ from inertest.cli._common import (
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 from inertest.report.identification import coefficient_rows
+from inertest.report.rounding import format_number
 from inertest.runner import run
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -132,7 +133,7 @@ def print_result(result, truth: Mapping[str, float] | None = None) -> None:
     header, rows = coefficient_rows(ident, truth)
     print_table(f"{result.procedure}: what the data determine", header, rows)
     if ident.sigma_from_residuals:
-        click.echo(f"noise per reading: {ident.noise_sigma:.3g} {ident.noise_unit} "
+        click.echo(f"noise per reading: {format_number(ident.noise_sigma)} {ident.noise_unit} "
                    f"(from residuals, {ident.dof} dof)")
     for s in ident.not_separable:
         click.echo(f"not determined: {s}")

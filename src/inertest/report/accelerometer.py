@@ -14,6 +14,7 @@ import numpy as np
 from inertest.models.triad import AXES
 from inertest.procedures.accelerometer_multipoint import AccelerometerMultipointResult
 from inertest.procedures.triad_multiposition import TriadMultipositionResult
+from inertest.report.calibration import calibration_rows
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 
@@ -179,12 +180,13 @@ def triad_sections(
         sec.parts.append(paragraph(f"Calibration: calibrated [m/s²] = matrix @ (raw − offset), "
                                    f"raw in {cal.raw_unit}."))
         sec.parts.append(table_html(
-            ["row", "matrix x", "matrix y", "matrix z", "offset"],
-            [[a, *(f"{v:.9g}" for v in cal.matrix[i]), f"{cal.offset[i]:.6g}"]
-             for i, a in enumerate(AXES)]))
+            ["row", "matrix x ± std", "matrix y ± std", "matrix z ± std", "offset ± std"],
+            calibration_rows(cal, est.all_estimates()),
+            caption="Entries ± their standard uncertainties (first order from those of K, M "
+                    "and B)"))
     sec.parts.append(table_html(
         ["output", f"noise per reading [{result.output_unit}]"],
-        [[k, f"{v:.4g}"] for k, v in result.noise_per_axis.items()]))
+        [[k, float(v)] for k, v in result.noise_per_axis.items()]))
     sec.parts.append(figure_html(triad_residual_figure(result), "Residuals per position"))
     for msg in result.messages:
         sec.parts.append(paragraph("Warning: " + msg, note=True))

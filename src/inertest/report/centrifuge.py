@@ -10,6 +10,7 @@ import numpy as np
 from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionResult
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
+from inertest.report.rounding import format_column, format_number, round_to_uncertainty
 
 
 def runs_figure(result: CentrifugeNinePositionResult):
@@ -52,25 +53,36 @@ def nine_position_sections(
     sec = identification_section(f"{title}: whole-cycle least squares", result.identification,
                                  truth)
     sec.parts.append(paragraph(
-        f"Dual-axis centrifuge, arm radius {result.radius_m:g} m, platform heading "
-        f"{result.platform_heading_deg:g} deg. Each run (one position at one main-axis rate) is "
-        "reduced to its mean over whole revolutions; the ten regressors, built from the exact "
-        "inputs of the error-free machine with the Earth's rotation, are averaged over the "
-        "same samples with the same weights, and the mean Earth rate on I is subtracted "
-        "(Ref. [centrifuge paper], eqs. 18-22: Sun Yingbo, Ren Shunqing, Wang Changhong, Harbin "
-        "Institute of Technology). One observation per run; omega is the signed arm rate "
-        "(negative = clockwise seen from above)."))
+        f"Dual-axis centrifuge, arm radius {format_number(result.radius_m)} m, platform "
+        f"heading {format_number(result.platform_heading_deg)} deg. Each run (one position at "
+        "one main-axis rate) is reduced to its mean over whole revolutions; the ten regressors, "
+        "built from the exact inputs of the error-free machine with the Earth's rotation, are "
+        "averaged over the same samples with the same weights, and the mean Earth rate on I is "
+        "subtracted (Ref. [centrifuge paper], eqs. 18-22: Sun Yingbo, Ren Shunqing, Wang "
+        "Changhong, Harbin Institute of Technology). One observation per run; omega is the "
+        "signed arm rate (negative = clockwise seen from above)."))
+    ident = result.identification
+    u = float(ident.noise_sigma) if ident.noise_unit == "deg/h" else None
+    u_res = u if result.output_unit == "deg/h" else None
+
+    def at(x: float, std: float | None) -> str:
+        return round_to_uncertainty(float(x), std)[0] if std else format_number(float(x))
+
+    ome = format_column([float(w) for w in result.run_omega])
+    earth = format_column([float(e) for e in result.earth_rate_deg_h])
     rows = [
-        [str(int(p)), f"{w:g}", str(int(r)), str(int(n)), float(d), float(f), float(e),
-         float(res)]  # floats: 4 significant digits, round-off (1e-16 deg/h) printed as 0
+        [str(int(p)), w, str(int(r)), str(int(n)), at(d, u), at(f, u), e, at(res, u_res)]
         for p, w, r, n, d, f, e, res in zip(
-            result.run_position, result.run_omega, result.run_revolutions, result.run_samples,
-            result.drift_deg_h, result.fitted_deg_h, result.earth_rate_deg_h,
+            result.run_position, ome, result.run_revolutions, result.run_samples,
+            result.drift_deg_h, result.fitted_deg_h, earth,
             result.residual_output, strict=True)
     ]
     sec.parts.append(table_html(
         ["position", "ω [rad/s]", "revolutions", "samples", "drift [deg/h]", "model [deg/h]",
-         "ω_I [deg/h]", f"residual [{result.output_unit}]"], rows))
+         "ω_I [deg/h]", f"residual [{result.output_unit}]"], rows,
+        caption="Drift, model and residual rounded at the noise per run "
+                + ("(not known)" if u is None else f"({round_to_uncertainty(u, u)[1]} deg/h)")
+                + "; ω_I round-off (1e-16 deg/h) printed as 0"))
     sec.parts.append(figure_html(runs_figure(result),
                                  "Whole-revolution mean drift per run with the model, and the "
                                  "run residuals"))

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
+from inertest.report.rounding import format_number, round_to_uncertainty
 from inertest.studies.centrifuge_study import REFERENCE, StudyResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
 
@@ -18,9 +21,9 @@ def uncertainty_rows(result: StudyResult) -> list[list[str]]:
     for i, (n, u) in enumerate(zip(result.names, result.units, strict=True)):
         mc = result.monte_carlo_std
         rows.append([
-            n, u, f"{result.plan.truth[i] / _K:.4g}", f"{result.std[i] / _K:.3e}",
-            "-" if mc is None else f"{mc[i] / _K:.3e}",
-            "-" if mc is None else f"{mc[i] / result.std[i]:.3f}",
+            n, u, format_number(result.plan.truth[i] / _K), _u(result.std[i] / _K),
+            "-" if mc is None else _u(mc[i] / _K),
+            "-" if mc is None else format_number(mc[i] / result.std[i], digits=3),
         ])
     return rows
 
@@ -35,15 +38,30 @@ def error_header(result: StudyResult) -> list[str]:
                                                               strict=True)]]
 
 
+def _u(std: float) -> str:
+    """A standard uncertainty to two significant digits (GUM 7.2.6)."""
+    return round_to_uncertainty(float(std), float(std))[1]
+
+
 def error_rows(result: StudyResult, *, compensated: bool = False) -> list[list[str]]:
-    """Identification error (estimate - truth) per case, engineering units."""
-    rows = [["1 sigma (noise)", *[f"{s / _K:.2e}" for s in result.std]]]
+    """Identification error (estimate - truth) per case, engineering units.
+
+    The errors are noise-free (deterministic), so four significant digits; an error below
+    1e-12 of the coefficient's scale (its truth or its noise std) is round-off, printed 0.
+    """
+    scale = np.maximum(np.abs(np.asarray(result.plan.truth, float)), np.asarray(result.std))
+
+    def err_cells(err) -> list[str]:
+        return [format_number(float(e) / _K, scale=float(s) / _K)
+                for e, s in zip(err, scale, strict=True)]
+
+    rows = [["1 sigma (noise)", *[_u(s / _K) for s in result.std]]]
     if not compensated:
         rows.append(["closed form without Earth-rate Coriolis",
-                     *[f"{e / _K:.2e}" for e in result.closed_form_error]])
+                     *err_cells(result.closed_form_error)])
     for c in result.cases:
         err = c.error_compensated if compensated else c.error
-        rows.append([c.case.label, *[f"{e / _K:.2e}" for e in err]])
+        rows.append([c.case.label, *err_cells(err)])
     return rows
 
 
@@ -70,11 +88,14 @@ def study_sections(result: StudyResult) -> list[Section]:
     """Sections: settings, uncertainty, error transfer (table + figure), compensation, notes."""
     p = result.plan
     settings = [
-        ["radius R", f"{p.radius_m:g} m"], ["latitude", f"{p.latitude_rad / DEG_TO_RAD:g} deg"],
-        ["gravity", f"{p.gravity_m_s2:g} m/s^2"],
-        ["main-axis rates", ", ".join(f"{w:g}" for w in p.omegas_rad_s) + " rad/s"],
-        ["sample rate", f"{p.sample_rate_hz:g} Hz"], ["revolutions per run", str(p.revolutions)],
-        ["white noise (1 sigma per sample)", f"{p.noise_sigma_rad_s:.3e} rad/s"],
+        ["radius R", f"{format_number(p.radius_m)} m"],
+        ["latitude", f"{format_number(p.latitude_rad / DEG_TO_RAD)} deg"],
+        ["gravity", f"{format_number(p.gravity_m_s2, digits=7)} m/s^2"],
+        ["main-axis rates", ", ".join(format_number(float(w)) for w in p.omegas_rad_s)
+         + " rad/s"],
+        ["sample rate", f"{format_number(p.sample_rate_hz)} Hz"],
+        ["revolutions per run", str(p.revolutions)],
+        ["white noise (1 sigma per sample)", f"{format_number(p.noise_sigma_rad_s)} rad/s"],
     ]
     return [
         Section("Settings", [table_html(["setting", "value"], settings, left_columns=1)]),
@@ -109,7 +130,7 @@ def study_sections(result: StudyResult) -> list[Section]:
     ]
 
 
-def study_page(result: StudyResult) -> str:
-    """The complete HTML report."""
+def study_page(result: StudyResult, *, identity: Sequence[Sequence[object]] = ()) -> str:
+    """The complete HTML report; ``identity`` rows state the input (plan file, SHA-256, ...)."""
     return page("Dual-axis centrifuge: error study of the nine-position method",
-                study_sections(result), subtitle=result.plan.name)
+                study_sections(result), subtitle=result.plan.name, identity=identity)

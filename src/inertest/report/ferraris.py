@@ -11,8 +11,10 @@ from matplotlib.figure import Figure
 from inertest.equipment.ferraris_session import FACE_LABELS, TURN_LABELS
 from inertest.models.triad import AXES
 from inertest.procedures.ferraris import FACE_GRAVITY_TOLERANCE_M_S2, FerrarisResult
+from inertest.report.calibration import result_calibration_rows
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
+from inertest.report.rounding import format_number
 from inertest.units import MILLI_G_TO_M_PER_S2
 
 _OFF = [(i, k) for i in range(3) for k in range(3) if i != k]
@@ -52,20 +54,13 @@ def ferraris_sections(
     """Coefficients, calibration matrices, checks and the figure."""
     sec = identification_section(f"{title}: scale factors, misalignments, biases",
                                  result.identification, truth)
-    cal = result.calibration
-    rows = []
-    for name, tri in (("accelerometer", cal.accelerometer), ("gyroscope", cal.gyroscope)):
-        if tri is None:
-            continue
-        for i in range(3):
-            rows.append([f"{name} {AXES[i]}", *(f"{v:.9g}" for v in tri.matrix[i]),
-                         f"{tri.offset[i]:.6g}", f"{tri.unit} per {tri.raw_unit}"])
     sec.parts.append(paragraph(
         "Calibration: calibrated = matrix @ (raw - offset) (gyroscope: raw - g_sensitivity @ "
-        "a_calibrated - offset), in SI units."))
+        "a_calibrated - offset), in SI units; each entry ± its standard uncertainty (first "
+        "order from those of K, M and B)."))
     sec.parts.append(table_html(["triad row", "matrix 1", "matrix 2", "matrix 3", "offset [raw]",
-                                 "matrix unit"], rows))
-    turns = [[lab, *(f"{v:.6f}" for v in result.turn_angle_deg[j])]
+                                 "matrix unit"], result_calibration_rows(result)))
+    turns = [[lab, *(float(v) for v in result.turn_angle_deg[j])]
              for j, lab in enumerate(TURN_LABELS)]
     sec.parts.append(table_html(["turn", "about x [deg]", "about y [deg]", "about z [deg]"],
                                 turns))
@@ -77,8 +72,8 @@ def ferraris_sections(
         "order); the face tilt scatter is included in the misalignment uncertainty."))
     c = result.identification.checks
     if c is not None:
-        rows = [[c.name, c.verdict, f"{c.chi_square:.4g}", str(c.dof),
-                 "" if c.p_value is None else f"{c.p_value:.3g}",
+        rows = [[c.name, c.verdict, format_number(float(c.chi_square)), str(c.dof),
+                 "" if c.p_value is None else format_number(float(c.p_value), digits=2),
                  ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers) or "none"]]
         sec.parts.append(table_html(["check", "verdict", "chi-square", "dof", "p", "outliers"],
                                     rows))

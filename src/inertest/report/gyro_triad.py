@@ -14,8 +14,11 @@ from matplotlib.ticker import MaxNLocator
 from inertest.procedures.gyro_rate_table import GyroRateTableResult
 from inertest.procedures.gyro_triad_rotation import GyroTriadRotationResult
 from inertest.procedures.navigation_calibration import AXES, NavigationCalibrationResult
+from inertest.report.calibration import calibration_rows
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
+from inertest.report.rounding import format_number, format_with_std
+from inertest.results import Estimate
 
 
 def rate_table_figure(result: GyroRateTableResult):
@@ -53,20 +56,24 @@ def rate_table_sections(
     sec = identification_section(f"{title}: scale factor, asymmetry, bias", result.identification,
                                  truth)
     sec.parts.append(paragraph(
-        f"Earth rate along the table axis removed from the bias: {result.earth_rate_deg_h:.4f} "
+        "Earth rate along the table axis removed from the bias: "
+        f"{format_number(result.earth_rate_deg_h)} "
         "deg/h. K is the mean of the two directions' scale factors when both are determined; "
         "asymmetry = (K_pos - K_neg)/K (IEEE Std 528 / 952 terms)."))
     if result.nonlinearity_ppm is not None:
         sec.parts.append(paragraph(
-            f"Nonlinearity (largest deviation of a per-rate mean from the straight line, IEEE "
-            f"Std 528/952): {result.nonlinearity_ppm:.3g} ppm of full scale; noise of a per-rate "
-            f"mean at that rate: {result.nonlinearity_noise_ppm:.2g} ppm."))
+            "Nonlinearity (largest deviation of a per-rate mean from the straight line, IEEE "
+            "Std 528/952): "
+            + format_with_std(result.nonlinearity_ppm, result.nonlinearity_noise_ppm)
+            + " ppm of full scale (± the noise of a per-rate mean at that rate)."))
     if result.pairs:
-        rows = [[f"±{p['rate_deg_s']:g}", f"{p['K']:.8g}", f"{p['B']:.5g}"] for p in result.pairs]
         sec.parts.append(paragraph("Closed form from each pair of opposite rates: K = (E+ − E−)"
                                    "/(2ω), B = (E+ + E−)/(2K) − Earth rate:"))
-        sec.parts.append(table_html(["rate [deg/s]", f"K [{result.scale_unit}]", "B [deg/h]"],
-                                    rows))
+        sec.parts.append(table_html(
+            ["rate [deg/s]", f"K ± std [{result.scale_unit}]", "B ± std [deg/h]"],
+            pair_rows(result),
+            caption="Std of each pair scaled from the least-squares estimates' (equal readings "
+                    "per rate): u(K) × √(Σω²/ω²), u(B) × √(number of pairs)"))
     sec.parts.append(figure_html(rate_table_figure(result),
                                  "Output against table rate, and deviation from the straight "
                                  "line (ppm of full scale)"))
@@ -101,17 +108,43 @@ def rotation_sections(
     assert gyro is not None
     sec.parts.append(paragraph(
         f"Calibration (calibrated [rad/s] = matrix @ (raw [{gyro.raw_unit}] − offset)):"))
-    rows = [[a, *(f"{v:.9g}" for v in gyro.matrix[i]), f"{gyro.offset[i]:.6g}"]
-            for i, a in enumerate(AXES)]
-    sec.parts.append(table_html(["gyro", "matrix x", "matrix y", "matrix z", "offset"], rows))
+    rows = calibration_rows(gyro, result.identification.coefficients)
+    sec.parts.append(table_html(
+        ["gyro", "matrix x ± std", "matrix y ± std", "matrix z ± std", "offset ± std"], rows,
+        caption="Entries ± their standard uncertainties (first order from those of K, M and B)"))
     if result.closed_form_scale:
         sec.parts.append(paragraph(
             "Closed form K_j = (N_j(+) − N_j(−))/(4π) (equal windows, constant rate): "
-            + ", ".join(f"{k} = {v:.8g} {result.scale_unit}"
-                        for k, v in result.closed_form_scale.items())))
+            + ", ".join(f"{k} = {fmt(v, _std(result.identification.coefficients, k))} "
+                        f"{result.scale_unit}" for k, v in result.closed_form_scale.items())
+            + " (± the least-squares estimate's std)."))
     sec.parts.append(figure_html(rotation_residual_figure(result),
                                  "Residual counts per window and gyro"))
     return [sec]
+
+
+def _std(estimates: Mapping[str, Estimate], name: str) -> float | None:
+    e = estimates.get(name)
+    return None if e is None else float(e.std)
+
+
+def pair_rows(result: GyroRateTableResult) -> list[list[str]]:
+    """Closed-form K and B of each pair of opposite rates, each ± its std.
+
+    The least-squares estimates use every rate; one pair at rate ω uses the readings at ±ω
+    only, so (equal readings per rate) ``u(K_ω) = u(K) sqrt(Σ ω_k² / ω²)`` and
+    ``u(B_ω) = u(B) sqrt(number of pairs)``: the std only sets the printed decimal.
+    """
+    coeffs = result.identification.coefficients
+    rates = np.array([float(p["rate_deg_s"]) for p in result.pairs])
+    uk, ub = _std(coeffs, "K"), _std(coeffs, "B")
+    rows = []
+    for p in result.pairs:
+        r = float(p["rate_deg_s"])
+        sk = None if uk is None or r == 0 else uk * float(np.sqrt(np.sum(rates**2) / r**2))
+        sb = None if ub is None else ub * float(np.sqrt(rates.size))
+        rows.append([f"±{format_number(r)}", fmt(p["K"], sk), fmt(p["B"], sb)])
+    return rows
 
 
 def convergence_figure(result: NavigationCalibrationResult):
@@ -152,13 +185,14 @@ def navigation_sections(
     sec = Section(title, [table_html(["quantity", "estimate ± std", "unit"], rows)])
     sec.parts.append(paragraph(
         f"{'Converged' if result.converged else 'Not converged'} after {len(result.history)} "
-        f"iteration(s); scatter of the attitude-error increments {result.noise_arcsec:.3g} "
-        f"arcsec ({result.dof} dof)."))
-    hist = [[h.iteration, f"{h.attitude_error_rms_arcsec:.4g}",
-             f"{h.attitude_error_max_arcsec:.4g}",
-             ", ".join(f"{v:+.4g}" for v in h.scale_correction_ppm),
-             f"{np.max(np.abs(h.misalignment_correction_urad)):.4g}",
-             ", ".join(f"{v:+.3g}" for v in h.bias_correction_deg_h)] for h in result.history]
+        "iteration(s); scatter of the attitude-error increments "
+        f"{format_number(result.noise_arcsec)} arcsec ({result.dof} dof)."))
+    hist = [[h.iteration, float(h.attitude_error_rms_arcsec),
+             float(h.attitude_error_max_arcsec),
+             ", ".join(format_number(float(v)) for v in h.scale_correction_ppm),
+             float(np.max(np.abs(h.misalignment_correction_urad))),
+             ", ".join(format_number(float(v)) for v in h.bias_correction_deg_h)]
+            for h in result.history]
     sec.parts.append(table_html(
         ["iteration", "rms error [arcsec]", "max error [arcsec]", "δK x, y, z [ppm]",
          "max |δM| [urad]", "δB x, y, z [deg/h]"], hist))

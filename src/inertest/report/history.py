@@ -11,6 +11,7 @@ import numpy as np
 
 from inertest.estimation.trend import QuantityHistory
 from inertest.report.identification import fmt
+from inertest.report.rounding import format_number
 
 
 def history_rows(
@@ -28,7 +29,7 @@ def history_rows(
               "scatter vs run stds: χ²/dof (p)", "trend per 30 days", f"runs beyond {k:g}σ"]
     rows: list[list[object]] = []
     for h in histories:
-        rep = "-" if h.repeatability is None else f"{h.repeatability:.3g}"
+        rep = "-" if h.repeatability is None else format_number(h.repeatability, digits=2)
         mean = fmt(h.mean, h.mean_std)
         if not h.weighted:
             mean += " (unweighted: a run has no std)"
@@ -36,14 +37,14 @@ def history_rows(
             scatter = "-"
         else:
             sc = h.scatter
-            scatter = (f"{sc.chi2:.3g}/{sc.dof} (p = {sc.p:.2g}): "
+            scatter = (f"{format_number(sc.chi2)}/{sc.dof} (p = {format_number(sc.p, digits=2)}): "
                        + ("consistent" if sc.consistent else "exceeds run stds"))
         if h.trend_per_day is None:
             trend = "-"
         else:
             trend = fmt(h.trend_per_day * 30.0, (h.trend_std_per_day or 0.0) * 30.0)
             if h.trend_inflation != 1.0:
-                trend += f" (std ×{h.trend_inflation:.3g}, Birge ratio)"
+                trend += f" (std ×{format_number(h.trend_inflation)}, Birge ratio)"
         flags = ", ".join(str(i + 1) for i in range(h.values.size) if h.flagged[i]) or "-"
         rows.append([h.name, h.unit, h.values.size, mean, rep, scatter, trend, flags])
     return header, rows

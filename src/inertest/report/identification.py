@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from inertest.report.html import Section, paragraph, table_html
-from inertest.report.rounding import format_with_std
+from inertest.report.rounding import format_number, format_with_std
 from inertest.results import Identification
 
 
@@ -18,6 +18,11 @@ def fmt(value: float, std: float | None = None) -> str:
     return format_with_std(float(value), None if std is None else float(std))
 
 
+def _z(value: float, truth: float, std: float) -> str:
+    """(estimate - truth)/std to two decimals (a test statistic, not a measured value)."""
+    return f"{(value - truth) / std:+.2f}" if std > 0 else "-"
+
+
 def coefficient_rows(
     ident: Identification, truth: Mapping[str, float] | None = None
 ) -> tuple[list[str], list[list[str]]]:
@@ -28,13 +33,13 @@ def coefficient_rows(
         row = [name, fmt(e.value, e.std), e.unit]
         if truth is not None:
             t = float(truth.get(name, 0.0))
-            row += [f"{t:.6g}", f"{(e.value - t) / e.std:+.2f}" if e.std > 0 else "-"]
+            row += [fmt(t, e.std), _z(e.value, t, e.std)]
         rows.append(row)
     for c in ident.combinations:
         row = [c.name, fmt(c.value, c.std), c.unit]
         if truth is not None:
             t = c.evaluate(truth)
-            row += [f"{t:.6g}", f"{(c.value - t) / c.std:+.2f}" if c.std > 0 else "-"]
+            row += [fmt(t, c.std), _z(c.value, t, c.std)]
         rows.append(row)
     return header, rows
 
@@ -46,7 +51,8 @@ def identification_section(
     header, rows = coefficient_rows(ident, truth)
     sec = Section(title, [table_html(header, rows)])
     noise = (
-        f"Noise per reading estimated from the residuals: {ident.noise_sigma:.3g} "
+        "Noise per reading estimated from the residuals: "
+        f"{format_number(ident.noise_sigma)} "
         f"{ident.noise_unit} ({ident.dof} degrees of freedom, rank {ident.rank} of "
         f"{len(ident.names)})."
         if ident.sigma_from_residuals

@@ -8,14 +8,16 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from inertest.noise.identification import BOUND_DEFINITION
 from inertest.noise.imu import ChannelNoise, ImuNoiseResult, KalibrTerm, TermComparison
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.rounding import format_number, format_with_std
 
 
 def _fmt_term(t: KalibrTerm) -> str:
     if t.status == "fitted" and t.std is not None:
-        return f"{t.value:.4g} ± {t.std:.2g}"
-    return f"< {t.value:.4g} (bound at {t.tau_s:.3g} s)"
+        return format_with_std(float(t.value), float(t.std))
+    return f"< {format_number(t.value)} (bound at {format_number(t.tau_s)} s)"
 
 
 def channel_figure(ch: ChannelNoise, comparisons: Sequence[TermComparison] = ()) -> Figure:
@@ -69,10 +71,10 @@ def summary_rows(result: ImuNoiseResult) -> tuple[list[str], list[list[str]]]:
     rows = []
     for c in result.channels:
         b = c.model.terms["B"]
-        b_txt = (f"{b.value_eng:.3g} ± {b.std_eng:.2g} {b.unit}" if b.resolved
-                 else f"< {b.upper_bound_eng:.3g} {b.unit}")
-        fit = (f"fits (chi2/dof {c.model.chi2_per_dof:.3g})" if c.model.fits
-               else f"does not fit (chi2/dof {c.model.chi2_per_dof:.3g})")
+        b_txt = (format_with_std(b.value_eng, b.std_eng, b.unit) if b.resolved
+                 else f"< {format_number(b.upper_bound_eng)} {b.unit}")
+        chi = format_number(c.model.chi2_per_dof)
+        fit = (f"fits (chi2/dof {chi})" if c.model.fits else f"does not fit (chi2/dof {chi})")
         rows.append([c.name, _fmt_term(c.density), _fmt_term(c.random_walk),
                      f"{c.density.unit}; {c.random_walk.unit}", b_txt, fit, str(c.outliers)])
     return header, rows
@@ -85,14 +87,16 @@ def timing_rows(result: ImuNoiseResult) -> tuple[list[str], list[list[str]]]:
     rows = [
         ["samples in the file", str(tm.n_samples)],
         ["time stamps", "yes" if tm.from_stamps else "none (equal spacing at the rate given)"],
-        ["nominal interval", f"{tm.interval_s:.6g} s ({tm.rate_hz:.6g} Hz)"],
-        ["jitter (std of the intervals)", f"{tm.jitter_s:.3g} s"],
+        ["nominal interval", f"{format_number(tm.interval_s)} s "
+                             f"({format_number(tm.rate_hz)} Hz)"],
+        ["jitter (std of the intervals)", f"{format_number(tm.jitter_s, digits=2)} s"],
         ["gaps (> 1.5 intervals)", str(len(tm.gaps))],
         ["duplicated / non-increasing stamps", str(len(tm.non_increasing))],
-        ["segment analysed", f"samples {a} to {b - 1} ({result.duration_s:.6g} s)"],
+        ["segment analysed", f"samples {a} to {b - 1} ({format_number(result.duration_s)} s)"],
         ["straight line removed", "yes" if result.detrended else "no"],
-        ["outliers", f"{result.outlier_policy}, threshold {result.outlier_threshold:g} robust "
-                     "sigmas from a running median"],
+        ["outliers", f"{result.outlier_policy}, threshold "
+                     f"{format_number(result.outlier_threshold)} robust sigmas from a running "
+                     "median"],
     ]
     return ["check", "value"], rows
 
@@ -100,8 +104,8 @@ def timing_rows(result: ImuNoiseResult) -> tuple[list[str], list[list[str]]]:
 def comparison_rows(comparisons: Sequence[TermComparison]) -> tuple[list[str], list[list[str]]]:
     """Claimed parameters against the measured channels."""
     header = ["channel", "parameter", "claimed", "measured", "unit", "verdict"]
-    rows = [[c.channel, c.parameter, f"{c.claimed:.4g}", _fmt_term(c.measured), c.measured.unit,
-             c.verdict] for c in comparisons]
+    rows = [[c.channel, c.parameter, format_number(c.claimed), _fmt_term(c.measured),
+             c.measured.unit, c.verdict] for c in comparisons]
     return header, rows
 
 
@@ -117,8 +121,9 @@ def imu_noise_sections(result: ImuNoiseResult,
         paragraph("Noise density = angle (velocity) random walk N, the N/sqrt(tau) line at "
                   "tau = 1 s; random walk = rate (acceleration) random walk K, the "
                   "K sqrt(tau/3) line at tau = 3 s. A term the five-term fit does not resolve "
-                  "is given as an upper bound: the line of that slope tangent to the measured "
-                  "curve. The bias instability B is not the random walk."),
+                  "(N, K or B) is given as an upper bound (< value), the same as in the "
+                  f"IEEE 952 terms: {BOUND_DEFINITION}. The bias instability B is not the "
+                  "random walk."),
     ]))
     if comparisons:
         h, r = comparison_rows(comparisons)

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from inertest.ins.error_model import SIGN_CONVENTION, STATES
 from inertest.ins.propagation import SOURCES, CharacteristicPeriods, SourceResponses
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.rounding import format_number
 from inertest.units import ARCMIN_TO_RAD, ARCSEC_TO_RAD, HOUR_TO_S
 
 if TYPE_CHECKING:  # sympy is slow to import; only the closed-form table needs it
@@ -93,13 +94,14 @@ def responses_figure(
 
 def periods_rows(periods: CharacteristicPeriods) -> list[list[str]]:
     """Table rows ``[name, from eigenvalues, closed form]`` with periods in minutes/hours."""
-    rows = [["Schuler", f"{periods.schuler_s / 60:.3f} min", "2π/√(ω_s² + ω_f²)"]]
+    rows = [["Schuler", f"{format_number(periods.schuler_s / 60)} min", "2π/√(ω_s² + ω_f²)"]]
     if periods.foucault_s is not None:
-        rows.append(["Foucault", f"{periods.foucault_s / HOUR_TO_S:.3f} h", "2π/(W |sin L|)"])
+        rows.append(["Foucault", f"{format_number(periods.foucault_s / HOUR_TO_S)} h",
+                     "2π/(W |sin L|)"])
     if math.isfinite(periods.earth_s):
-        rows.append(["Earth", f"{periods.earth_s / 60:.2f} min", "2π/W"])
+        rows.append(["Earth", f"{format_number(periods.earth_s / 60)} min", "2π/W"])
     for p in periods.modes_s:
-        rows.append(["mode", f"{p / 60:.3f} min", "eigenvalue of A"])
+        rows.append(["mode", f"{format_number(float(p) / 60)} min", "eigenvalue of A"])
     return rows
 
 
@@ -114,7 +116,8 @@ def final_rows(resp: SourceResponses) -> list[list[str]]:
             continue
         x = resp.combined[-1] if j < 0 else resp.per_source[j, -1]
         x = np.where(np.abs(x) <= floor, 0.0, x)
-        rows.append([src, *(f"{x[i] * DISPLAY_UNITS[st][1]:.4g}" for i, st in enumerate(STATES))])
+        rows.append([src, *(format_number(float(x[i] * DISPLAY_UNITS[st][1]))
+                            for i, st in enumerate(STATES))])
     return rows
 
 
@@ -147,8 +150,9 @@ def closed_form_rows(
 
 def _part(c0: float, c1_per_h: float, unit: str, secular: bool) -> str:
     if not secular:
-        return f"{c0:.6g} {unit}"
-    return f"{c1_per_h:.6g} {unit}/h × t" + (f" + {c0:.3g} {unit}" if abs(c0) > 1e-9 else "")
+        return f"{format_number(float(c0))} {unit}"
+    return (f"{format_number(float(c1_per_h))} {unit}/h × t"
+            + (f" + {format_number(float(c0))} {unit}" if abs(c0) > 1e-9 else ""))
 
 
 def ins_error_sections(

@@ -122,10 +122,10 @@ def system_summary_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
     for r in runs:
         s = r.summary()
         cyc = r.scheme.cycle_s
-        rows.append([r.scheme.label, "-" if np.isinf(cyc) else f"{cyc:.4g}",
-                     f"{s['max_horizontal_position_m']:.4g}",
-                     f"{s['max_horizontal_position_m'] / NAUTICAL_MILE_M:.4g}",
-                     *(f"{s[k] / ARCSEC_TO_RAD:.4g}"
+        rows.append([r.scheme.label, "-" if np.isinf(cyc) else format_number(float(cyc)),
+                     format_number(float(s["max_horizontal_position_m"])),
+                     format_number(float(s["max_horizontal_position_m"]) / NAUTICAL_MILE_M),
+                     *(format_number(float(s[k]) / ARCSEC_TO_RAD)
                        for k in ("max_phiE_rad", "max_phiN_rad", "max_phiU_rad"))])
     return rows
 

@@ -9,8 +9,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from inertest.noise.deviations import DeviationResult
-from inertest.noise.identification import TERMS, NoiseModel
+from inertest.noise.identification import BOUND_DEFINITION, TERMS, NoiseModel
 from inertest.report.html import Section, figure_html, paragraph, table_html
+from inertest.report.rounding import format_number, format_with_std, round_to_uncertainty
 
 _TERM_STYLE = {"Q": "C4", "N": "C1", "B": "C2", "K": "C3", "R": "C5"}
 
@@ -37,7 +38,7 @@ def allan_figure(
             nt = model.terms[term]
             if not nt.resolved:
                 continue
-            label = f"{term}: {nt.value_eng:.3g} ± {nt.std_eng:.2g} {nt.unit}"
+            label = f"{term}: {format_with_std(nt.value_eng, nt.std_eng, nt.unit)}"
             ax.plot(t, scale * model.model_dev(t, term), "--", lw=1.0, color=_TERM_STYLE[term],
                     label=label)
     ax.set_xscale("log")
@@ -52,6 +53,18 @@ def allan_figure(
     return fig
 
 
+def _dev_cell(dev: float, lo: float, hi: float, n: int) -> str:
+    """``dev [lo, hi] (n)``, all three at the decimal of the interval's nearer half-width.
+
+    The half-width (about one std for the 68 % interval) to two significant digits sets the
+    decimal (GUM 7.2.6); a degenerate interval leaves four significant digits.
+    """
+    w = min(float(dev) - float(lo), float(hi) - float(dev))
+    u = w if w > 0 and np.isfinite(w) else None
+    cells = [round_to_uncertainty(float(x), u)[0] for x in (dev, lo, hi)]
+    return f"{cells[0]} [{cells[1]}, {cells[2]}] ({n})"
+
+
 def deviation_rows(results: Mapping[str, DeviationResult]) -> tuple[list[str], list[list[str]]]:
     """Table: tau, then each statistic's deviation with its interval and terms."""
     names = list(results)
@@ -59,13 +72,13 @@ def deviation_rows(results: Mapping[str, DeviationResult]) -> tuple[list[str], l
     taus = sorted({float(t) for r in results.values() for t in r.taus})
     rows = []
     for t in taus:
-        row = [f"{t:.6g}"]
+        row = [format_number(t, digits=6)]
         for n in names:
             r = results[n]
             hit = np.flatnonzero(np.isclose(r.taus, t, rtol=1e-12))
             if hit.size:
                 i = int(hit[0])
-                row.append(f"{r.dev[i]:.5e} [{r.dev_lo[i]:.3e}, {r.dev_hi[i]:.3e}] ({r.n[i]})")
+                row.append(_dev_cell(r.dev[i], r.dev_lo[i], r.dev_hi[i], r.n[i]))
             else:
                 row.append("")
         rows.append(row)
@@ -78,10 +91,12 @@ def noise_rows(model: NoiseModel) -> tuple[list[str], list[list[str]]]:
     rows = []
     for k, t in model.terms.items():
         if t.resolved:
-            rows.append([f"{k} {t.description}", f"{t.value_eng:.4g}", f"{t.std_eng:.2g}",
-                         t.unit, "resolved"])
+            rows.append([f"{k} {t.description}",
+                         *round_to_uncertainty(float(t.value_eng), float(t.std_eng)), t.unit,
+                         "resolved"])
         else:
-            rows.append([f"{k} {t.description}", f"< {t.upper_bound_eng:.3g}", "", t.unit,
+            rows.append([f"{k} {t.description}", f"< {format_number(t.upper_bound_eng)}", "",
+                         t.unit,
                          t.note])
     return header, rows
 
@@ -101,8 +116,8 @@ def allan_sections(
             table_html(h, r),
             paragraph(f"Fit: {model.verdict}.", note=not model.fits),
             paragraph("A term is reported only when it is significant and the largest term "
-                      "somewhere on the tau range; otherwise only its upper bound is known.",
-                      note=True),
+                      "somewhere on the tau range; otherwise only its upper bound is known "
+                      f"(< value). Upper bound: {BOUND_DEFINITION}.", note=True),
         ]))
     h, r = deviation_rows(results)
     out.append(Section("Deviations (NIST SP 1065 conventions)", [table_html(h, r)]))

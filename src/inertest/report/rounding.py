@@ -19,6 +19,8 @@ ROUND_OFF = 1e-12
 #: Largest |decimal exponent| printed in fixed notation; beyond it, scientific notation.
 _FIXED_MIN_EXP = -5
 _FIXED_MAX_EXP = 7
+#: A value of 0.1 or more keeps fixed notation down to this decimal (``1.23450046 ± 0.00000034``).
+_FIXED_MIN_DEC = -10
 
 
 def _finite(x: float | None) -> bool:
@@ -61,8 +63,8 @@ def round_to_uncertainty(value: float, std: float | None) -> tuple[str, str]:
     -------
     (str, str)
         The value and the std as printed. Zero to the rounding is ``"0.000"`` (no sign); very
-        large or small numbers share the std's decimal in scientific notation (``"1.2340e-09"``,
-        ``"5.0e-11"``).
+        large or small numbers share the std's decimal in scientific notation (``"1.234e-09"``,
+        ``"5.0e-11"``; ``"-7e-08"``, ``"1.5e-07"``).
 
     Notes
     -----
@@ -77,13 +79,13 @@ def round_to_uncertainty(value: float, std: float | None) -> tuple[str, str]:
     if round(std, -d) >= 10.0 ** (d + 2):       # 0.0996 -> 0.10: one decade up
         d += 1
     top = max(_exp10(value) if value != 0 else d, d + 1)
-    if d >= _FIXED_MIN_EXP - 1 and top < _FIXED_MAX_EXP:
+    if top < _FIXED_MAX_EXP and (d >= _FIXED_MIN_EXP - 1 or top >= -1 and d >= _FIXED_MIN_DEC):
         return _fixed(value, -d), _fixed(std, -d)
-    digits_v = max(top - d, 0)
     v = round(value, -d)
     if v == 0:
         return f"{0.0:.{max(_exp10(std) - d, 0)}e}", f"{std:.1e}"
-    return f"{v:.{digits_v}e}", f"{std:.1e}"
+    # the value's last digit at the std's second one, also when |value| < std
+    return f"{v:.{max(_exp10(v) - d, 0)}e}", f"{std:.1e}"
 
 
 def _std_only(std: float) -> str:

@@ -10,6 +10,7 @@ import numpy as np
 from inertest.procedures.servo_table import ServoTableResult
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
+from inertest.report.rounding import format_number
 
 
 def servo_table_figure(result: ServoTableResult):
@@ -55,8 +56,8 @@ def servo_table_sections(
                                  truth)
     sec.parts.append(paragraph(
         f"Table axis: {result.table_axis}; Earth rate along it "
-        f"{result.earth_rate_along_axis_deg_h:.4f} deg/h. The encoder angle series is fitted "
-        "with integrated regressors, so the stds are honest for white encoder noise."))
+        f"{format_number(result.earth_rate_along_axis_deg_h)} deg/h. The encoder angle series "
+        "is fitted with integrated regressors, so the stds are honest for white encoder noise."))
     harm = Section(f"{title}: drift against table angle and long-term stability", [])
     rows = [[m] + [fmt(t.value, t.std) for t in terms] for m, terms in result.harmonics.items()]
     if rows:
@@ -65,11 +66,11 @@ def servo_table_sections(
         harm.parts.append(table_html(["mounting", *names], rows))
     srows = []
     for m, s in result.stability.items():
-        allan = ", ".join(f"{d:.3g} @ {t:g} h"
+        allan = ", ".join(f"{format_number(float(d))} @ {format_number(float(t))} h"
                           for t, d in zip(s.allan_tau_h, s.allan_dev_deg_h, strict=True))
         trend = "—" if s.trend is None else f"{fmt(s.trend.value, s.trend.std)} deg/h/h"
-        srows.append([m, f"{s.interval_h:g} h", str(s.drift_deg_h.size),
-                      f"{s.std_deg_h:.3g} deg/h", trend, allan or "—"])
+        srows.append([m, f"{format_number(s.interval_h)} h", str(s.drift_deg_h.size),
+                      f"{format_number(s.std_deg_h)} deg/h", trend, allan or "—"])
     if srows:
         harm.parts.append(paragraph(
             "Long-term drift stability (IEEE Std 517): drift per interval after the harmonic "

@@ -13,7 +13,7 @@ from matplotlib.figure import Figure
 from inertest.procedures.thermal_compensation import ThermalResult
 from inertest.procedures.thermal_triad import ThermalTriadResult
 from inertest.report.html import Section, figure_html, paragraph, table_html
-from inertest.report.rounding import format_with_std
+from inertest.report.rounding import format_number, format_with_std, round_to_uncertainty
 
 _LABEL = {"scale_factor": "scale factor error", "bias": "bias"}
 
@@ -63,11 +63,12 @@ def summary_rows(result: ThermalResult) -> tuple[list[str], list[list[str]]]:
     """Header and rows: RMS residual before and after each model, training and validation."""
     u = result.unit
     header = ["model", f"training RMS [{u}]", f"validation RMS [{u}]", "details"]
-    rows = [["uncompensated", f"{result.before_train_rms:.4g}",
-             f"{result.before_validation_rms:.4g}", "deviation from the training mean"]]
+    rows = [["uncompensated", format_number(result.before_train_rms),
+             format_number(result.before_validation_rms), "deviation from the training mean"]]
     for fit in (result.polynomial, result.network):
         note = fit.description + ("" if fit.converged else " (did NOT converge)")
-        rows.append([fit.name, f"{fit.train_rms:.4g}", f"{fit.validation_rms:.4g}", note])
+        rows.append([fit.name, format_number(fit.train_rms), format_number(fit.validation_rms),
+                     note])
     return header, rows
 
 
@@ -76,7 +77,7 @@ def model_rows(result: ThermalResult) -> tuple[list[str], list[list[str]]]:
     doc = result.model("polynomial").to_dict()
     header = ["term", "power of (T - T_ref)", "power of dT/dt", "value", "std", "unit"]
     rows = [[t["name"], str(t["power_of_t_minus_t_ref"]), str(t["power_of_rate"]),
-             f"{t['value']:.6g}", f"{t['std']:.2g}", t["unit"]]
+             *round_to_uncertainty(float(t["value"]), float(t["std"])), t["unit"]]
             for t in doc["terms"]]  # type: ignore[attr-defined]
     return header, rows
 
@@ -88,10 +89,12 @@ def thermal_sections(result: ThermalResult, *, title: str) -> list[Section]:
     poly = result.model("polynomial")
     sec.parts.append(paragraph(
         f"Polynomial model (write it with thermal fit --model-out, apply it with inertest "
-        f"apply): {poly.equation()}; valid for {poly.temperature_range_c[0]:.4g} to "
-        f"{poly.temperature_range_c[1]:.4g} degC"
+        f"apply): {poly.equation()}; valid for "
+        f"{format_number(poly.temperature_range_c[0])} to "
+        f"{format_number(poly.temperature_range_c[1])} degC"
         + ("" if poly.rate_range_c_per_min is None else
-           f" and {poly.rate_range_c_per_min[0]:.3g} to {poly.rate_range_c_per_min[1]:.3g} "
+           f" and {format_number(poly.rate_range_c_per_min[0])} to "
+           f"{format_number(poly.rate_range_c_per_min[1])} "
            "degC/min") + "."))
     sec.parts.append(table_html(*model_rows(result)))
     sec.parts.append(paragraph(
@@ -153,8 +156,8 @@ def triad_law_rows(result: ThermalTriadResult) -> tuple[list[str], list[list[str
         doc = law.to_dict()["terms"]
         cells = [format_with_std(d["value"], d["std"], d["unit"])  # type: ignore[index]
                  for d in doc.values()]  # type: ignore[union-attr]
-        rows.append([n, *cells, f"{law.chi2:.3g} / {law.dof}",
-                     "-" if law.dof <= 0 else f"{law.p_value:.2g}"])
+        rows.append([n, *cells, f"{format_number(law.chi2)} / {law.dof}",
+                     "-" if law.dof <= 0 else format_number(law.p_value, digits=2)])
     return header, rows
 
 
@@ -162,8 +165,9 @@ def triad_hysteresis_rows(result: ThermalTriadResult) -> tuple[list[str], list[l
     """Header and rows: heating minus cooling at its largest, Wald test and verdict."""
     header = ["coefficient", "heating - cooling", "at [degC]", "Wald chi2", "dof", "p",
               "verdict"]
-    rows = [[n, format_with_std(h.max_difference, h.std, h.unit), f"{h.at_temperature_c:.1f}",
-             f"{h.statistic:.3g}", str(h.dof), f"{h.p_value:.2g}",
+    rows = [[n, format_with_std(h.max_difference, h.std, h.unit),
+             format_number(h.at_temperature_c), format_number(h.statistic), str(h.dof),
+             format_number(h.p_value, digits=2),
              "SIGNIFICANT" if h.significant else "not significant"]
             for n, h in result.hysteresis.items()]
     return header, rows
@@ -177,8 +181,10 @@ def triad_thermal_sections(result: ThermalTriadResult, *, title: str) -> list[Se
     t = result.step_temperature_c
     sec = Section(title, [paragraph(
         f"Multi-position calibration at each of {t.size} temperature steps ({heat} heating, "
-        f"{cool} cooling, {t.min():.4g} to {t.max():.4g} degC), then each coefficient fitted "
-        f"as a polynomial of degree {first.degree} in (T - {first.t_ref_c:g} degC)"
+        f"{cool} cooling, "
+        f"{format_number(float(t.min()))} to {format_number(float(t.max()))} degC), then each "
+        f"coefficient fitted as a polynomial of degree {first.degree} in "
+        f"(T - {first.t_ref_c:g} degC)"
         + (" plus a term in dT/dt" if first.uses_rate else "")
         + " by weighted least squares with the per-step uncertainties. Triad model raw = "
         "K (I + M) (u + B); K in the scale unit, M in urad, B in mg (input-referred). "
