@@ -15,6 +15,7 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 from inertest.cli import safe_line
 from inertest.cli._common import (
     check_paths,
+    input_identity,
     echo_json,
     figure_format,
     print_table,
@@ -161,7 +162,8 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
             f"Noise analysis of {data.name}",
             [Section("Record", [table_html(["setting", "value"], settings)]),
              *allan_sections(shown, model, unit=dev_unit, scale=1.0 / factor)],
-            subtitle="Allan-family deviations (NIST SP 1065) and IEEE Std 952-1997 noise terms"))
+            subtitle="Allan-family deviations (NIST SP 1065) and IEEE Std 952-1997 noise terms",
+            identity=input_identity([data])))
     if as_json:
         grid = sorted({float(t) for r in shown.values() for t in r.taus})
         out: dict[str, object] = {"tau": grid, "unit": dev_unit, "rate_hz": rate_hz,

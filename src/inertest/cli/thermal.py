@@ -7,7 +7,14 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
+from inertest.cli._common import (
+    check_paths,
+    echo_json,
+    figure_format,
+    input_identity,
+    print_table,
+    save_figure,
+)
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
 from inertest.io.thermal_model import write_thermal_model
@@ -110,7 +117,8 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
         if report_dir is not None:
             html = page(f"Temperature compensation: {quantity}",
                         thermal_sections(result, title=f"{quantity} compensation"),
-                        subtitle=f"data: {data}")
+                        subtitle=f"data: {data}",
+                        identity=input_identity([data], serial=serial))
             with target_directory(report_dir, inputs=[data]) as tmp:
                 (tmp / "index.html").write_text(html, encoding="utf-8")
         if model_out is not None:
@@ -201,7 +209,8 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
 
         html = page("Triad calibration against temperature",
                     triad_thermal_sections(result, title="K, M, B against temperature"),
-                    subtitle=f"plan: {plan}; data: {data}")
+                    subtitle=f"plan: {plan}; data: {data}",
+                    identity=input_identity([plan, data]))
         with target_directory(report_dir, inputs=[plan, data]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if model is not None and model_out is not None:
