@@ -15,9 +15,9 @@ from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, T
 from inertest.cli import safe_line
 from inertest.cli._common import (
     check_paths,
-    input_identity,
     echo_json,
     figure_format,
+    input_identity,
     print_table,
     save_figure,
 )
