@@ -65,3 +65,38 @@ def test_columns_are_writable(tmp_path, suffix):
     back = read_table(p)
     back["a"][0] = np.nan
     back["b"][0] = 7.0
+
+
+def test_columns_from_arrow_buffers_equal_to_numpy_and_load_no_pandas(tmp_path):
+    # Columns read from the Arrow buffers (chunks, offsets, nulls, ints, float32, dictionary
+    # text with nulls) equal Arrow's own to_numpy, which imports pandas; read_table does not.
+    import subprocess
+    import sys
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table({
+        "i": pa.chunked_array([pa.array([1, None, 3], pa.int32()),
+                               pa.array([2**60 + 1, -5], pa.int64()).cast(pa.int32(), safe=False)]),
+        "big": pa.array([2**60 + 1, None, 7, -(2**53) - 1, 0], pa.int64()),
+        "f": pa.chunked_array([pa.array([1.5, None], pa.float32()),
+                               pa.array([None, 2.25, 1e-3], pa.float32())]),
+        "d": pa.array([0.1, 0.2, None, 0.4, 0.5]),
+        "s": pa.array(["x", None, "y", "x", "z"]).dictionary_encode(),
+    })
+    p = tmp_path / "d.parquet"
+    pq.write_table(table, p, row_group_size=2)
+    back = read_table(p)
+    ref = pq.read_table(p)
+    for name in ("i", "big", "f", "d"):
+        want = ref.column(name).to_numpy(zero_copy_only=False).astype(float)
+        np.testing.assert_array_equal(back[name], want)
+    assert back["s"].tolist() == ["x", "", "y", "x", "z"]
+    code = ("import sys\nfrom inertest.io.data_file import read_table\n"
+            f"read_table({str(p)!r})\nread_table({str(p.with_suffix('.csv'))!r})\n"
+            "print('pandas' in sys.modules)")
+    write_table(p.with_suffix(".csv"), {"m": np.array(["a", "b"]), "v": np.array([1.0, 2.0])})
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["False"]
