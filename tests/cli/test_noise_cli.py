@@ -20,12 +20,19 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 import pytest
 import yaml
+from scipy.stats import chi2
 
 from inertest.cli import main
 
 PSINS = Path(__file__).parents[2] / "examples" / "noise" / "lasergyro.imu.xz"
 #: SHA-256 of data/lasergyro.imu at PSINS commit c1706f1 (as in ../shared/realdata/psins).
 PSINS_SHA256 = "5de921e75f690c91ce6b7d3e811e547e050c4f1d000f648f537a59521206ba4d"
+
+
+#: Kalibr's continuous-time units and the IEEE 952 SI units of the same quantity:
+#: 1/sqrt(Hz) = sqrt(s), so rad/s^2/sqrt(Hz) = rad/s/sqrt(s) and rad/s/sqrt(Hz) = rad/sqrt(s).
+SAME_UNIT = {"rad/s/sqrt(Hz)": "rad/sqrt(s)", "rad/s^2/sqrt(Hz)": "rad/s/sqrt(s)",
+             "m/s^2/sqrt(Hz)": "m/s/sqrt(s)", "m/s^3/sqrt(Hz)": "m/s^2/sqrt(s)"}
 
 
 def _psins_text() -> str:
@@ -67,10 +74,13 @@ def test_psins_six_channels_yaml_agrees_with_the_allantools_curve(tmp_path, caps
         t, dev, _, _ = allantools.oadev(rates[:, j], rate=fs, data_type="freq", taus=taus)
         ours = res["channels"][name]["oadev"]["dev"]
         np.testing.assert_allclose(ours, dev, rtol=1e-9)
-        # The -1/2 (ARW) and +1/2 (RRW) lines tangent to the curve: at tau = 1 s and tau = 3 s
-        # their deviations are N and K.
-        n_lines[name] = float(np.min(dev * np.sqrt(t)))
-        k_lines[name] = float(np.min(dev * np.sqrt(3.0 / t)))
+        # One-sided chi-squared upper limits of the allantools curve, jointly 95 % over the n
+        # taus (Bonferroni, EDF as reported), and the -1/2 (ARW) and +1/2 (RRW) lines tangent
+        # to them from below: at tau = 1 s and tau = 3 s their deviations bound N and K.
+        edf = np.maximum(res["channels"][name]["oadev"]["edf"], 1.0)
+        hi = dev * np.sqrt(edf / chi2.ppf(0.05 / t.size, edf))
+        n_lines[name] = float(np.min(hi * np.sqrt(t)))
+        k_lines[name] = float(np.min(hi * np.sqrt(3.0 / t)))
         kal = res["channels"][name]["kalibr"]
         # The five-term model does not describe this vehicle record: bounds, not fits.
         assert kal["noise_density"]["status"] == "bound"
@@ -85,6 +95,31 @@ def test_psins_six_channels_yaml_agrees_with_the_allantools_curve(tmp_path, caps
                                                            rel=1e-9)
     text = out.read_text()
     assert text.count("UPPER BOUND, not a measurement") == 4
+    # Issue 19: the five-term block (allan JSON) and the Kalibr export give one bound per
+    # channel and term; Kalibr's rad/s^2/sqrt(Hz) (m/s^3/sqrt(Hz)) is IEEE 952's rad/s/sqrt(s)
+    # (m/s^2/sqrt(s)), and rad/s/sqrt(Hz) is rad/sqrt(s): the SI numbers compare directly.
+    for name, c in res["channels"].items():
+        block = c["noise_terms"]
+        assert block["fits"] is False
+        assert block["verdict"].startswith("the five-term model does not fit: chi2/dof = ")
+        assert "no term is reported as resolved" in block["verdict"]
+        for term, param in (("N", "noise_density"), ("K", "random_walk")):
+            five, kal = block["terms"][term], c["kalibr"][param]
+            assert five["value"] is None and five["value_si"] is None
+            assert kal["value"] == five["upper_bound_si"] == kal["bound_95"], (name, term)
+            assert kal["tau_s"] == five["bound_tau_s"]
+            assert SAME_UNIT[kal["unit"]] == five["unit_si"]
+            assert kal["bound_definition"] == five["bound_definition"]
+            assert "jointly 95 %" in kal["bound_definition"]
+    # The allan command's five-term block: the same bounds for the same record.
+    for j, name in ((0, "gyro_x"), (2, "gyro_z")):
+        col = tmp_path / f"{name}.npy"
+        np.save(col, rates[:, j])
+        assert main(["allan", str(col), "--rate", "100", "--json"]) == 0
+        terms = json.loads(capsys.readouterr().out)["result"]["noise_terms"]["terms"]
+        for term, param in (("N", "noise_density"), ("K", "random_walk")):
+            assert terms[term]["upper_bound_si"] == pytest.approx(
+                res["channels"][name]["kalibr"][param]["bound_95"], rel=1e-9)
 
 
 def _write_csv(path, n=20_000, rate=100.0, gap_at=None, seed=0, density=1e-3):

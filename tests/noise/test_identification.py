@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from inertest.errors import DataError
 from inertest.noise.deviations import mdev, oadev
@@ -192,10 +193,21 @@ def test_psins_lasergyro_model_that_does_not_fit_resolves_nothing(realdata_dir):
     assert model.max_misfit > 2.0
     assert not any(t.resolved for t in model.terms.values())
     assert model.checks and "does not fit" in model.checks[0]
-    # B is bounded by the flat floor: 0.664 B never above a measured deviation's upper limit
+    # The fit caps B at the flat floor: 0.664 B never above a measured deviation's upper limit
     b_floor = np.min(res.dev_hi) / math.sqrt(2 * math.log(2) / math.pi)
-    assert model.terms["B"].upper_bound <= b_floor * (1 + 1e-9)
     assert math.sqrt(model.coefficients_sq[2]) <= b_floor * (1 + 1e-9)
+    # The reported bound (issue 19): 0.664 B under every point's one-sided upper limit, jointly
+    # 95 % (chi-squared with the EDF, Bonferroni over the measured taus), whatever the fit says
+    ok = res.n >= 1
+    edf = np.maximum(res.edf[ok], 1.0)
+    hi = res.dev[ok] * np.sqrt(edf / chi2.ppf(0.05 / ok.sum(), edf))
+    factor = {"Q": math.sqrt(3) / res.taus[ok], "N": 1 / np.sqrt(res.taus[ok]),
+              "B": math.sqrt(2 * math.log(2) / math.pi), "K": np.sqrt(res.taus[ok] / 3),
+              "R": res.taus[ok] / math.sqrt(2)}
+    for name, f in factor.items():
+        t = model.terms[name]
+        assert t.upper_bound == pytest.approx(float(np.min(hi / f)), rel=1e-12)
+        assert t.to_dict()["bound_definition"].startswith("tangent-line bound")
     assert model.to_dict()["fits"] is False
 
 

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 import pytest
+from scipy.stats import chi2
 
 from inertest.errors import DataError, InputError
 from inertest.noise.imu import (
@@ -65,11 +66,21 @@ def test_white_noise_only_gives_fitted_n_and_a_k_bound_from_the_tangent_line():
     assert c.random_walk.status == "bound"
     r = c.oadev
     ok = r.n >= 1
-    line = r.dev[ok] * np.sqrt(3.0 / r.taus[ok])
+    # Closed form: one-sided chi-squared upper limits at 1 - 0.05/n per point (NIST SP 1065,
+    # Bonferroni over the n measured taus), and the +1/2 line tangent to them from below.
+    edf = np.maximum(r.edf[ok], 1.0)
+    hi = r.dev[ok] * np.sqrt(edf / chi2.ppf(0.05 / ok.sum(), edf))
+    line = hi * np.sqrt(3.0 / r.taus[ok])
     assert c.random_walk.value == pytest.approx(float(line.min()), rel=1e-12)
+    assert c.random_walk.bound_95 == c.random_walk.value
     assert c.random_walk.tau_s == pytest.approx(float(r.taus[ok][np.argmin(line)]))
-    # The +1/2 line through that point lies under every measured deviation.
-    assert np.all(r.dev[ok] >= c.random_walk.value * np.sqrt(r.taus[ok] / 3.0) * (1 - 1e-12))
+    # The +1/2 line through that point lies under every upper limit, and above the curve.
+    assert np.all(hi >= c.random_walk.value * np.sqrt(r.taus[ok] / 3.0) * (1 - 1e-12))
+    assert c.random_walk.value >= float((r.dev[ok] * np.sqrt(3.0 / r.taus[ok])).min())
+    # The same number as the five-term block's bound (rad/s^2/sqrt(Hz) = rad/s/sqrt(s)).
+    k = c.model.terms["K"]
+    assert k.value is None and k.upper_bound == c.random_walk.value
+    assert k.bound_tau == c.random_walk.tau_s
 
 
 def test_psd_one_sided_white_level_is_two_n_squared():
@@ -181,3 +192,26 @@ def test_review19_bound_of_a_fitted_term_is_not_below_its_estimate():
     doc = d.to_dict()
     assert "tangent-line bound" in doc["bound_definition"]
     assert c.random_walk.bound_95 >= c.random_walk.value
+
+
+def test_issue19_resolved_white_and_random_walk_no_bound_printed_as_a_measurement():
+    """Issue 19: one bound definition. White + random walk (both resolved): each output gives
+    the fitted value with its std, and every bound (N, K in the Kalibr export and the five-term
+    block, identical) is at least value + 1.645 std; the unresolved terms carry bounds only."""
+    y = kalibr_generator(200_000, 2e-3, 2e-4, seed=11)
+    c = analyse_imu_noise(None, y, None, rate_hz=RATE).channels[0]
+    assert c.model.fits
+    for kal, term in ((c.density, "N"), (c.random_walk, "K")):
+        nt = c.model.terms[term]
+        assert nt.resolved and kal.status == "fitted"
+        assert kal.value == nt.value and kal.std == nt.std
+        assert kal.bound_95 == nt.upper_bound
+        assert nt.upper_bound >= nt.value + 1.645 * nt.std
+        d = nt.to_dict()
+        assert d["value"] is not None and d["upper_bound"] >= d["value"] + 1.645 * d["std"]
+        assert d["bound_definition"] == kal.to_dict()["bound_definition"]
+    for name in ("Q", "B", "R"):
+        nt = c.model.terms[name]
+        if not nt.resolved:
+            assert nt.value is None and nt.std is None and nt.upper_bound > 0
+            assert nt.bound_tau in c.oadev.taus

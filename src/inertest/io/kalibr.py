@@ -63,9 +63,10 @@ def _comment(kind: str, param: str, term: KalibrTerm, result: ImuNoiseResult) ->
     else:
         slope = "-1/2" if param == "noise_density" else "+1/2"
         lines.append(f"#   UPPER BOUND, not a measurement: the record does not resolve this "
-                     f"term; the {slope} slope line tangent to the measured Allan deviation at "
-                     f"tau = {term.tau_s:.4g} s (95 % bound on the confidence limits "
-                     f"{term.bound_95:.4g})")
+                     f"term; the {slope} slope line tangent at tau = {term.tau_s:.4g} s to the "
+                     f"one-sided upper confidence limits of the measured Allan deviation, "
+                     f"jointly 95 % over all measured taus (Bonferroni), the upper_bound of the "
+                     f"IEEE 952 block")
     return lines
 
 

@@ -27,8 +27,13 @@ record (dither, vibration, a bounded angle motion, a trend...), no term is repor
 resolved and a :class:`NoiseFitWarning` is issued. A term is
 *resolved* only when the model fits, the term is more than :data:`SIGNIFICANCE` standard
 deviations above zero and it is the largest term somewhere on the tau range; otherwise only
-an upper bound is reported: the largest value the term could have without exceeding the upper
-confidence limit of any measured point.
+an upper bound is reported. Every term has one bound, :func:`tangent_bounds` (its definition,
+:data:`BOUND_DEFINITION`, is written into the JSON): every noise adds a non-negative Allan
+variance, so each term alone lies under the measured curve at every tau, and its line of slope
+-1, -1/2, 0, +1/2, +1 tangent from below to the one-sided upper confidence limits of all
+measured points (jointly :data:`BOUND_CONFIDENCE`, Bonferroni) bounds it whatever the fit
+says. A resolved term's bound is at least its one-sided limit ``value + 1.645 std``. The Kalibr
+export (:mod:`inertest.noise.imu`) uses the same bound.
 """
 
 from __future__ import annotations
@@ -43,6 +48,7 @@ from numpy.typing import NDArray
 from scipy.linalg import solve_triangular
 from scipy.optimize import lsq_linear
 from scipy.stats import chi2 as _chi2
+from scipy.stats import norm as _norm
 
 from inertest.errors import DataError
 from inertest.noise.deviations import DeviationResult
@@ -83,6 +89,15 @@ VERDICT_MIN_EDF = 3.0
 #: EDF): a deviation 4x above the model at one average, or 1/16000 of it, is a misfit.
 FEW_EDF_ALPHA = 1e-4
 _B_FACTOR = 2.0 * math.log(2.0) / math.pi
+#: Joint one-sided confidence of the upper bound of a term (:func:`tangent_bounds`).
+BOUND_CONFIDENCE = 0.95
+#: What ``upper_bound`` means; written into the JSON beside it (``bound_definition``).
+BOUND_DEFINITION = (
+    "tangent-line bound: the smallest value of the term whose line (slope -1 Q, -1/2 N, 0 B, "
+    "+1/2 K, +1 R in the log-log Allan deviation) reaches the one-sided upper confidence limit "
+    "of the overlapping Allan deviation at some measured averaging time, over all measured "
+    "averaging times, jointly 95 % (chi-squared with the EDF of NIST SP 1065, Bonferroni: "
+    "1 - 0.05/n per point); for a resolved term at least value + 1.645 std")
 
 
 class NoiseFitWarning(UserWarning):
@@ -124,7 +139,9 @@ class NoiseTerm:
     """One term of the five-term model.
 
     ``value``/``std`` are in SI (``unit_si``); ``value_eng``/``std_eng`` in ``unit``. When the
-    term is not resolved ``value`` is None and ``upper_bound`` says how large it could be.
+    term is not resolved ``value`` is None and ``upper_bound`` says how large it could be
+    (:data:`BOUND_DEFINITION`; ``bound_tau`` [s] the averaging time where its line touches the
+    upper confidence limits, NaN when a resolved term's own limit ``value + 1.645 std`` is larger).
     """
 
     name: str
@@ -139,6 +156,7 @@ class NoiseTerm:
     upper_bound_eng: float
     unit: str
     note: str
+    bound_tau: float = math.nan
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready mapping (engineering and SI units)."""
@@ -153,6 +171,8 @@ class NoiseTerm:
             "std_si": self.std,
             "upper_bound_si": self.upper_bound,
             "unit_si": self.unit_si,
+            "bound_tau_s": None if math.isnan(self.bound_tau) else self.bound_tau,
+            "bound_definition": BOUND_DEFINITION,
             "note": self.note,
         }
 
@@ -194,6 +214,7 @@ class NoiseModel:
             "verdict": self.verdict,
             "max_misfit": self.max_misfit,
             "checks": list(self.checks),
+            "bound_definition": BOUND_DEFINITION,
         }
 
 
@@ -504,6 +525,46 @@ def _verdict(var: NDArray, model: NDArray, cov: NDArray, edf: NDArray,
     return float(rw @ rw) / dof, dof, few, outside
 
 
+def tangent_bounds(result: DeviationResult, *,
+                   confidence: float = BOUND_CONFIDENCE) -> tuple[NDArray, NDArray]:
+    """Upper bound of each of the five terms from the measured Allan deviation alone.
+
+    Parameters
+    ----------
+    result : DeviationResult
+        Allan deviation of a rate record; every tau with at least one average is used.
+    confidence : float
+        Joint one-sided confidence of the bounds over all those taus.
+
+    Returns
+    -------
+    bound : (5,) array
+        ``[Q, N, B, K, R]`` upper bounds in SI (units of :func:`identify_noise`).
+    tau : (5,) array
+        Averaging time [s] at which each bound's line touches the upper confidence limits.
+
+    Notes
+    -----
+    Every term adds a non-negative Allan variance, so the true variance at each tau is at least
+    that of one term alone: ``A_i(tau) c_i^2 <= sigma^2(tau)`` (IEEE Std 952-1997 Annex C,
+    Table C.2; ``A`` from :func:`basis`). With ``sigma_hi^2 = s^2 EDF / chi2_ppf(a/n, EDF)``,
+    the one-sided upper limit of each of the ``n`` points at level ``1 - a/n`` (NIST SP 1065
+    sec. 5.3; Bonferroni, so all hold jointly with at least ``1 - a``), ``c_i <= min over tau of
+    sigma_hi(tau) / sqrt(A_i(tau))``: e.g. ``N <= min sigma_hi sqrt(tau)`` and
+    ``K <= min sigma_hi sqrt(3 / tau)``, the -1/2 and +1/2 slope lines tangent to the limits
+    from below. It holds whether or not the five-term model fits (:data:`BOUND_DEFINITION`).
+    """
+    ok = result.n >= 1
+    taus = result.taus[ok]
+    if taus.size == 0:
+        raise DataError("no Allan deviation with an average to bound the noise terms by")
+    edf = np.maximum(result.edf[ok], 1.0)
+    var_hi = result.var[ok] * edf / _chi2.ppf((1.0 - confidence) / taus.size, edf)
+    line_sq = var_hi[:, None] / basis(taus)
+    k = np.argmin(line_sq, axis=0)
+    return np.sqrt(line_sq[k, np.arange(5)]), taus[k]
+
+
 def identify_noise(
     result: DeviationResult, *, instrument: str | None = "gyro",
 ) -> NoiseModel:
@@ -629,11 +690,11 @@ def identify_noise(
                    "or a trend in the record)")
         checks.append(verdict)
         warnings.warn(verdict, NoiseFitWarning, stacklevel=2)
-    # Largest value each term could have alone under every point's upper confidence limit
-    # (two-sided 95 %: chi-squared lower quantile of the edf).
-    var_hi = var * edf / _chi2.ppf(0.025, edf)
-    ub_sq = np.min(var_hi[:, None] / a, axis=0)
-    ub_sq[2] = min(ub_sq[2], upper[2])  # never above the flat floor
+    # One definition of the bound (tangent_bounds, also the Kalibr export's): each term alone
+    # under the joint one-sided upper limits of all measured points, whatever the fit says.
+    bound, bound_tau = tangent_bounds(result)
+    # one-sided 95 % normal quantile 1.6449, written as 1.645 (rounded up: never below it)
+    z_one_sided = math.ceil(float(_norm.ppf(BOUND_CONFIDENCE)) * 1000.0) / 1000.0
     contrib = a * p[None, :]
     dominant = np.zeros(5, dtype=bool)
     if active.any():
@@ -646,13 +707,15 @@ def identify_noise(
         resolved = bool(fits and significant and dominant[i])
         unit_si = _SI[kind][name]
         unit, f = _ENG[kind][name] if kind else (unit_si, 1.0)
-        ub = math.sqrt(max(ub_sq[i], p[i]))
+        ub, ub_tau = float(bound[i]), float(bound_tau[i])
         if resolved:
             val = math.sqrt(p[i])
             std = std_sq / (2.0 * val)  # delta method: d sqrt(p) = dp / (2 sqrt(p))
+            if val + z_one_sided * std > ub:  # never below the estimate's own one-sided limit
+                ub, ub_tau = val + z_one_sided * std, math.nan
             note = "resolved"
             terms[name] = NoiseTerm(name, TERM_NAMES[name], True, val, std, ub, unit_si,
-                                    val * f, std * f, ub * f, unit, note)
+                                    val * f, std * f, ub * f, unit, note, ub_tau)
         else:
             if not fits:
                 note = "not resolved: the five-term model does not fit this record"
@@ -663,10 +726,11 @@ def identify_noise(
             else:
                 note = f"not resolved: less than {SIGNIFICANCE:g} sigma above zero"
             terms[name] = NoiseTerm(name, TERM_NAMES[name], False, None, None, ub, unit_si,
-                                    None, None, ub * f, unit, note)
+                                    None, None, ub * f, unit, note, ub_tau)
     if p[2] > 0 and p[2] >= upper[2] * (1.0 - 1e-9):
-        checks.append("bias instability B sits at its bound: 0.664 B equals the smallest "
-                      "upper confidence limit of the measured deviations")
+        checks.append("bias instability B sits at the cap of the fit: 0.664 B equals the "
+                      "smallest upper 1-sigma limit of the measured deviations (the cap, not "
+                      "the reported upper bound)")
     return NoiseModel(terms=terms, coefficients_sq=p, covariance_sq=cov, taus=taus,
                       instrument=kind, chi2_per_dof=chi2, dof=dof, fits=fits, verdict=verdict,
                       max_misfit=max_misfit, checks=tuple(checks))

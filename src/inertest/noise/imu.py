@@ -38,11 +38,17 @@ deviation of the N/sqrt(tau) line at tau = 1 s). ``gyroscope_random_walk`` sigma
 acceleration random walk. The bias instability B (the flat floor, 0.664 B) is NOT the random
 walk; tools that write B there (imu_utils, allan_variance_ros) give filters a wrong bias model.
 
+The Kalibr parameters are the IEEE 952 terms themselves, with no conversion factor:
+rad/s^2/sqrt(Hz) = rad/s^2 x sqrt(s) = rad/s/sqrt(s) (K) and rad/s/sqrt(Hz) = rad/sqrt(s) (N).
+
 A term the five-term fit resolves is exported with its standard uncertainty. A term it does not
-resolve gets the tangent bound instead: every noise adds a non-negative Allan variance, so
-``sigma(tau) >= N / sqrt(tau)`` and ``sigma(tau) >= K sqrt(tau / 3)`` at every tau, and the
-measured curve bounds ``N <= min sigma(tau) sqrt(tau)`` and ``K <= min sigma(tau) sqrt(3 / tau)``
-(the -1/2 and +1/2 slope lines tangent to the curve from below). It is marked as a bound.
+resolve gets its upper bound instead, the one of the five-term block
+(:func:`inertest.noise.identification.tangent_bounds`, ``NoiseTerm.upper_bound``): every noise
+adds a non-negative Allan variance, so ``sigma(tau) >= N / sqrt(tau)`` and
+``sigma(tau) >= K sqrt(tau / 3)`` at every tau, and ``N <= min sigma_hi(tau) sqrt(tau)``,
+``K <= min sigma_hi(tau) sqrt(3 / tau)`` over all measured taus, ``sigma_hi`` the one-sided
+upper confidence limits holding jointly with 95 % (the -1/2 and +1/2 slope lines tangent to
+them from below). It is marked as a bound, with its definition.
 """
 
 from __future__ import annotations
@@ -57,7 +63,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import DataError, InputError
 from inertest.noise.deviations import DeviationResult, deviations
-from inertest.noise.identification import NoiseModel, identify_noise
+from inertest.noise.identification import BOUND_DEFINITION, NoiseModel, identify_noise
 
 #: An interval longer than this many nominal intervals is a gap.
 GAP_FACTOR = 1.5
@@ -154,19 +160,17 @@ class KalibrTerm:
     """One continuous-time parameter of the Kalibr IMU model for one channel.
 
     ``value`` [``unit``] is the fitted IEEE 952 term (``status == "fitted"``, ``std`` its
-    standard uncertainty) or the tangent bound read from the measured Allan deviation at
-    ``tau_s`` (``status == "bound"``, ``std`` None: the true value is at most this).
-    ``bound_95`` is the same tangent bound on upper confidence limits of the measured
-    deviations that hold jointly over all taus with 95 % (chi-squared with the EDF of NIST
-    SP 1065, Bonferroni: 1 - 0.05/n one-sided per point); for a fitted term it is never below
-    ``value + 1.645 std`` (the one-sided 95 % limit of the estimate).
+    standard uncertainty, ``tau_s`` 1 s for N and 3 s for K where its line reads it) or its
+    upper bound (``status == "bound"``, ``std`` None: the true value is at most this; ``tau_s``
+    where the bound's line touches the upper confidence limits). ``bound_95`` is the five-term
+    block's ``upper_bound`` of the same term (:data:`BOUND_DEFINITION`: tangent line to the
+    one-sided upper confidence limits over all measured taus, jointly 95 %; for a fitted term
+    never below ``value + 1.645 std``), so ``value == bound_95`` for a bound. The Kalibr unit
+    equals the IEEE 952 SI unit (module docstring): no conversion.
     """
 
     #: How ``bound_95`` is defined (written into the JSON beside it).
-    BOUND_DEFINITION = (
-        "tangent-line bound: the minimum over all measured averaging times of the -1/2 (N) or "
-        "+1/2 (K) slope line through the one-sided upper confidence limit of the Allan "
-        "deviation, jointly 95 % (Bonferroni); for a fitted term at least value + 1.645 std")
+    BOUND_DEFINITION = BOUND_DEFINITION
 
     parameter: str  # "noise_density" or "random_walk"
     term: str  # "N" or "K"
@@ -402,31 +406,20 @@ def psd_welch(y: ArrayLike, rate_hz: float) -> tuple[NDArray, NDArray]:
     return f[1:], p[1:]
 
 
-def _kalibr_term(kind: str, term: str, model: NoiseModel, dev: DeviationResult) -> KalibrTerm:
-    """Fitted term with its std, or the tangent bound from the measured curve."""
-    from scipy.stats import chi2
+def _kalibr_term(kind: str, term: str, model: NoiseModel) -> KalibrTerm:
+    """The five-term block's term: fitted value with its std, or its upper bound.
 
-    ok = dev.n >= 1
-    taus, sig, edf = dev.taus[ok], dev.dev[ok], np.maximum(dev.edf[ok], 1.0)
-    # sigma(tau) >= N / sqrt(tau) and >= K sqrt(tau / 3) at every tau: the tangent lines.
-    slope = np.sqrt(taus) if term == "N" else np.sqrt(3.0 / taus)
-    line = sig * slope
-    i = int(np.argmin(line))
-    # The same on upper confidence limits that hold for all taus at once with 95 % (Bonferroni:
-    # one-sided chi-squared limit at 1 - 0.05/n per point; the minimum over the points of
-    # per-point 95 % limits would fall below the truth far more often than 5 %).
-    q = 0.05 / taus.size
-    bound_95 = float(np.min(sig * np.sqrt(edf / chi2.ppf(q, edf)) * slope))
+    Kalibr's rad/s/sqrt(Hz) and rad/s^2/sqrt(Hz) are IEEE 952's rad/sqrt(s) and rad/s/sqrt(s)
+    (m/s likewise): the SI numbers are taken as they are.
+    """
     nt = model.terms[term]
     parameter = "noise_density" if term == "N" else "random_walk"
     unit = _KALIBR_UNITS[(kind, term)]
     if nt.resolved and nt.value is not None:
         tau = 1.0 if term == "N" else 3.0
-        # a bound is never below a resolved estimate's own one-sided 95 % limit
-        bound_95 = max(bound_95, nt.value + 1.645 * (nt.std or 0.0))
-        return KalibrTerm(parameter, term, "fitted", nt.value, nt.std, tau, bound_95, unit)
-    return KalibrTerm(parameter, term, "bound", float(line[i]), None, float(taus[i]),
-                      bound_95, unit)
+        return KalibrTerm(parameter, term, "fitted", nt.value, nt.std, tau, nt.upper_bound, unit)
+    return KalibrTerm(parameter, term, "bound", nt.upper_bound, None, nt.bound_tau,
+                      nt.upper_bound, unit)
 
 
 def _channel(name: str, kind: str, y: NDArray, rate_hz: float, outliers: int,
@@ -441,8 +434,8 @@ def _channel(name: str, kind: str, y: NDArray, rate_hz: float, outliers: int,
             messages.append(text)
     f, p = psd_welch(y, rate_hz)
     return ChannelNoise(name=name, kind=kind, unit=_SI_RATE[kind], oadev=dev, psd_freq_hz=f,
-                        psd=p, model=model, density=_kalibr_term(kind, "N", model, dev),
-                        random_walk=_kalibr_term(kind, "K", model, dev), outliers=outliers,
+                        psd=p, model=model, density=_kalibr_term(kind, "N", model),
+                        random_walk=_kalibr_term(kind, "K", model), outliers=outliers,
                         messages=tuple(messages))
 
 
@@ -642,7 +635,7 @@ def compare_kalibr(result: ImuNoiseResult,
                         f"{m.bound_95:.4g}: its line lies above the measured Allan deviation")
             else:
                 verdict = "consistent"
-                text = (f"claimed {value:.4g} {m.unit} is below the record's bound "
+                text = (f"claimed {value:.4g} {m.unit} is below the record's 95 % upper bound "
                         f"{m.value:.4g} (tangent at tau = {m.tau_s:.4g} s); the term is not "
                         "resolved, so the record cannot confirm it")
             out.append(TermComparison(c.name, key, float(value), m, verdict, text))
