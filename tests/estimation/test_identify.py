@@ -225,3 +225,28 @@ def test_auto_reports_the_candidates_and_their_weights():
     assert ident.noise_model in sel["close"]
     assert set(sel["close"]) == {m for m in w if w[m] >= w[ident.noise_model] * np.exp(-1)}
     assert len(sel["close"]) > 1  # this record cannot tell them apart
+
+
+def test_common_noise_model_pools_the_aic_of_the_outputs():
+    """Several outputs, one model: the smallest AIC summed over them (not the model picked most
+    often), Akaike weights of the sums, the models within 2 of the best sum."""
+    aic = [{"white": 10.0, "position-offsets": 9.0, "random-walk": 12.0, "flicker": 30.0},
+           {"white": 10.0, "position-offsets": 12.0, "random-walk": 9.5, "flicker": 30.0},
+           {"white": 10.0, "position-offsets": 9.8, "random-walk": 9.9, "flicker": 30.0}]
+    model, w, near = idf.common_noise_model(aic)
+    assert model == "white"  # each output alone would pick offsets or random walk
+    assert near == ["white", "position-offsets", "random-walk"]
+    d = np.array([0.0, 0.8, 1.4, 60.0])
+    np.testing.assert_allclose([w[m] for m in aic[0]], np.exp(-d / 2) / np.exp(-d / 2).sum())
+
+
+def test_solve_outputs_of_one_output_is_solve():
+    """With one output the common rule is solve's own: same model, estimate and covariance."""
+    rng = np.random.default_rng(8)
+    A, y, groups, _ = _balanced(rng, G=12, m=4, sb=0.6)
+    fit, noise = idf.solve(A, y, groups=groups, noise_model="auto")
+    [(fit1, noise1)] = idf.solve_outputs(A, y[:, None], groups=groups, noise_model="auto")
+    assert noise1.model == noise.model and noise1.weights == pytest.approx(noise.weights)
+    assert len([m for m, a in noise.aic.items() if a <= noise.aic[noise.model] + 2]) > 1
+    np.testing.assert_allclose(fit1.x, fit.x, rtol=1e-12)
+    np.testing.assert_allclose(fit1.covariance, fit.covariance, rtol=1e-9)

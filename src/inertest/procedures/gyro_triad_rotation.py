@@ -49,7 +49,9 @@ window [count]; ``sqrt-window``: angle random walk of the rate output, ``sigma s
 [count/sqrt(s)]), and ``noise_model`` the drift of the rate bias (``white``: none;
 ``position-offsets``: a rate offset per window, count ``d T``; ``random-walk``: a rate random
 walk over the session, count ``int_T W(t) dt``; ``flicker``: 1/f rate noise, a sum of
-Ornstein-Uhlenbeck processes with log-spaced times; ``auto``: the smallest AIC). The variance
+Ornstein-Uhlenbeck processes with log-spaced times; ``auto``: the smallest AIC over the three
+gyros, plus the spread of the close models' estimates, as in
+:func:`inertest.estimation.identify.solve_outputs`). The variance
 components are estimated per gyro by REML (Patterson & Thompson, Biometrika 58(3), 1971,
 doi:10.1093/biomet/58.3.545) and the coefficients by GLS with that covariance.
 """
@@ -58,7 +60,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
@@ -75,7 +77,13 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model, model_checks
+from inertest.estimation.identify import (
+    NOISE_MODELS,
+    check_noise_model,
+    common_noise_model,
+    model_checks,
+    selection_spread,
+)
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import AXES, ImuCalibration
@@ -428,8 +436,9 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     with ``W`` the white shape (``window_noise``) and ``K`` the kernel of the bias drift in
     session time (:func:`window_kernel`); ``theta`` (and ``s2`` unless ``sigma`` is given) by
     REML, the coefficients by GLS. ``white`` is ordinary weighted least squares. With ``auto``
-    each gyro's model is chosen by AIC, and all are refitted with the correlated model picked
-    most often when they differ.
+    the three gyros share the model of smallest AIC summed over them, and each adds the
+    Akaike-weighted spread of its estimates under the models within 2 of that sum (the rule
+    of :func:`inertest.estimation.identify.solve_outputs`).
 
     Raises
     ------
@@ -466,7 +475,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
         raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
     sig_si = None if sigma is None else sigma / per_si
-    fits = _fit_gyros(X, Y, white, rows, model, sig_si)
+    fits, weights = _fit_gyros(X, Y, white, rows, model, sig_si)
     coef = np.column_stack([f.x for f in fits])  # (4, 3): column i = [A_ix, A_iy, A_iz, b_i]
     resid = Y - X @ coef
     sig = np.array([f.components["white"] for f in fits])
@@ -505,6 +514,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         noise_components={k: float(np.sqrt(np.mean([f.components[k] ** 2 for f in fits])))
                           * per_si for k in fits[0].components},
         checks=_checks(X, resid, fits, rows, sigma is not None),
+        noise_model_weights=weights,
     )
     return GyroTriadRotationResult(
         site_latitude_deg=plan.site.latitude_deg,
@@ -649,25 +659,24 @@ def _reml_fit(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.floa
                     components={"white": float(np.sqrt(s2))}, nll=value, theta=theta, V=V)
 
 
-def _fit_gyro(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
-              kernels: Mapping[str, NDArray[np.float64]], model: str, sigma: float | None
-              ) -> _GyroFit:
-    """One gyro under ``model`` (``auto``: the smallest AIC of the restricted likelihood)."""
+def _candidates(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
+                kernels: Mapping[str, NDArray[np.float64]], sigma: float | None
+                ) -> dict[str, tuple[_GyroFit, float]]:
+    """One gyro under ``white`` and each drift model in ``kernels``, with its AIC.
+
+    AIC of the restricted likelihood, one parameter more for a drift.
+    """
     s2 = None if sigma is None else sigma**2
-    best = _reml_fit(X, y, W, None, s2)
-    aic = 2 * best.nll if model == "auto" else np.inf
+    white = _reml_fit(X, y, W, None, s2)
+    out = {"white": (white, 2 * white.nll)}
     for name, K in kernels.items():
-        if model not in ("auto", name):
-            continue
         f = _reml_fit(X, y, W, K, s2)
-        if 2 * f.nll + 2 < aic:
-            aic = 2 * f.nll + 2
-            label = _COMPONENTS[name][0]
-            best = _GyroFit(f.x, f.covariance, name,
-                            {"white": f.components["white"],
-                             label: float(np.sqrt(f.theta) * f.components["white"])}, f.nll,
-                            f.theta, f.V)
-    return best
+        label = _COMPONENTS[name][0]
+        out[name] = (_GyroFit(f.x, f.covariance, name,
+                              {"white": f.components["white"],
+                               label: float(np.sqrt(f.theta) * f.components["white"])},
+                              f.nll, f.theta, f.V), 2 * f.nll + 2)
+    return out
 
 
 def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_GyroFit],
@@ -713,22 +722,36 @@ def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_Gyro
 
 
 def _fit_gyros(X: NDArray[np.float64], Y: NDArray[np.float64], W: NDArray[np.float64],
-               rows: _Rows, model: str, sigma: float | None) -> list[_GyroFit]:
-    """Each gyro's fit under one noise model (``auto``: the outputs are described alike)."""
+               rows: _Rows, model: str, sigma: float | None
+               ) -> tuple[list[_GyroFit], dict[str, float]]:
+    """Each gyro's fit under one noise model, and with ``auto`` the Akaike weights.
+
+    ``auto`` is the rule of :func:`inertest.estimation.identify.solve_outputs`: the model of
+    smallest AIC summed over the three gyros; each gyro's covariance gains the spread of its
+    estimates under the models within 2 of that sum, with the summed AICs' Akaike weights
+    (:func:`inertest.estimation.identify.common_noise_model`, :func:`~inertest.estimation.
+    identify.selection_spread`).
+    """
     names = [m for m in _COMPONENTS if model in ("auto", m)]
     if names and X.shape[0] - 4 < 4:
         raise IdentifiabilityError(
             f"{X.shape[0]} windows for 4 unknowns per gyro: too few to estimate the "
             f'"{model}" noise; add windows (repeats), or use noise_model = "white"')
     kernels = {m: window_kernel(m, rows.start, rows.duration) for m in names}
-    fits = [_fit_gyro(X, Y[:, i], W, kernels, model, sigma) for i in range(3)]
-    chosen = [f.model for f in fits]
-    if model == "auto" and len(set(chosen)) > 1:
-        correlated = [m for m in chosen if m != "white"]
-        common = max(dict.fromkeys(correlated), key=correlated.count)
-        fits = [_fit_gyro(X, Y[:, i], W, {common: kernels[common]}, common, sigma)
-                for i in range(3)]
-    return fits
+    cands = [_candidates(X, Y[:, i], W, kernels, sigma) for i in range(3)]
+    if model != "auto":
+        return [c[model][0] for c in cands], {}
+    common, weights, near = common_noise_model([{m: a for m, (_, a) in c.items()}
+                                                for c in cands])
+    fits = []
+    for c in cands:
+        best = c[common][0]
+        if len(near) > 1:
+            spread = selection_spread(best.x, {m: c[m][0].x for m in near},
+                                      {m: weights[m] for m in near})
+            best = replace(best, covariance=best.covariance + spread)
+        fits.append(best)
+    return fits, weights
 
 
 def _count_unit(output_unit: str) -> str:

@@ -32,8 +32,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment import multiposition as mp
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, NoiseFit, check_noise_model, solve
-from inertest.estimation.least_squares import LinearFit, weighted_least_squares
+from inertest.estimation.identify import (
+    NOISE_MODELS,
+    NoiseFit,
+    check_noise_model,
+    solve_outputs,
+)
+from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.triad import (
     AXES,
@@ -431,24 +436,6 @@ def position_visits(labels: ArrayLike) -> NDArray:
     return np.asarray(names)[np.cumsum(start) - 1]
 
 
-def _solve_axes(A: NDArray[np.float64], y: NDArray[np.float64], sig: float | None,
-                groups: NDArray, model: str) -> list[tuple[LinearFit, NoiseFit]]:
-    """One fit per output under one noise model.
-
-    With ``auto`` the outputs are described alike: when AIC picks different models for them,
-    all are refitted with the correlated model picked most often.
-    """
-    fits = [solve(A, y[:, i], sigma_si=sig, groups=groups, noise_model=model)
-            for i in range(y.shape[1])]
-    chosen = [nf.model for _, nf in fits]
-    if model == "auto" and len(set(chosen)) > 1:
-        correlated = [m for m in chosen if m != "white"]
-        common = max(dict.fromkeys(correlated), key=correlated.count)
-        fits = [solve(A, y[:, i], sigma_si=sig, groups=groups, noise_model=common)
-                for i in range(y.shape[1])]
-    return fits
-
-
 def fit(
     plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     noise_model: str | None = None,
@@ -475,7 +462,10 @@ def fit(
     as the unit of independence: white noise is ordinary least squares; the correlated models
     estimate their variance component by REML from the position means and fit them by GLS, so
     that the stated uncertainty holds when the fixture re-settles between positions or the
-    bias wanders during the test.
+    bias wanders during the test. With ``auto`` the three outputs share one noise model, the
+    one of smallest AIC summed over them, and each adds the Akaike-weighted spread of its
+    estimates under the models within 2 of that sum
+    (:func:`inertest.estimation.identify.solve_outputs`).
 
     Raises
     ------
@@ -509,7 +499,8 @@ def fit(
     resid = np.zeros_like(y)
     noise = {}
     dofs = []
-    fits = _solve_axes(A, y, sig, position_visits(labels), model)
+    fits = solve_outputs(A, y, sigma_si=sig, groups=position_visits(labels),
+                         noise_model=model)
     for i, (a, (lf, _)) in enumerate(zip(AXES, fits, strict=True)):
         S[i], b[i] = lf.x[:3], lf.x[3]
         idx = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
@@ -569,7 +560,7 @@ def _with_noise_model(ident: Identification, noises: list[NoiseFit], raw_si_per_
         return min(ps, default=1.0)
 
     worst = min(noises, key=lambda nf: (nf.checks.fits, smallest_p(nf)))
-    return replace(ident, noise_model=noises[0].model,
+    return replace(ident, noise_model=noises[0].model, noise_model_weights=noises[0].weights,
                    noise_components={k: float(np.sqrt(np.mean(np.square(v))))
                                      for k, v in comps.items()},
                    checks=worst.checks)
