@@ -31,7 +31,7 @@ Explainer = Callable[[LinearFit, NDArray[np.float64]], Sequence[str]]
 
 
 def identify(
-    A: ArrayLike,
+    A: ArrayLike | PositionDesign,
     y: ArrayLike,
     *,
     names: Sequence[str],
@@ -50,8 +50,10 @@ def identify(
 
     Parameters
     ----------
-    A : array_like, shape (n, p)
-        Design in SI (columns in the order of ``names``), rows in time order.
+    A : array_like, shape (n, p), or PositionDesign
+        Design in SI (columns in the order of ``names``), rows in time order; a
+        :class:`PositionDesign` (design row of each position, position of each reading) names
+        the positions itself (no ``groups``) and is solved without building the full design.
     y : array_like, shape (n,)
         Observations in SI.
     names : sequence of str
@@ -96,7 +98,7 @@ def identify(
 
 
 def identify_with_noise(
-    A: ArrayLike,
+    A: ArrayLike | PositionDesign,
     y: ArrayLike,
     *,
     names: Sequence[str],
@@ -130,7 +132,8 @@ def identify_with_noise(
         for row in rows
         if np.count_nonzero(row) > 0
     )
-    statements = (explain or _generic_explanation(names))(fit, np.asarray(A, dtype=float))
+    design = A.rows if isinstance(A, PositionDesign) else np.asarray(A, dtype=float)
+    statements = (explain or _generic_explanation(names))(fit, design)
     result = Identification(
         coefficients=coefficients,
         combinations=combinations,
@@ -289,6 +292,78 @@ class NoiseFit:
 
 
 @dataclass(frozen=True)
+class PositionDesign:
+    """A design whose rows repeat by position: row ``i`` of the design is ``rows[index[i]]``.
+
+    A static test holds the instrument in a few positions for many readings each; the design
+    of each position once (``G x p``) and the position of each reading (``n`` ints) say
+    everything the full ``n x p`` design does, at ``G p + n`` numbers instead of ``n p``.
+    :func:`solve` then works on the sufficient statistics of each position (count, mean,
+    sum of squares) and never builds the full design. Build it with :meth:`from_codes`.
+
+    Attributes
+    ----------
+    rows : ndarray, shape (G, p)
+        Design row of each position, positions in time order (of their first reading).
+    index : ndarray of int, shape (n,)
+        Position of each reading (every position has readings).
+    labels : tuple of str
+        Name of each position.
+    """
+
+    rows: NDArray[np.float64]
+    index: NDArray[np.intp]
+    labels: tuple[str, ...]
+
+    @classmethod
+    def from_codes(
+        cls, rows: ArrayLike, codes: ArrayLike, labels: Sequence[str]
+    ) -> PositionDesign:
+        """Design from the row and label of each position and a code per reading.
+
+        Parameters
+        ----------
+        rows : array_like, shape (k, p)
+            Design row of each position, in any order.
+        codes : array_like of int, shape (n,)
+            Position of each reading, ``0 <= codes < k``, readings in time order.
+        labels : sequence of str, length k
+            Name of each position.
+
+        Returns
+        -------
+        PositionDesign
+            Positions without readings dropped, the others in the order of their first reading.
+        """
+        R = np.asarray(rows, dtype=float)
+        c = np.asarray(codes, dtype=np.intp)
+        if R.ndim != 2 or len(labels) != R.shape[0] or c.ndim != 1:
+            raise InputError(f"position design: {R.shape} rows, {len(labels)} labels and codes "
+                             f"of shape {c.shape}; give one row and one label per position and "
+                             "one code per reading")
+        if c.size and (c.min() < 0 or c.max() >= R.shape[0]):
+            raise InputError(f"position codes must lie in 0..{R.shape[0] - 1}")
+        change = np.ones(c.size, dtype=bool)
+        change[1:] = c[1:] != c[:-1]
+        starts = np.flatnonzero(change)
+        used, first = np.unique(c[starts], return_index=True)
+        order = used[np.argsort(first, kind="stable")]  # positions in time order
+        rank = np.full(R.shape[0], -1, dtype=np.intp)
+        rank[order] = np.arange(order.size)
+        index = np.repeat(rank[c[starts]], np.diff(np.append(starts, c.size)))
+        return cls(rows=R[order], index=index, labels=tuple(str(labels[k]) for k in order))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """Shape of the full design, ``(n, p)``."""
+        return int(self.index.size), int(self.rows.shape[1])
+
+    def __matmul__(self, x: ArrayLike) -> NDArray[np.float64]:
+        """``A @ x`` for every reading, from the ``G`` positions' values."""
+        return np.asarray(self.rows @ np.asarray(x, dtype=float))[self.index]
+
+
+@dataclass(frozen=True)
 class _Units:
     """Rows reduced to units (positions/runs): means, design, counts, time order."""
 
@@ -311,6 +386,63 @@ class _Units:
     @property
     def contiguous(self) -> bool:
         return bool(np.all(self.last - self.first + 1 == self.counts))
+
+
+def _position_units(P: PositionDesign, y: NDArray[np.float64]) -> _Units:
+    """The units of a :class:`PositionDesign`: its positions, from per-position sums."""
+    n, G = y.size, P.rows.shape[0]
+    idx = P.index
+    change = np.ones(n, dtype=bool)
+    change[1:] = idx[1:] != idx[:-1]
+    starts = np.flatnonzero(change)
+    ends = np.append(starts[1:], n) - 1
+    first = np.full(G, n, dtype=np.intp)
+    np.minimum.at(first, idx[starts], starts)
+    last = np.zeros(G, dtype=np.intp)
+    np.maximum.at(last, idx[starts], ends)
+    counts = np.bincount(idx, minlength=G).astype(float)
+    return _Units(index=idx, labels=P.labels, counts=counts, first=first, last=last,
+                  y=np.bincount(idx, y, minlength=G) / counts, A=P.rows, n_rows=n)
+
+
+def _position_row_fit(
+    P: PositionDesign, u: _Units, y: NDArray[np.float64], sigma_si: float | ArrayLike | None,
+) -> LinearFit:
+    """:func:`weighted_least_squares` over the readings of a :class:`PositionDesign`.
+
+    Rows of one position share the design row, so ``sum_i w_i (y_i - a_g x)^2`` over a
+    position is ``W_g (ybar_g - a_g x)^2`` plus a constant, with ``W_g = sum_i w_i`` and
+    ``ybar_g`` the ``w``-weighted mean: the least squares over the ``G`` weighted position
+    means has the same normal equations, singular values and null space as over the readings.
+    Residuals, degrees of freedom and the noise level are those of the readings.
+    """
+    n = y.size
+    if sigma_si is None or np.ndim(sigma_si) == 0:
+        s2 = 1.0 if sigma_si is None else float(np.asarray(sigma_si)) ** 2
+        if not (np.isfinite(s2) and s2 > 0):
+            raise InputError("observation sigmas must be finite and positive")
+        W, ymean = u.counts / s2, u.y
+    else:
+        s = np.broadcast_to(np.asarray(sigma_si, dtype=float), (n,))
+        if not np.all(np.isfinite(s)) or np.any(s <= 0):
+            raise InputError("observation sigmas must be finite and positive")
+        inv = 1.0 / s**2
+        W = np.bincount(u.index, inv, minlength=u.size).astype(float)
+        ymean = np.bincount(u.index, y * inv, minlength=u.size) / W
+    sq = np.sqrt(W)
+    red = weighted_least_squares(P.rows * sq[:, None], ymean * sq, sigma=1.0)
+    residuals = y - P @ red.x
+    dof = n - red.rank
+    if sigma_si is not None:
+        return replace(red, residuals=residuals, dof=dof)
+    if dof <= 0:
+        raise IdentifiabilityError(
+            f"{n} observations leave no degree of freedom to estimate the noise "
+            f"({red.rank} independent unknowns); add positions or samples, or give the noise "
+            "level")
+    sigma0 = float(np.sqrt(np.sum(residuals**2) / dof))
+    return replace(red, covariance=red.covariance * sigma0**2, residuals=residuals,
+                   sigma=sigma0, sigma_from_residuals=True, dof=dof)
 
 
 def _units(A: NDArray[np.float64], y: NDArray[np.float64], groups: ArrayLike | None) -> _Units:
@@ -538,7 +670,7 @@ class _Reml:
 
 
 def solve(
-    A: ArrayLike,
+    A: ArrayLike | PositionDesign,
     y: ArrayLike,
     *,
     sigma_si: float | ArrayLike | None = None,
@@ -550,8 +682,10 @@ def solve(
 
     Parameters
     ----------
-    A : array_like, shape (n, p)
-        Design, one row per reading in time order.
+    A : array_like, shape (n, p), or PositionDesign
+        Design, one row per reading in time order; or a :class:`PositionDesign` (then no
+        ``groups``: its positions are the units), solved from the count, mean and sum of
+        squares of each position, never building the ``n x p`` design (same estimates).
     y : array_like, shape (n,)
         Readings.
     sigma_si : float or array_like, optional
@@ -610,10 +744,20 @@ def solve(
     if noise_model not in NOISE_MODELS:
         raise InputError(
             f'unknown noise model "{noise_model}"; use one of {", ".join(NOISE_MODELS)}')
-    A = np.asarray(A, dtype=float)
     y = np.asarray(y, dtype=float)
-    row_fit = weighted_least_squares(A, y, sigma=sigma_si)
-    u = _units(A, y, groups)
+    if isinstance(A, PositionDesign):
+        # Per-position sufficient statistics: the n x p design is never built.
+        if groups is not None:
+            raise InputError("a PositionDesign names its positions; give no groups with it")
+        if y.shape != (A.index.size,):
+            raise InputError(f"design of {A.index.size} readings and observations {y.shape} "
+                             "do not match")
+        u = _position_units(A, y)
+        row_fit = _position_row_fit(A, u, y, sigma_si)
+    else:
+        A = np.asarray(A, dtype=float)
+        row_fit = weighted_least_squares(A, y, sigma=sigma_si)
+        u = _units(A, y, groups)
     G, n = u.size, y.size
     given = sigma_si is not None
     if given:

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
-from inertest.equipment.motion import unique_by_runs
+from inertest.equipment.motion import run_starts, unique_by_runs
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
@@ -43,7 +43,7 @@ from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Plan, read_fields
-from inertest.procedures.sdf_drift import identify_drift, row_inputs
+from inertest.procedures.sdf_drift import identify_drift, position_inputs, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Combination, Estimate, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD
@@ -202,19 +202,27 @@ def fit(
             f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "
             f"use {', '.join(table.MOUNTINGS)}"
         )
-    present = [m for m in table.MOUNTINGS if np.any(mounting == m)]
-    positions = table.position_labels(mounting, angle_deg)
-    f, w_in = row_inputs(table.motion(present, np.unique(angle_deg), site), positions)
-    drift = inst.output_to_rate(cols["output"]) - w_in
+    # Positions from the runs of equal (mounting, angle) rows: a label and the inputs per
+    # position, an integer position per row (no per-row strings, inputs or design).
+    starts = run_starts(mounting, angle_deg)
+    run_mounting, run_angle = mounting[starts], angle_deg[starts]
+    present = [m for m in table.MOUNTINGS if np.any(run_mounting == m)]
+    labels, run_code = np.unique(table.position_labels(run_mounting, run_angle),
+                                 return_inverse=True)
+    position = np.repeat(run_code, np.diff(np.append(starts, mounting.shape[0])))
+    f, w_in = position_inputs(table.motion(present, np.unique(run_angle), site), labels)
+    drift = inst.output_to_rate(cols["output"])
+    if np.any(w_in):
+        drift -= w_in[position]
     sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
-    messages = _spacing_messages(mounting, angle_deg, present)
+    messages = _spacing_messages(run_mounting, run_angle, present)
     for msg in messages:
         warnings.warn(msg, InertestWarning, stacklevel=2)
     spec: PolarTumbleSpec = plan.procedure
     model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
     lsq, noise, ident = identify_drift(
-        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=positions,
-        noise_model=model,
+        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=labels,
+        noise_model=model, position_index=position,
     )
     k = DEG_PER_H_TO_RAD_PER_S
     harmonics = {}

@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment.motion import StaticPositions, unique_by_runs
-from inertest.estimation.identify import NoiseFit, identify_with_noise
+from inertest.errors import InputError
+from inertest.estimation.identify import NoiseFit, PositionDesign, identify_with_noise
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
 from inertest.results import Identification
@@ -50,6 +51,31 @@ def row_inputs(
     return (f / G0)[inv], w[inv]
 
 
+def position_inputs(
+    motion: StaticPositions, labels: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Inputs of the drift model at each position (no per-row arrays).
+
+    Parameters
+    ----------
+    motion : StaticPositions
+        The fixture's positions (segments by label).
+    labels : array_like of str, shape (G,)
+        Position labels.
+
+    Returns
+    -------
+    f_ios_g : ndarray, shape (G, 3)
+        Specific force on I, O, S [g0] at each position.
+    rate_in_rad_s : ndarray, shape (G,)
+        Inertial angular rate on the input axis I [rad/s] (the Earth rate at rest).
+    """
+    parts = [motion.inputs_of_rows(np.array([u])) for u in np.asarray(labels).astype(str)]
+    f = np.concatenate([p.f_i for p in parts]).reshape(-1, 3)
+    w = np.concatenate([p.omega_i[:, 0] for p in parts])
+    return f / G0, w
+
+
 def identify_drift(
     f_ios_g: ArrayLike,
     drift_rad_s: ArrayLike,
@@ -60,12 +86,13 @@ def identify_drift(
     normalize_to: str | None = "DF",
     groups: ArrayLike | None = None,
     noise_model: str = "auto",
+    position_index: ArrayLike | None = None,
 ) -> tuple[LinearFit, NoiseFit, Identification]:
     """Fit the 10-term static drift model and report what the data determine.
 
     Parameters
     ----------
-    f_ios_g : array_like, shape (n, 3)
+    f_ios_g : array_like, shape (n, 3), or (G, 3) with ``position_index``
         Specific force along I, O, S [g0].
     drift_rad_s : array_like, shape (n,)
         Observed drift: indicated rate minus true input rate [rad/s].
@@ -82,6 +109,11 @@ def identify_drift(
         modelled per position (see :func:`inertest.estimation.identify.solve`).
     noise_model : str
         ``auto``, ``white``, ``position-offsets``, ``random-walk`` or ``flicker``.
+    position_index : array_like of int, shape (n,), optional
+        Position of each row (``0 <= position_index < G``) when ``f_ios_g`` holds one row
+        per position and ``groups`` their ``G`` labels: the design is then solved per position
+        (:class:`~inertest.estimation.identify.PositionDesign`), never built row by row; the
+        same estimates.
 
     Returns
     -------
@@ -92,7 +124,14 @@ def identify_drift(
     result : Identification
         Coefficients, combinations and statements in deg/h, deg/h/g, deg/h/g^2.
     """
-    A = drift_regressors(f_ios_g)
+    rows = drift_regressors(f_ios_g)
+    A: NDArray[np.float64] | PositionDesign = rows
+    if position_index is not None:
+        if groups is None:
+            raise InputError("position_index needs the label of each position (groups)")
+        A = PositionDesign.from_codes(rows, position_index,
+                                      [str(g) for g in np.asarray(groups)])
+        groups = None
     k = DEG_PER_H_TO_RAD_PER_S
     return identify_with_noise(
         A,

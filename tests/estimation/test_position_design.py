@@ -1,0 +1,77 @@
+"""Solving a static test per position (PositionDesign) equals solving it reading by reading."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from inertest.errors import IdentifiabilityError, InputError
+from inertest.estimation import identify as idf
+
+
+def _test(rng, G=24, m=7, shuffle=False):
+    # Position offsets well above the white noise: ``auto`` far from a tie (a random walk
+    # fitted to zero has the AIC of white + 2 exactly, and rounding then decides the set of
+    # close models).
+    x = np.linspace(-1, 1, G)
+    rows = np.column_stack([np.ones(G), x, x**2, np.zeros(G)])  # last column: never excited
+    codes = np.repeat(rng.permutation(G) if shuffle else np.arange(G), m)
+    if shuffle:  # positions revisited: runs of one position apart in time
+        codes = np.concatenate([codes[: codes.size // 2], codes[: codes.size // 2]])
+    y = (rows[codes] @ [1.0, 2.0, -0.5, 0.0] + np.repeat(rng.normal(0, 1.0, G), m)[: codes.size]
+         + rng.normal(0, 1.0, codes.size))
+    labels = [f"p{k:02d}" for k in range(G)]
+    return rows, codes, labels, y
+
+
+def _solve(A, y, groups, **kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return idf.solve(A, y, groups=groups, **kw)
+
+
+@pytest.mark.parametrize("model", idf.NOISE_MODELS)
+@pytest.mark.parametrize("sigma", [None, 0.9, "rows"])
+@pytest.mark.parametrize("shuffle", [False, True])
+def test_position_design_equals_the_full_design(model, sigma, shuffle):
+    rng = np.random.default_rng(18)
+    rows, codes, labels, y = _test(rng, shuffle=shuffle)
+    sig = rng.uniform(0.5, 1.5, y.size) if sigma == "rows" else sigma
+    if sigma is not None and model not in ("white", "auto") and shuffle:
+        pytest.skip("covered unshuffled")
+    full, nf_full = _solve(rows[codes], y, np.asarray(labels)[codes], sigma_si=sig,
+                           noise_model=model)
+    P = idf.PositionDesign.from_codes(rows, codes, labels)
+    pos, nf_pos = _solve(P, y, None, sigma_si=sig, noise_model=model)
+    assert nf_pos.model == nf_full.model
+    assert nf_pos.unit_labels == nf_full.unit_labels
+    np.testing.assert_array_equal(nf_pos.unit_index, nf_full.unit_index)
+    scale = full.std[full.identifiable]
+    np.testing.assert_allclose(pos.x[:3], full.x[:3], rtol=0, atol=1e-10 * scale.max())
+    np.testing.assert_allclose(pos.covariance, full.covariance, rtol=1e-10,
+                               atol=1e-12 * scale.max() ** 2)
+    np.testing.assert_allclose(pos.residuals, full.residuals, rtol=0, atol=1e-12)
+    assert (pos.rank, pos.dof, pos.sigma_from_residuals) == (full.rank, full.dof,
+                                                             full.sigma_from_residuals)
+    np.testing.assert_allclose(pos.sigma, full.sigma, rtol=1e-13)
+    np.testing.assert_allclose(np.abs(pos.null_space), np.abs(full.null_space), atol=1e-12)
+    assert nf_pos.checks.verdict == nf_full.checks.verdict
+    np.testing.assert_allclose(nf_pos.checks.chi_square, nf_full.checks.chi_square, rtol=1e-10)
+    for k, v in nf_full.components.items():
+        np.testing.assert_allclose(nf_pos.components[k], v, rtol=1e-9)
+
+
+def test_position_design_from_codes_orders_positions_in_time_and_checks_its_input():
+    rows = np.arange(12.0).reshape(4, 3)
+    P = idf.PositionDesign.from_codes(rows, [2, 2, 0, 0, 2, 3], ["a", "b", "c", "d"])
+    assert P.labels == ("c", "a", "d")  # b has no readings
+    np.testing.assert_array_equal(P.index, [0, 0, 1, 1, 0, 2])
+    np.testing.assert_array_equal(P.rows, rows[[2, 0, 3]])
+    assert P.shape == (6, 3)
+    np.testing.assert_array_equal(P @ np.ones(3), rows[[2, 2, 0, 0, 2, 3]].sum(axis=1))
+    with pytest.raises(InputError, match="codes must lie"):
+        idf.PositionDesign.from_codes(rows, [0, 4], ["a", "b", "c", "d"])
+    with pytest.raises(InputError, match="no groups"):
+        idf.solve(P, np.ones(6), groups=np.array(list("abcdef")))
+    with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
+        idf.solve(idf.PositionDesign.from_codes(np.eye(3), [0, 1, 2], "abc"), np.ones(3))
