@@ -75,3 +75,16 @@ def test_position_design_from_codes_orders_positions_in_time_and_checks_its_inpu
         idf.solve(P, np.ones(6), groups=np.array(list("abcdef")))
     with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
         idf.solve(idf.PositionDesign.from_codes(np.eye(3), [0, 1, 2], "abc"), np.ones(3))
+
+
+@pytest.mark.parametrize("n", [1, 10, 1000])
+@pytest.mark.parametrize("block", [1, 7, 65536])
+def test_flicker_second_antidifference_in_blocks_is_the_whole_record_bit_for_bit(n, block):
+    c = idf._flicker_row_covariance(n)
+    step = c[0] / 2 + np.concatenate(([0.0], np.cumsum(c[1:])))
+    phi = np.concatenate(([0.0], np.cumsum(step)))  # Phi(0 .. n + 1) over the whole record
+    lags = np.arange(n + 2)
+    c0, got = idf._flicker_phi(n, lags, block=block)
+    assert c0 == c[0]
+    np.testing.assert_array_equal(got, phi)
+    np.testing.assert_array_equal(idf._flicker_phi(n, lags[::3], block=block)[1], phi[::3])

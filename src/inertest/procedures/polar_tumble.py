@@ -224,6 +224,7 @@ def fit(
         f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=labels,
         noise_model=model, position_index=position,
     )
+    del position  # noise.unit_index holds the positions from here on
     k = DEG_PER_H_TO_RAD_PER_S
     harmonics = {}
     for m in present:
@@ -235,7 +236,11 @@ def fit(
             messages.append(f"no Fourier terms for {exc}")
             warnings.warn(messages[-1], InertestWarning, stacklevel=2)
     closed = _closed_forms(harmonics, site.latitude_rad, site.gravity_g)
-    fitted = drift - lsq.residuals
+    del noise
+    # Per-row results in place (each a new array of n rows otherwise): the same numbers.
+    fitted_deg_h = np.subtract(drift, lsq.residuals)
+    fitted_deg_h /= k
+    drift /= k
     return PolarTumbleResult(
         site_latitude_deg=site.latitude_deg,
         site_gravity_m_s2=site.gravity_m_s2,
@@ -244,8 +249,8 @@ def fit(
         closed_form=closed,
         mounting=mounting,
         angle_deg=angle_deg,
-        drift_deg_h=drift / k,
-        fitted_deg_h=fitted / k,
+        drift_deg_h=drift,
+        fitted_deg_h=fitted_deg_h,
         residual_output=inst.rate_to_output(lsq.residuals),
         output_unit=inst.output_unit,
         messages=tuple(messages),
