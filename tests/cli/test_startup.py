@@ -53,6 +53,25 @@ def test_fit_no_store_loads_neither_the_database_nor_scipy_stats(tmp_path):
         assert name not in loaded
 
 
+def test_fit_no_store_of_a_polar_tumble_csv_loads_neither_pandas_nor_scipy_optimize(tmp_path):
+    # Issue 18: the CSV's columns come from the Arrow buffers (Arrow's to_numpy imports
+    # pandas) and the REML line search is identify's own (no scipy.optimize).
+    example = EXAMPLE.parent / "polar_tumble"
+    data = tmp_path / "data.csv"
+    code = ("from inertest.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert main(['simulate', {str(example / 'plan.toml')!r}, '--truth', "
+            f"{str(example / 'truth.toml')!r}, '-o', {str(data)!r}, '--noise', '0.01']) == 0\n"
+            "for m in [m for m in sys.modules if m.startswith(('pandas', 'scipy.optimize'))]:\n"
+            "    del sys.modules[m]\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    assert main(['fit', {str(example / 'plan.toml')!r}, {str(data)!r}, "
+            "'--no-store', '--json']) == 0")
+    loaded = _loaded_after(code)
+    for name in ("pandas", "scipy.optimize", "scipy.stats", "inertest.store"):
+        assert name not in loaded
+
+
 def test_tail_probabilities_from_scipy_special_equal_scipy_stats():
     """identify's chi-square, F and normal tails without scipy.stats: the same numbers."""
     rng = np.random.default_rng(18)

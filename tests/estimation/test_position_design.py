@@ -88,3 +88,20 @@ def test_flicker_second_antidifference_in_blocks_is_the_whole_record_bit_for_bit
     assert c0 == c[0]
     np.testing.assert_array_equal(got, phi)
     np.testing.assert_array_equal(idf._flicker_phi(n, lags[::3], block=block)[1], phi[::3])
+
+
+def test_bounded_minimum_is_scipy_minimize_scalar_bounded_bit_for_bit():
+    # The REML fit's line search without importing scipy.optimize: same iterates, same numbers.
+    import scipy.optimize
+
+    rng = np.random.default_rng(18)
+    funcs = [lambda x, c=c, d=d: (x - c) ** 2 * (1 + 0.3 * np.sin(d * x)) + 0.1 * np.cos(3 * x)
+             for c, d in rng.normal(size=(40, 2))]
+    funcs += [lambda x: abs(x - 0.3), lambda x: 1.0, lambda x: -x, lambda x: x**4 - x**2]
+    for f in funcs:
+        lo, hi = np.sort(rng.normal(0, 3, 2))
+        for xatol in (1e-3, 1e-8):
+            ref = scipy.optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded",
+                                                 options={"xatol": xatol})
+            x, fx = idf._bounded_minimum(f, lo, hi, xatol=xatol)
+            assert x == float(ref.x) and fx == float(ref.fun)

@@ -691,15 +691,88 @@ class _Reml:
         i = int(np.argmin(vals))
         best_t, best = float(grid[i]), float(vals[i])
         lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
-        import scipy.optimize  # ~0.1 s: only for a fitted AR(1) noise model
-
-        opt = scipy.optimize.minimize_scalar(
-            lambda lt: nll(float(np.exp(lt)))[0], bounds=(lo, hi), method="bounded",
-            options={"xatol": 1e-3})
-        if opt.fun < best:
-            best_t, best = float(np.exp(opt.x)), float(opt.fun)
+        opt_x, opt_fun = _bounded_minimum(lambda lt: nll(float(np.exp(lt)))[0], lo, hi,
+                                          xatol=1e-3)
+        if opt_fun < best:
+            best_t, best = float(np.exp(opt_x)), float(opt_fun)
         zero = nll(0.0)[0]
         return (0.0, zero) if zero <= best else (best_t, best)
+
+
+def _bounded_minimum(
+    func: Callable[[float], float], lo: float, hi: float, *, xatol: float, maxiter: int = 500,
+) -> tuple[float, float]:
+    """Minimum of ``func`` on ``[lo, hi]``: Brent's golden-section search with parabolic steps.
+
+    The algorithm of ``scipy.optimize.minimize_scalar(method="bounded")`` (``fminbound``:
+    Forsythe, Malcolm & Moler, *Computer Methods for Mathematical Computations*, Prentice-Hall
+    1977; Brent, *Algorithms for Minimization Without Derivatives*, 1973), transcribed step for
+    step from SciPy 1.17 (BSD-3-Clause) so that the same iterates give the same numbers (tested)
+    without importing scipy.optimize (~0.1 s of every fit's start-up). Returns ``(x, f(x))``.
+    """
+    sqrt_eps = np.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - np.sqrt(5.0))
+    a, b = lo, hi
+    fulc = a + golden_mean * (b - a)
+    nfc, xf = fulc, fulc
+    rat = e = 0.0
+    x = xf
+    fx = func(x)
+    num = 1
+    ffulc = fnfc = fx
+    xm = 0.5 * (a + b)
+    tol1 = sqrt_eps * np.abs(xf) + xatol / 3.0
+    tol2 = 2.0 * tol1
+    while np.abs(xf - xm) > (tol2 - 0.5 * (b - a)):
+        golden = True
+        if np.abs(e) > tol1:  # try a parabola through the three best points
+            golden = False
+            r = (xf - nfc) * (fx - ffulc)
+            q = (xf - fulc) * (fx - fnfc)
+            p = (xf - fulc) * q - (xf - nfc) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = np.abs(q)
+            r = e
+            e = rat
+            if (np.abs(p) < np.abs(0.5 * q * r)) and (p > q * (a - xf)) and (p < q * (b - xf)):
+                rat = (p + 0.0) / q
+                x = xf + rat
+                if ((x - a) < tol2) or ((b - x) < tol2):
+                    rat = tol1 * (np.sign(xm - xf) + ((xm - xf) == 0))
+            else:
+                golden = True
+        if golden:
+            e = a - xf if xf >= xm else b - xf
+            rat = golden_mean * e
+        x = xf + (np.sign(rat) + (rat == 0)) * np.maximum(np.abs(rat), tol1)
+        fu = func(x)
+        num += 1
+        if fu <= fx:
+            if x >= xf:
+                a = xf
+            else:
+                b = xf
+            fulc, ffulc = nfc, fnfc
+            nfc, fnfc = xf, fx
+            xf, fx = x, fu
+        else:
+            if x < xf:
+                a = x
+            else:
+                b = x
+            if (fu <= fnfc) or (nfc == xf):
+                fulc, ffulc = nfc, fnfc
+                nfc, fnfc = x, fu
+            elif (fu <= ffulc) or (fulc == xf) or (fulc == nfc):
+                fulc, ffulc = x, fu
+        xm = 0.5 * (a + b)
+        tol1 = sqrt_eps * np.abs(xf) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if num >= maxiter:
+            break
+    return float(xf), float(fx)
 
 
 def solve(
