@@ -121,3 +121,55 @@ def test_budget_combined_std_matches_monte_carlo_of_equipment_errors():
         q = budget.quantities[name]
         assert q.type_b > 0.3 * q.type_a          # the test exercises Type B
         assert 0.8 < s / q.combined < 1.25, (name, s, q.combined)
+
+
+#: Earth rate W [deg/h]: 7.2921151467e-5 rad/s x (180/pi) x 3600.
+W_DEG_H = 7.2921151467e-5 * 180.0 / math.pi * 3600.0
+
+
+def test_polar_table_squareness_and_east_west_tilt_sensitivity_closed_form():
+    # O-Np + O-Sp, a zero instrument: a tilt e of the table axis towards east puts the input
+    # axis out of the equatorial plane, I . p = -e (E . I), so I senses -W e (E . I). With the
+    # seed's convention (O-Np: I = E cos(theta) + ..., O-Sp: I = -E cos(theta) + ...) that is
+    # a C1 of -W e (O-Np) and +W e (O-Sp) for a tilt common to both mountings, and -W e in
+    # both for a squareness error (the tilt reverses with the flip for Sp). With
+    # C1 = g cosL (DS +- g sinL DOS) (upper sign Np; g = g/g0 here):
+    #   squareness: DS = (C1N + C1S) / (2 g cosL) = -W e / (g cosL), DOS unchanged;
+    #   east-west:  DOS = (C1N - C1S) / (2 g^2 sinL cosL) = -W e / (g^2 sinL cosL), DS unchanged;
+    # and a meridian tilt (about east) gives S1 = -W e in both: DI = -W e / (g cosL).
+    plan = _plan(mountings=("O-Np", "O-Sp"))
+    result = inertest.fit(plan, inertest.simulate(plan, {}, noise=1e-9, rng=3))
+    e = 20.0   # urad
+    table = Equipment(id="PT-01", type_b=(
+        TypeB("tilt_urad", "tilt", e, "urad", e * 1e-6),
+        TypeB("squareness_urad", "squareness", e, "urad", e * 1e-6)))
+    budget = uncertainty_budget(plan, result, [table])
+    g, lat = plan.site.gravity_m_s2 / 9.80665, plan.site.latitude_rad
+    c = {n: {x.source: x.value for x in budget.quantities[n].contributions}
+         for n in ("DI", "DS", "DOS")}
+    w_e = W_DEG_H * e * 1e-6
+    assert c["DS"]["PT-01 squareness_urad"] == pytest.approx(-w_e / (g * math.cos(lat)),
+                                                             rel=1e-6)
+    assert c["DOS"]["PT-01 squareness_urad"] == pytest.approx(0.0, abs=1e-12)
+    assert c["DOS"]["PT-01 tilt_urad (east-west)"] == pytest.approx(
+        -w_e / (g**2 * math.sin(lat) * math.cos(lat)), rel=1e-6)
+    assert c["DS"]["PT-01 tilt_urad (east-west)"] == pytest.approx(0.0, abs=1e-12)
+    assert c["DI"]["PT-01 tilt_urad (meridian)"] == pytest.approx(-w_e / (g * math.cos(lat)),
+                                                                  rel=1e-6)
+    # the same u in each tilt direction, each its own source
+    assert {"PT-01 tilt_urad (meridian)", "PT-01 tilt_urad (east-west)",
+            "PT-01 squareness_urad"} <= set(budget.sources)
+
+
+def test_known_sigma_has_infinite_type_a_dof_and_k_2():
+    # GUM G.4.1 / table G.1: a given (known) noise std has no degrees of freedom to count:
+    # nu_eff = inf and k = 2 for p = 95.45 %. Estimated from 320 - 9 = 311 residual dof it is
+    # t_95.45(311) > 2.
+    plan = _plan()
+    data = inertest.simulate(plan, TRUTH, noise=0.002, rng=1)
+    known = uncertainty_budget(plan, inertest.fit(plan, data, sigma=0.002)).quantities["DI"]
+    assert math.isinf(known.type_a_dof) and math.isinf(known.effective_dof)
+    assert known.coverage_factor == 2.0
+    assert known.to_dict()["type_a"]["dof"] is None
+    est = uncertainty_budget(plan, inertest.fit(plan, data)).quantities["DI"]
+    assert est.type_a_dof == 16 * 4 * 5 - 9 and est.coverage_factor > 2.0

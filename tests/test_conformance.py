@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 
 import pytest
 
 import inertest
-from inertest.budget import uncertainty_budget
+from inertest.budget import UncertaintyBudget, combine, uncertainty_budget
 from inertest.conformance import SpecError, decide, read_spec, spec_from_mapping, verdicts
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -71,7 +72,8 @@ def test_verdicts_convert_units_and_use_budget_U():
 
 def test_bad_spec_files(tmp_path):
     _, result = _result()
-    with pytest.raises(SpecError, match=r'"DIx" is not in the result \(did you mean "DI"'):
+    with pytest.raises(SpecError,
+                       match=r'"DIx" is not a quantity of polar-tumble \(did you mean "DI"'):
         verdicts(result, spec_from_mapping(_spec(quantity="DIx", max_abs=1.0)))
     with pytest.raises(SpecError, match='"deg/h" but the result gives it in "deg/h/g"'):
         verdicts(result, spec_from_mapping(_spec(unit="deg/h", max_abs=1.0)))
@@ -81,6 +83,8 @@ def test_bad_spec_files(tmp_path):
         spec_from_mapping(_spec(unit="furlong/h", max_abs=1.0))
     with pytest.raises(SpecError, match="decision_rule"):
         spec_from_mapping({**_spec(max_abs=1.0), "spec": {"decision_rule": "lenient"}})
+    with pytest.raises(SpecError, match=r"max_abs must be >= 0, got -1.0$"):
+        spec_from_mapping(_spec(max_abs=-1.0))     # the bound in words, no Python None
     with pytest.raises(SpecError, match="either max_abs or min/max"):
         spec_from_mapping(_spec(max_abs=1.0, max=2.0))
     with pytest.raises(SpecError, match="does not exist"):
@@ -108,3 +112,33 @@ def test_example_specs_fit_their_example_results(spec, plan):
     s = read_spec(EXAMPLES / "specs" / f"{spec}.toml", result)
     c = verdicts(result, s)
     assert all(v.clause.startswith("IEEE Std") for v in c.verdicts)
+
+
+def test_a_model_coefficient_the_test_cannot_separate_is_not_determined():
+    # A polar tumble determines DF only in DF + (g/g0)^2 DII: a limit on DF is "not determined"
+    # (with the reason and the combination), the limit on DI is still judged.
+    _, result = _result()
+    spec = spec_from_mapping({"spec": {"name": "t"}, "limit": [
+        {"quantity": "DF", "max_abs": 2.0, "unit": "deg/h", "clause": "c"},
+        {"quantity": "DI", "max_abs": 1.0, "unit": "deg/h/g", "clause": "c"}]})
+    c = verdicts(result, spec)
+    df, di = c.verdicts
+    assert df.verdict == "not determined" and df.value is None and df.expanded is None
+    assert "not separable" in df.note and "determined instead: DF + 0.99" in df.note
+    assert "DII" in df.note
+    assert di.verdict == "pass"                   # truth DI = 0.85, U ~ 0.005 deg/h/g
+    assert c.overall == "not determined"          # a pass needs every limit judged
+    d = c.to_dict()
+    assert json.loads(json.dumps(d, allow_nan=False))["verdicts"][0]["value"] is None
+
+
+def test_rule_text_states_the_coverage_factor_used():
+    # One quantity with u_A = 1 at 10 dof and no Type B: nu_eff = 10, and GUM table G.2 gives
+    # t_95.45(10) = 2.28: the guarded rule says k = 2.28, not k = 2.
+    _, result = _result()
+    di = result.coefficients["DI"]
+    q = combine("DI", di.value, di.unit, 1.0, 10, ())
+    budget = UncertaintyBudget({"DI": q}, (), (), ())
+    c = verdicts(result, spec_from_mapping(_spec(max_abs=100.0)), budget)
+    assert "guard band w = U (expanded uncertainty, k = 2.28)" in c.rule
+    assert c.verdicts[0].coverage_factor == pytest.approx(2.28, abs=0.005)

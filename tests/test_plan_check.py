@@ -16,7 +16,7 @@ import pytest
 
 from inertest.api import fit, load_plan, simulate
 from inertest.cli import main
-from inertest.conformance import spec_from_mapping
+from inertest.conformance import SpecError, spec_from_mapping, verdicts
 from inertest.errors import InertestWarning
 from inertest.plan_check import NoiseModel, check_plan, predict_std
 from noise_generators import noise as mc_noise
@@ -109,6 +109,16 @@ def test_quantity_the_plan_cannot_determine_is_reported(plan):
     (df,) = out.plan.limits
     assert df.status == "not determined" and "not separable" in df.note
     assert out.suggestion is None and not out.ok
+    # the same wording as a fit's verdict on the same limit
+    fitted = fit(plan, simulate(plan, {"DI": 0.85}, noise=SIGMA, rng=1))
+    assert verdicts(fitted, spec).verdicts[0].note == df.note
+    assert "determined instead: DF + 0.99" in df.note
+    # a name that is no quantity of the procedure at all is an error, with did-you-mean
+    bad = spec_from_mapping({"limit": [{"quantity": "DFF", "max_abs": 0.1, "unit": "deg/h",
+                                        "clause": "c"}]})
+    with pytest.raises(SpecError, match=r'"DFF" is not a quantity of polar-tumble \(did you '
+                                        r'mean "DF"'):
+        check_plan(plan, bad, NoiseModel(sigma=SIGMA, unit="mA"))
 
 
 # --- command line ----------------------------------------------------------------------------
@@ -263,3 +273,30 @@ def test_candidates_are_judged_cheapest_first_and_stop_at_the_suggestion(plan):
     out = check_plan(plan, _spec(0.85 * 3 * 2 * std_di), noise)  # dwell x2 verifies
     assert out.suggestion is not None and out.candidates[-1] is out.suggestion
     assert [c.label.split(" (")[0] for c in out.candidates] == ["dwell x2"]
+
+
+def test_cli_rounds_to_the_uncertainty_and_prints_round_off_as_zero(examples_dir, tmp_path,
+                                                                    capsys):
+    # sigma 0.002 deg/h per reading: DO's predicted std is 1.95e-4 deg/h/g, printed with two
+    # significant digits "0.00020" (GUM 7.2.6), never "0.0002"; the zero nominal instrument
+    # leaves DO and DS without Type B from the table (the tilt's Earth-rate harmonics cancel
+    # between the O and S mountings): round-off of 1e-16 is printed as 0.
+    noise = tmp_path / "noise.toml"
+    noise.write_text('sigma = 0.002\nunit = "deg/h"\n')
+    args = ["plan-check", str(examples_dir / "polar_tumble" / "plan.toml"), "--spec",
+            str(examples_dir / "specs" / "floated_gyro.toml"), "--noise", str(noise)]
+    assert main([*args, "--equipment", str(examples_dir / "lab" / "equipment.toml"),
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    do = next(c for c in doc["plan"]["limits"] if c["quantity"] == "DO")
+    assert 0.000195 <= do["predicted_std_type_a"] < 0.000205
+    assert main([*args, "--equipment", str(examples_dir / "lab" / "equipment.toml")]) == 0
+    out = capsys.readouterr().out
+    row = [c.strip() for c in next(line for line in out.splitlines()
+                                    if "|DO| <= 1" in line).split("│")]
+    assert row[3:5] == ["0.00020 deg/h/g", "0 deg/h/g"]
+    assert "e-1" not in out
+    # without --equipment the plan's ids are not checked: a warning says so
+    assert main(args) == 0
+    err = capsys.readouterr().err
+    assert "RT-02, GRAV-01" in err and "no lab equipment file" in err

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
+import re
 
 import numpy as np
 import yaml
 
+import inertest
 from inertest.cli import main
 from inertest.io.data_file import read_table
 
@@ -48,3 +51,29 @@ def test_readme_noise_examples_on_the_shipped_psins_recording(examples_dir, tmp_
                  "--json"]) == 0
     comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
     assert len(comp) == 12 and {c["verdict"] for c in comp} == {"consistent"}
+
+
+def test_readme_polar_tumble_angle_convention_is_what_simulate_and_fit_use(examples_dir):
+    # README: "in every mounting fI = γ cos L sin θ; O mountings: fS = γ cos L cos θ,
+    # fO = +γ sin L (O-Np)". A gyro with DS = 1 deg/h/g only reads γ cos L at θ = 0 in O-Np and
+    # nothing at θ = 90 deg; one with DI only reads 0 at θ = 0 and γ cos L at θ = 90 deg (the
+    # reverse of an "I up at 0" convention, which swaps DI and DS).
+    readme = (examples_dir.parent / "README.md").read_text(encoding="utf-8")
+    para = " ".join(readme.split("**Polar-tumble angle convention.**")[1].split("\n\n")[0]
+                    .split())
+    assert "at θ = 0 the I axis is horizontal" in para
+    assert "in every mounting fI = γ cos L sin θ" in para
+    assert re.search(r"O mountings: fS = γ cos L cos θ, fO = \+γ sin L \(O-Np\)", para)
+    plan = inertest.load_plan(examples_dir / "polar_tumble" / "plan.toml")
+    lat = math.radians(34.246)                     # the plan's latitude
+    gamma = plan.site.gravity_m_s2 / 9.80665       # g / g0
+    st = 12.5                                      # deg/h per mA, the plan's scale factor
+    for coef, at0, at90 in (("DS", gamma * math.cos(lat), 0.0),
+                            ("DI", 0.0, gamma * math.cos(lat)),
+                            ("DO", gamma * math.sin(lat), gamma * math.sin(lat))):
+        d = inertest.simulate(plan, {coef: 1.0}, noise=0.0, rng=0)
+        m, a, out = (np.asarray(d[k]) for k in ("mounting", "angle_deg", "output"))
+        for angle, want in ((0.0, at0), (90.0, at90)):
+            rows = (m == "O-Np") & np.isclose(a, angle)
+            assert rows.any()
+            np.testing.assert_allclose(out[rows] * st, want, atol=1e-12)

@@ -7,7 +7,10 @@ test equipment named in the plan's ``[test] equipment`` (lab file ``type_b``, se
 5.1.2, uncorrelated input quantities: root sum of squares) and expands the combined standard
 uncertainty with ``k = t_95.45(nu_eff)`` from the Welch-Satterthwaite effective degrees of
 freedom (GUM G.4.1, eq. G.2b; the Type-B inputs taken as exactly known, ``nu = inf``, GUM G.4.3),
-which is k = 2 once the fit has many degrees of freedom (GUM G.6.6).
+which is k = 2 once the fit has many degrees of freedom (GUM G.6.6). A noise level given to the
+fit (``--sigma``) is a known standard deviation, not one estimated from the residuals (GUM G.3.2
+applies the t-distribution to an estimated one): the Type-A part then has ``nu = inf`` too, so
+``nu_eff = inf`` and ``k = 2`` (GUM G.1.3, table G.1: p = 95.45 %).
 
 Propagation through the procedure's own model (GUM 5.1.3, sensitivity coefficient as a
 change of the output estimate per change of an input estimate, evaluated numerically as GUM
@@ -21,7 +24,9 @@ per source is exact to first order.
 Which sources apply to which procedure: each equipment module declares its ``TYPE_B`` sources
 (angle, tilt, rate, radius) and :data:`MACHINES` names the modules each procedure's motion is built
 from; a lab-file key no machine of the procedure accepts is listed as not applicable, never
-silently dropped.
+silently dropped; a source a machine accepts but no listed item states is named in the
+assumptions as not included. A source declared with components (the two directions of a table
+axis' tilt) gets the lab file's standard uncertainty in each component, as independent sources.
 """
 
 from __future__ import annotations
@@ -45,7 +50,7 @@ from inertest.equipment import (
     polar_axis_table,
     rate_table,
 )
-from inertest.equipment.type_b import errors_applied
+from inertest.equipment.type_b import TypeBSource, errors_applied
 from inertest.lab import Equipment
 from inertest.plan import Plan
 from inertest.procedures import procedure_module
@@ -111,8 +116,9 @@ class QuantityBudget:
         The estimate [unit].
     type_a : float
         Standard uncertainty from the fit [unit].
-    type_a_dof : int
-        Its degrees of freedom (the fit's residual dof).
+    type_a_dof : float
+        Its degrees of freedom: the fit's residual dof, ``inf`` when the noise level was given
+        (a known standard deviation).
     contributions : tuple of Contribution
         Type-B contributions.
     combined : float
@@ -130,7 +136,7 @@ class QuantityBudget:
     value: float
     unit: str
     type_a: float
-    type_a_dof: int
+    type_a_dof: float
     contributions: tuple[Contribution, ...]
     combined: float
     effective_dof: float
@@ -146,7 +152,8 @@ class QuantityBudget:
         """JSON form; every number with its unit."""
         return {
             "value": self.value, "unit": self.unit,
-            "type_a": {"std": self.type_a, "dof": self.type_a_dof},
+            "type_a": {"std": self.type_a,
+                       "dof": None if not math.isfinite(self.type_a_dof) else self.type_a_dof},
             "type_b": [c.to_dict() for c in self.contributions],
             "combined_std": self.combined,
             "effective_dof": None if not math.isfinite(self.effective_dof)
@@ -209,10 +216,24 @@ def quantities_of(result: Any) -> dict[str, tuple[float, float, str]]:
 def accepted_sources(kind: str) -> dict[str, str]:
     """``{source name: effect}`` the machines of procedure ``kind`` accept (gravity always)."""
     out = {"gravity": "local gravity: the site's g scaled by (1 + error)"}
+    for name, s in _declared(kind).items():
+        out.setdefault(name, s.effect)
+    return out
+
+
+def _declared(kind: str) -> dict[str, TypeBSource]:
+    """``{source name: declaration}`` of the machines of procedure ``kind`` (first one wins)."""
+    out: dict[str, TypeBSource] = {}
     for module in MACHINES.get(kind, ()):
         for s in module.TYPE_B:
-            out.setdefault(s.name, s.effect)
+            out.setdefault(s.name, s)
     return out
+
+
+#: A lab-file key suggested for a source's SI unit (in the not-included assumption); angles of
+#: an encoder or dividing head in arcsec.
+_KEY_SUFFIX = {"rad": "_urad", "1": "_ppm", "m": "_um"}
+_KEY_SUFFIX_OF = {"angle": "_arcsec"}
 
 
 def uncertainty_budget(
@@ -246,7 +267,12 @@ def uncertainty_budget(
     sources, not_applicable, assumptions = _sources(plan, equipment, accepted)
     quantities = quantities_of(result)
     deltas = _deltas(plan, result, sources) if sources else {}
-    dof = int(result.identification.dof)
+    ident = result.identification
+    # A given noise level is a known standard deviation: no Type-A degrees of freedom to count
+    # (under a white noise model; other models estimate their components from the data).
+    known = (not ident.sigma_from_residuals
+             and getattr(ident, "noise_model", "white") == "white")
+    dof: float = math.inf if known else int(ident.dof)
     out: dict[str, QuantityBudget] = {}
     for name, (value, std, unit) in quantities.items():
         contributions = []
@@ -259,12 +285,16 @@ def uncertainty_budget(
     assumptions.insert(0, "sources independent: combined std = root sum of squares "
                           "(JCGM 100:2008, GUM 5.1.2); each Type-B source one systematic error "
                           "common to the whole test, propagated through the procedure's model")
+    if known:
+        assumptions.append("Type A: the noise level was given (a known standard deviation): "
+                           "infinite degrees of freedom, so nu_eff = inf and k = 2 "
+                           "(GUM G.4.1, table G.1)")
     return UncertaintyBudget(out, tuple(s.label for s in sources), tuple(not_applicable),
                              tuple(assumptions))
 
 
 def combine(
-    name: str, value: float, unit: str, type_a: float, type_a_dof: int,
+    name: str, value: float, unit: str, type_a: float, type_a_dof: float,
     contributions: Sequence[Contribution],
 ) -> QuantityBudget:
     """Combined and expanded uncertainty of one quantity (GUM 5.1.2, G.4.1, G.3.2).
@@ -272,21 +302,26 @@ def combine(
     Parameters
     ----------
     type_a : float
-        Type-A standard uncertainty [unit], with ``type_a_dof`` degrees of freedom.
+        Type-A standard uncertainty [unit], with ``type_a_dof`` degrees of freedom (``inf`` for
+        a known standard deviation).
     contributions : sequence of Contribution
         Type-B contributions, each with infinite degrees of freedom.
     """
     ua = float(type_a) if math.isfinite(type_a) else 0.0
     uc = math.sqrt(ua**2 + sum(c.value**2 for c in contributions))
-    if ua > 0 and type_a_dof > 0:
+    if ua > 0 and math.isinf(type_a_dof):
+        nu = math.inf
+    elif ua > 0 and type_a_dof > 0:
         nu = uc**4 / (ua**4 / type_a_dof)
     elif ua > 0:
         nu = 1.0   # a Type-A std without degrees of freedom: the most cautious t
     else:
         nu = math.inf
-    k = float(stats.t.ppf(0.5 + COVERAGE_PROBABILITY / 2, nu))
+    # nu_eff = inf: the normal distribution, k = 2 for p = 95.45 % (GUM G.1.3, table G.1)
+    k = 2.0 if math.isinf(nu) else float(stats.t.ppf(0.5 + COVERAGE_PROBABILITY / 2, nu))
+    dof = float(type_a_dof) if math.isinf(type_a_dof) else int(type_a_dof)
     return QuantityBudget(name=name, value=float(value), unit=unit, type_a=ua,
-                          type_a_dof=int(type_a_dof), contributions=tuple(contributions),
+                          type_a_dof=dof, contributions=tuple(contributions),
                           combined=uc, effective_dof=float(nu), coverage_factor=k,
                           expanded=k * uc)
 
@@ -297,6 +332,8 @@ def _sources(
     sources: list[_Source] = []
     not_applicable: list[str] = []
     assumptions: list[str] = []
+    declared = _declared(plan.kind)
+    stated: set[str] = set()
     for e in equipment:
         for t in e.type_b:
             label = f"{e.id} {t.key}"
@@ -309,7 +346,17 @@ def _sources(
             if t.name == "gravity" and t.unit not in ("mGal", "ppm"):
                 not_applicable.append(f"{label}: gravity needs _mgal or _ppm")
                 continue
-            sources.append(_Source(label, t.value, t.unit, t.si, t.name, t.unit == "ppm"))
+            stated.add(t.name)
+            if t.name == "gravity":
+                sources.append(_Source(label, t.value, t.unit, t.si, t.name, t.unit == "ppm"))
+                continue
+            for error, component, _ in declared[t.name].error_names():
+                sources.append(_Source(f"{label} ({component})" if component else label,
+                                       t.value, t.unit, t.si, error, False))
+    missing = [f"{n} ({n}{_KEY_SUFFIX_OF.get(n, _KEY_SUFFIX.get(d.si_unit, ''))}: {d.effect})"
+               for n, d in declared.items() if n not in stated]
+    if missing:
+        assumptions.append("not included, no listed equipment states it: " + "; ".join(missing))
     if not any(s.name == "gravity" for s in sources):
         g_normal = float(normal_gravity(plan.site.latitude_rad))
         if abs(plan.site.gravity_m_s2 - g_normal) < 1e-9:

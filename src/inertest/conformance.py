@@ -7,22 +7,29 @@ clause of the standard it comes from, and the decision rule::
     name = "Example spec, navigation-grade floated gyro"
     decision_rule = "guarded"          # or "simple"
     [[limit]]
-    quantity = "DI"                    # a coefficient or combination name of the result
+    quantity = "DI"                    # a coefficient or combination name of the procedure
     max_abs = 0.05                     # or min and/or max
     unit = "deg/h/g"
     clause = "IEEE Std 517-1974"
 
 Decision rules (ILAC-G8:09/2019, sec. 4): ``guarded`` is guarded acceptance with a guard band
-``w = U``, the expanded uncertainty (k = 2), and a non-binary statement: *pass* when the value is
+``w = U``, the expanded uncertainty (its k from the budget's effective degrees of freedom, 2 for
+many), and a non-binary statement: *pass* when the value is
 inside the limit by at least U, *conditional pass* when inside by less than U, *conditional
 fail* when outside by at most U, *fail* when outside by more than U. ``simple`` is simple
 acceptance (w = 0, binary statement): *pass* inside the limit, *fail* outside.
+
+A limit on a coefficient of the procedure's model that the test cannot separate (DF of a polar
+tumble, determined only in ``DF + (g/g0)^2 DII``) gets the verdict *not determined*, with the
+reason and the combination that is determined; the other limits are judged. Only a name that is
+no quantity of the procedure at all is an error.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import re
 import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -33,10 +40,11 @@ from inertest.errors import PlanError, UnitError
 from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
 from inertest.units import compound_unit, convert
 
+#: Decision rules; ``{k}`` is filled with the coverage factor(s) used (:func:`rule_text`).
 DECISION_RULES: dict[str, str] = {
     "guarded": (
         "ILAC-G8:09/2019 guarded acceptance, non-binary statement, guard band w = U (expanded "
-        "uncertainty, k = 2): pass when the value is inside the limit by at least U; conditional "
+        "uncertainty, {k}): pass when the value is inside the limit by at least U; conditional "
         "pass when inside by less than U; conditional fail when outside by at most U; fail when "
         "outside by more than U"),
     "simple": (
@@ -45,8 +53,10 @@ DECISION_RULES: dict[str, str] = {
         "decision)"),
 }
 
-#: Verdicts from best to worst.
-VERDICTS = ("pass", "conditional pass", "conditional fail", "fail")
+#: Verdicts from best to worst; *not determined* (the test cannot separate the quantity) ranks
+#: below any pass, so an overall pass needs every limit judged.
+VERDICTS = ("pass", "conditional pass", "not determined", "conditional fail", "fail")
+NOT_DETERMINED = "not determined"
 
 
 class SpecError(PlanError):
@@ -103,14 +113,30 @@ class Spec:
     limits: tuple[Limit, ...]
     source: str = "spec"
 
-    def check_quantities(self, known: Iterable[str]) -> None:
-        """Every limited quantity must be a quantity of the result (did-you-mean otherwise)."""
+    def check_quantities(self, known: Iterable[str], model: Iterable[str] = (), *,
+                         kind: str = "the result") -> None:
+        """Every limited quantity must be a quantity of the procedure (did-you-mean otherwise).
+
+        Parameters
+        ----------
+        known : iterable of str
+            Quantities the result determines (coefficients and combinations).
+        model : iterable of str
+            Coefficients of the procedure's model, determined or not: a limit on one the test
+            does not determine is judged *not determined*, not an error.
+        kind : str
+            The procedure, for the message.
+        """
         names = list(known)
+        others = [m for m in model if m not in names]
         for lim in self.limits:
-            if lim.quantity not in names:
+            if lim.quantity not in names and lim.quantity not in others:
+                extra = (f"; in its model, not determined separately: {', '.join(others)}"
+                         if others else "")
                 raise SpecError(
-                    f'{self.source}: quantity "{lim.quantity}" is not in the result'
-                    f'{did_you_mean(lim.quantity, names)}; the result has {", ".join(names)}')
+                    f'{self.source}: quantity "{lim.quantity}" is not a quantity of {kind}'
+                    f'{did_you_mean(lim.quantity, names + others)}; it determines '
+                    f'{", ".join(names)}{extra}')
 
 
 @dataclass(frozen=True)
@@ -120,10 +146,10 @@ class Verdict:
     Attributes
     ----------
     quantity, unit : str
-    value : float
-        Estimate [unit] (the result's unit).
-    expanded : float
-        Expanded uncertainty U [unit].
+    value : float or None
+        Estimate [unit] (the result's unit); None when not determined.
+    expanded : float or None
+        Expanded uncertainty U [unit]; None when not determined.
     coverage_factor : float
         The k of U (the budget's Welch-Satterthwaite k, or 2 for the Type A alone).
     u_source : str
@@ -133,24 +159,33 @@ class Verdict:
     clause : str
     verdict : str
         One of :data:`VERDICTS`.
+    coverage_factor : float or None
+        None when not determined.
+    note : str
+        Why a quantity is not determined, and what is (empty otherwise).
     """
 
     quantity: str
-    value: float
+    value: float | None
     unit: str
-    expanded: float
+    expanded: float | None
     u_source: str
     limit: str
     clause: str
     verdict: str
-    coverage_factor: float = 2.0
+    coverage_factor: float | None = 2.0
+    note: str = ""
 
     def to_dict(self) -> dict[str, object]:
         """JSON form."""
-        return {"quantity": self.quantity, "value": self.value, "unit": self.unit,
-                "expanded_uncertainty": self.expanded, "coverage_factor": self.coverage_factor,
-                "uncertainty_source": self.u_source,
-                "limit": self.limit, "clause": self.clause, "verdict": self.verdict}
+        out: dict[str, object] = {
+            "quantity": self.quantity, "value": self.value, "unit": self.unit,
+            "expanded_uncertainty": self.expanded, "coverage_factor": self.coverage_factor,
+            "uncertainty_source": self.u_source,
+            "limit": self.limit, "clause": self.clause, "verdict": self.verdict}
+        if self.note:
+            out["note"] = self.note
+        return out
 
 
 @dataclass(frozen=True)
@@ -286,7 +321,49 @@ def decide(value: float, expanded: float, *, lower: float | None = None,
         worst = max(worst, v)
     if rule == "simple":
         return "pass" if worst == 0 else "fail"
-    return VERDICTS[worst]
+    return ("pass", "conditional pass", "conditional fail", "fail")[worst]
+
+
+def model_names(result: Any) -> list[str]:
+    """Coefficients of the result's model, determined or not (``identification.names``)."""
+    ident = getattr(result, "identification", None)
+    return [str(n) for n in getattr(ident, "names", ())]
+
+
+def not_determined_note(result: Any, name: str) -> str:
+    """Why model coefficient ``name`` is not determined by ``result``, and what is instead.
+
+    The identification's ``not_separable`` statement naming it, and the determined
+    combinations it enters (``DF + 0.997972*DII``).
+    """
+    ident = getattr(result, "identification", None)
+    word = re.compile(rf"(?<![A-Za-z0-9_]){re.escape(name)}(?![A-Za-z0-9_])")
+    why = next((str(s) for s in getattr(ident, "not_separable", ()) if word.search(str(s))),
+               "the test's positions do not separate it")
+    combos = [c.name for c in getattr(result, "combinations", ())
+              if c.terms.get(name, 0.0) != 0.0]
+    out = f"{name} is not determined by this test: {why}"
+    if combos:
+        out += f"; determined instead: {', '.join(combos)}"
+    return out
+
+
+def rule_text(rule: str, coverage_factors: Iterable[float | None] = ()) -> str:
+    """The decision rule in words, with the coverage factor(s) actually used.
+
+    ``k = 2.01`` when every verdict used one k (to two decimals), ``k = 2.00 to 2.01, each
+    quantity's from its effective degrees of freedom`` otherwise, ``k = 2`` with none.
+    """
+    ks = sorted({round(float(k), 2) for k in coverage_factors
+                 if k is not None and math.isfinite(k)})
+    if not ks:
+        k = "k = 2"
+    elif len(ks) == 1:
+        k = f"k = {ks[0]:.2f}"
+    else:
+        k = (f"k = {ks[0]:.2f} to {ks[-1]:.2f}, each quantity's from its effective degrees of "
+             "freedom")
+    return DECISION_RULES[rule].replace("{k}", k)
 
 
 def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -> Conformance:
@@ -303,12 +380,20 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
     Raises
     ------
     SpecError
-        A quantity not in the result, or a limit unit that cannot express the result's unit.
+        A quantity that is no quantity of the procedure, or a limit unit that cannot express the
+        result's unit. A coefficient of the model the test does not determine gets the verdict
+        *not determined* (:func:`not_determined_note`).
     """
     q = quantities_of(result)
-    spec.check_quantities(q)
+    spec.check_quantities(q, model_names(result), kind=getattr(result, "kind", "the result"))
     out = []
     for lim in spec.limits:
+        if lim.quantity not in q:
+            out.append(Verdict(quantity=lim.quantity, value=None, unit=lim.unit, expanded=None,
+                               u_source="-", limit=lim.text(), clause=lim.clause,
+                               verdict=NOT_DETERMINED, coverage_factor=None,
+                               note=not_determined_note(result, lim.quantity)))
+            continue
         value, std, unit = q[lim.quantity]
         if budget is not None and lim.quantity in budget.quantities:
             b = budget.quantities[lim.quantity]
@@ -332,4 +417,5 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
                            u_source=src, limit=lim.text(), clause=lim.clause, verdict=verdict,
                            coverage_factor=k))
     return Conformance(spec_name=spec.name, decision_rule=spec.decision_rule,
-                       rule=DECISION_RULES[spec.decision_rule], verdicts=tuple(out))
+                       rule=rule_text(spec.decision_rule, (v.coverage_factor for v in out)),
+                       verdicts=tuple(out))

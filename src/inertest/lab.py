@@ -253,6 +253,13 @@ def overdue_messages(equipment: Sequence[Equipment], test_date: _dt.date) -> lis
             for e in equipment if e.overdue(test_date)]
 
 
+def unchecked_equipment_message(ids: Iterable[str]) -> str:
+    """The warning for a plan naming equipment when no lab file was given."""
+    return (f"the plan names equipment {', '.join(ids)} but no lab equipment file was given: "
+            "the ids and calibration due dates are not checked and no equipment Type-B "
+            "contribution is included in the uncertainty (give --equipment LAB.toml)")
+
+
 def identity_block(
     conditions: TestConditions | None,
     *,

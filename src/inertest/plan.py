@@ -278,7 +278,13 @@ def _read_field(v: Any, f: Field, where: str, error: type[InertestError]) -> Any
     if f.positive and x <= 0:
         raise error(f"{where}: {f.name} must be positive{unit}, got {v!r}")
     if f.minimum is not None and x < f.minimum or f.maximum is not None and x > f.maximum:
-        raise error(f"{where}: {f.name} must lie in [{f.minimum}, {f.maximum}]{unit}, got {v!r}")
+        if f.maximum is None:
+            bound = f"be >= {f.minimum:g}"
+        elif f.minimum is None:
+            bound = f"be <= {f.maximum:g}"
+        else:
+            bound = f"lie in [{f.minimum}, {f.maximum}]"
+        raise error(f"{where}: {f.name} must {bound}{unit}, got {v!r}")
     return v if f.kind == "integer" else x
 
 

@@ -83,7 +83,7 @@ from typing import Any
 import numpy as np
 
 from inertest.budget import quantities_of, uncertainty_budget
-from inertest.conformance import Spec
+from inertest.conformance import Spec, model_names, not_determined_note
 from inertest.errors import InertestError, PlanError, UnitError
 from inertest.lab import Equipment
 from inertest.plan import Plan, did_you_mean
@@ -590,20 +590,16 @@ def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
     std, method, nominal, n = predict_std(plan, noise, truth=truth, n_mc=n_mc, rng=rng,
                                           rel_error=rel_error)
     budget = uncertainty_budget(plan, nominal, equipment)
-    names = set(std)
-    model_names = set(nominal.identification.names)
+    # the same rule and wording as a fit's verdicts: a model coefficient the plan does not
+    # determine is "not determined", a name that is no quantity of the procedure an error
+    spec.check_quantities(list(std), model_names(nominal), kind=plan.kind)
     checks = []
     for lim in spec.limits:
         tol = _tolerance(lim)
-        if lim.quantity not in names:
-            if lim.quantity not in model_names:
-                raise PlanError(f'{spec.source}: quantity "{lim.quantity}" is neither determined '
-                                f"by {plan.kind} nor a coefficient of its model"
-                                f"{did_you_mean(lim.quantity, sorted(names | model_names))}")
-            why = next((s for s in nominal.identification.not_separable
-                        if lim.quantity in s), "not identifiable by this plan")
+        if lim.quantity not in std:
             checks.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol,
-                                     None, None, None, "not determined", why))
+                                     None, None, None, "not determined",
+                                     not_determined_note(nominal, lim.quantity)))
             continue
         s_a, unit = std[lim.quantity]
         b = budget.quantities.get(lim.quantity)

@@ -39,6 +39,7 @@ from inertest.lab import (
     overdue_messages,
     read_equipment,
     select_equipment,
+    unchecked_equipment_message,
 )
 from inertest.plan import Plan, did_you_mean
 from inertest.results import with_blocks
@@ -75,8 +76,10 @@ class RunOutcome:
     report : Path or None
         The report's ``index.html``.
     warnings : tuple of str
-        Warnings raised while fitting, and overdue equipment calibrations (also shown by the
-        command line).
+        Warnings raised while fitting, and the filing's own (also shown by the command line).
+    notices : tuple of str
+        The filing's own warnings, also in the envelope's ``messages``: overdue equipment
+        calibrations, equipment named without a lab file.
     test : dict or None
         The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
         equipment with calibration status, environment, software version, data SHA-256.
@@ -98,13 +101,25 @@ class RunOutcome:
     test: dict[str, Any] | None = None
     budget: UncertaintyBudget | None = None
     conformance: Conformance | None = None
+    notices: tuple[str, ...] = field(default=())
 
     def to_dict(self) -> dict[str, object]:
         """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
-        return with_blocks(
+        return _with_notices(with_blocks(
             self.result.to_dict(), test=self.test,
             uncertainty_budget=None if self.budget is None else self.budget.to_dict(),
-            conformance=None if self.conformance is None else self.conformance.to_dict())
+            conformance=None if self.conformance is None else self.conformance.to_dict()),
+            self.notices)
+
+
+def _with_notices(doc: dict[str, object], notices: Sequence[str]) -> dict[str, object]:
+    """``doc`` with ``notices`` appended to its ``messages`` (each once)."""
+    if not notices:
+        return doc
+    found = doc.get("messages")
+    messages = [str(m) for m in found] if isinstance(found, list) else []
+    doc["messages"] = messages + [m for m in notices if m not in messages]
+    return doc
 
 
 def run(
@@ -206,14 +221,16 @@ def judge(plan: Plan, result: Any, equipment: Sequence[Equipment], spec: Spec | 
     Raises
     ------
     SpecError
-        A limited quantity the result does not have, or a limit unit that cannot express it;
-        raised before anything is written.
+        A limited quantity that is no quantity of the procedure (one of its model the test
+        does not determine is judged "not determined"), or a limit unit that cannot express
+        it; raised before anything is written.
     """
     from inertest.budget import uncertainty_budget
-    from inertest.conformance import verdicts
+    from inertest.conformance import model_names, verdicts
 
     if spec is not None:  # a misnamed quantity fails before the budget's simulations
-        spec.check_quantities(_quantity_names(result))
+        spec.check_quantities(_quantity_names(result), model_names(result),
+                              kind=getattr(result, "kind", "the result"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the budget's noise-free refits warn about nothing real
         budget = uncertainty_budget(plan, result, equipment)
@@ -279,11 +296,14 @@ def file_run(
                           data_sha256=data_sha256, plan_source=plan_source,
                           lab_source=lab_source)
     used = [lab[i] for i in plan.test.equipment] if lab is not None and plan.test else []
-    warnings_ = [*warnings_, *overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))]
-    envelope_doc = with_blocks(
+    notices = overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))
+    if lab is None and plan.test is not None and plan.test.equipment:
+        notices.append(unchecked_equipment_message(plan.test.equipment))
+    warnings_ = [*warnings_, *notices]
+    envelope_doc = _with_notices(with_blocks(
         result.to_dict(), test=test,
         uncertainty_budget=None if budget is None else budget.to_dict(),
-        conformance=None if conformance is None else conformance.to_dict())
+        conformance=None if conformance is None else conformance.to_dict()), notices)
     own_store = store is True or isinstance(store, str)
     db: HistoryStore | None
     if store is False or store is None:
@@ -344,7 +364,8 @@ def file_run(
             result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
             stored_run=None if record is None else record.run_uuid,
             database=None if db is None else db.display_url, report=report_path,
-            warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance)
+            warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance,
+            notices=tuple(notices))
     finally:
         if db is not None and own_store:
             db.close()

@@ -34,6 +34,9 @@ def verdict_summary(conformance: Mapping[str, object] | None) -> str:
     worst = [v for v in verdicts if v.get("verdict") == overall]
     if not worst:
         return overall
+    if overall == "not determined":
+        names = ", ".join(str(v.get("quantity")) for v in worst)
+        return f"not determined: {names} ({len(worst)} of {n} limits not determined by the test)"
     w = max(worst, key=_excess)  # the furthest outside (or least inside) its limit
     value = w.get("value")
     shown = f"{value:.3g}" if isinstance(value, float | int) else str(value)

@@ -8,6 +8,7 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import echo_json, print_table
+from inertest.report.rounding import format_number, round_to_uncertainty
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -57,7 +58,7 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
     from inertest.api import load_plan
     from inertest.conformance import read_spec
     from inertest.io.plan_file import load_truth
-    from inertest.lab import read_equipment, select_equipment
+    from inertest.lab import read_equipment, select_equipment, unchecked_equipment_message
     from inertest.plan_check import NominalTruthError, check_plan, read_noise
 
     p = load_plan(plan)
@@ -79,6 +80,9 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
         out = check_plan(p, spec, noise, truth=load_truth(beside),
                          nominal=f"the truth file {beside} beside the plan (the procedure "
                          "needs a scale factor; --truth FILE to give another)", **kw)
+    if equipment is None and p.test is not None and p.test.equipment:
+        click.echo(f"warning: {safe_line(unchecked_equipment_message(p.test.equipment))}",
+                   err=True)
     if as_json:
         echo_json(out.to_dict())
     else:
@@ -87,8 +91,24 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
         raise SystemExit(EXIT_NOT_VERIFIABLE)
 
 
+#: A Type B below this fraction of its row's combined std is round-off of the noise-free
+#: simulations (a zero nominal instrument gives 1e-16); it cannot change U in a printed digit.
+_TYPE_B_ROUND_OFF = 1e-9
+
+
 def _u(x: float | None, unit: str) -> str:
-    return "-" if x is None else f"{x:.2g} {unit}"
+    """A standard or expanded uncertainty to two significant digits (GUM 7.2.6)."""
+    return "-" if x is None else f"{round_to_uncertainty(x, x)[1]} {unit}"
+
+
+def _type_b(c) -> str:  # noqa: ANN001 - LimitCheck
+    """The Type-B std of a row, round-off relative to the row's combined std printed as 0."""
+    if c.type_b is None:
+        return "-"
+    uc = (c.std_a**2 + c.type_b**2) ** 0.5 if c.std_a is not None else c.type_b
+    if c.type_b < _TYPE_B_ROUND_OFF * uc or c.type_b == 0:
+        return f"0 {c.unit}"
+    return f"{format_number(c.type_b, digits=2)} {c.unit}"
 
 
 def _print(out) -> None:  # noqa: ANN001 - PlanCheck
@@ -102,14 +122,14 @@ def _print(out) -> None:  # noqa: ANN001 - PlanCheck
     click.echo(safe_line(f"prediction: {out.plan.method}"))
     header = ["quantity", "limit", "predicted std (Type A)", "Type B", "U (k = 2)",
               "U / tolerance", "status"]
-    rows = [[c.quantity, c.limit, _u(c.std_a, c.unit), _u(c.type_b, c.unit),
+    rows = [[c.quantity, c.limit, _u(c.std_a, c.unit), _type_b(c),
              _u(c.expanded, c.unit),
              "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}", c.status]
             for c in out.plan.limits]
     print_table(f"plan as written ({out.plan.readings} readings)", header, rows)
     for c in out.plan.limits:
         if c.status == "not determined":
-            click.echo(safe_line(f"not determined: {c.quantity}: {c.note}"))
+            click.echo(safe_line(f"not determined: {c.note}"))
     click.echo(safe_line(f"rule: {out.rule}"))
     if out.ok:
         click.echo("the plan can verify every limit")

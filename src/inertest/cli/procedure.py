@@ -113,6 +113,7 @@ def print_conformance(doc: Mapping[str, object]) -> None:
         VERDICT_HEADER,
         budget_notes,
         budget_table,
+        verdict_notes,
         verdict_rows,
     )
 
@@ -124,6 +125,8 @@ def print_conformance(doc: Mapping[str, object]) -> None:
     if isinstance(conf, Mapping):
         print_table(f"verdicts against {conf.get('spec')} (overall: {conf.get('overall')})",
                     VERDICT_HEADER, verdict_rows(conf))
+        for n in verdict_notes(conf):
+            click.echo(safe_line(n))
         click.echo(safe_line(f"decision rule: {conf.get('rule')}"))
 
 

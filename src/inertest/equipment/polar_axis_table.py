@@ -28,16 +28,33 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu, polar_axis_enu, specific_force_enu
 from inertest.equipment.motion import StaticPositions, per_run
-from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
+from inertest.equipment.type_b import (
+    TypeBSource,
+    axis_tilt_rotation,
+    component_error,
+    current_error,
+    tilt_rotation,
+)
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD, G0
 
 MOUNTINGS: tuple[str, ...] = ("O-Np", "O-Sp", "S-Np", "S-Sp")
 
 #: Type-B errors the table accepts (:mod:`inertest.equipment.type_b`), applied by :func:`motion`.
+#: ``tilt`` is the table axis' direction error, in both directions independently (the lab file's
+#: value applies to each); ``squareness`` the table axis out of square with the trunnion the table
+#: is flipped about for the Sp mountings, an east-west tilt that reverses with the flip. The
+#: input axis then leaves the equatorial plane and senses the Earth rate: an error ``e`` [rad]
+#: adds ``W e`` times a unit harmonic of theta to the drift (15.04 deg/h x 20 urad = 3.0e-4 deg/h).
 TYPE_B: tuple[TypeBSource, ...] = (
     TypeBSource("angle", "rad", "encoder zero error: added to every table angle"),
-    TypeBSource("tilt", "rad", "polar-axis alignment: the table tilted about east"),
+    TypeBSource("tilt", "rad", "polar-axis alignment: the table axis tilted", components=(
+        ("meridian", "the table axis tilted in the meridian plane (about east)"),
+        ("east-west", "the table axis tilted towards east, the same for every mounting"),
+    )),
+    TypeBSource("squareness", "rad", "table axis out of square with the trunnion: the table "
+                "axis tilted towards east for the Np mountings and towards west for the Sp "
+                "mountings (the table flipped over the trunnion)"),
 )
 
 
@@ -155,10 +172,16 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
     """
     angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
     # Type-B errors (zero unless applied): the labels stay the nominal angles.
-    offset, tilt = current_error("angle"), tilt_rotation(current_error("tilt"))
+    offset = current_error("angle")
+    p, east = polar_axis_enu(site.latitude_rad), np.array([1.0, 0.0, 0.0])
+    common = tilt_rotation(current_error(component_error("tilt", "meridian"))) @ \
+        axis_tilt_rotation(current_error(component_error("tilt", "east-west")), p, east)
+    square = current_error("squareness")
     attitudes: dict[str, NDArray[np.float64]] = {}
     for m in np.atleast_1d(np.asarray(mountings).astype(str)):
         axes = instrument_axes_enu(str(m), angles * DEG_TO_RAD + offset, site.latitude_rad)
+        flip = -1.0 if str(m).endswith("Sp") else 1.0
+        tilt = common @ axis_tilt_rotation(flip * square, p, east)
         for label, rows in zip(position_labels(m, angles), axes, strict=True):
             attitudes[str(label)] = tilt @ rows.T
     return StaticPositions(attitudes, site)

@@ -39,11 +39,28 @@ class TypeBSource:
         Unit of the error inside the library (``"rad"``, ``"1"``, ``"m"``).
     effect : str
         How the machine's motion applies it, in plain language.
+    components : tuple of (str, str)
+        When one lab-file value applies to several independent directions (the two tilt
+        directions of a table axis): ``(component, effect)`` pairs. The budget applies the
+        lab file's standard uncertainty to each component on its own, under the error name
+        ``"<name>.<component>"`` (:func:`component_error`); empty for a single error.
     """
 
     name: str
     si_unit: str
     effect: str
+    components: tuple[tuple[str, str], ...] = ()
+
+    def error_names(self) -> tuple[tuple[str, str, str], ...]:
+        """``(error name, component, effect)`` per applied error: the name itself when single."""
+        if not self.components:
+            return ((self.name, "", self.effect),)
+        return tuple((component_error(self.name, c), c, e) for c, e in self.components)
+
+
+def component_error(name: str, component: str) -> str:
+    """Error name of one component of a source: ``"tilt.east-west"``."""
+    return f"{name}.{component}"
 
 
 _ERRORS: ContextVar[Mapping[str, float] | None] = ContextVar("inertest_equipment_errors",
@@ -91,3 +108,20 @@ def tilt_rotation(
     if axis_enu is not None and abs(float(np.dot(axis_enu, east))) > 0.9:
         about = north
     return Rotation.from_rotvec(tilt_rad * about).as_matrix()
+
+
+def axis_tilt_rotation(tilt_rad: float, axis_enu: NDArray[np.float64],
+                       towards_enu: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation (3, 3) in ENU turning the unit ``axis_enu`` by ``tilt_rad`` towards ``towards_enu``.
+
+    Parameters
+    ----------
+    tilt_rad : float
+        Tilt [rad].
+    axis_enu, towards_enu : ndarray, shape (3,)
+        The machine's axis and a direction perpendicular to it (e.g. east for a polar axis);
+        the rotation is about ``axis x towards``, so ``axis`` moves by ``tilt_rad * towards``
+        to first order.
+    """
+    about = np.cross(axis_enu, towards_enu)
+    return Rotation.from_rotvec(tilt_rad * about / np.linalg.norm(about)).as_matrix()

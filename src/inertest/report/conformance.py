@@ -19,8 +19,10 @@ from inertest.report.rounding import format_number, round_to_uncertainty
 VERDICT_HEADER = ["quantity", "value ± U (k)", "limit", "clause", "verdict"]
 
 
-def _value_pm(value: float, expanded: float, unit: str, k: float | None) -> str:
-    v, u = round_to_uncertainty(float(value), float(expanded))
+def _value_pm(value: float | None, expanded: float | None, unit: str, k: float | None) -> str:
+    if value is None:   # not determined by the test
+        return "-"
+    v, u = round_to_uncertainty(float(value), None if expanded is None else float(expanded))
     kk = "" if k is None else f" (k = {float(k):.2f})"
     return f"{v} ± {u} {unit}{kk}" if u and u != "0" else f"{v} {unit}{kk}"
 
@@ -34,6 +36,12 @@ def verdict_rows(conformance: Mapping[str, Any]) -> list[list[str]]:
                                v.get("coverage_factor")),
                      str(v["limit"]), str(v["clause"]), str(v["verdict"])])
     return rows
+
+
+def verdict_notes(conformance: Mapping[str, Any]) -> list[str]:
+    """The note of each verdict that has one (why a quantity is not determined)."""
+    return [f"{v['verdict']}: {v['note']}" for v in conformance.get("verdicts") or []
+            if v.get("note")]
 
 
 def budget_table(budget: Mapping[str, Any]) -> tuple[list[str], list[list[str]]]:
@@ -62,7 +70,7 @@ def budget_table(budget: Mapping[str, Any]) -> tuple[list[str], list[list[str]]]
         scale = max([abs(x) for x in contrib.values()] + [uc, 0.0])
         rows.append([
             name, unit, value,
-            f"{format_number(float(ta.get('std', 0.0)), digits=2)} ({ta.get('dof', '-')})",
+            f"{format_number(float(ta.get('std', 0.0)), digits=2)} ({_dof(ta)})",
             *(format_number(contrib[s], scale=scale, digits=2) if s in contrib else "-"
               for s, _ in sources),
             round_to_uncertainty(uc, uc)[1],
@@ -70,6 +78,13 @@ def budget_table(budget: Mapping[str, Any]) -> tuple[list[str], list[list[str]]]
             round_to_uncertainty(big_u, big_u)[1],
         ])
     return header, rows
+
+
+def _dof(type_a: Mapping[str, Any]) -> str:
+    """Type-A degrees of freedom as printed: ``None`` in the JSON is a known std, infinite."""
+    if "dof" not in type_a:
+        return "-"
+    return "∞" if type_a["dof"] is None else str(type_a["dof"])
 
 
 def budget_notes(budget: Mapping[str, Any]) -> list[str]:
@@ -98,6 +113,8 @@ def conformance_sections(
             VERDICT_HEADER, verdict_rows(conf), left_columns=1,
             caption=f"Verdicts against {conf.get('spec', 'the specification')} "
                     f"(overall: {conf.get('overall', '-')})"))
+        for n in verdict_notes(conf):
+            sec.parts.append(paragraph(n, note=True))
         sec.parts.append(paragraph(f"Decision rule: {conf.get('rule', '')}.", note=True))
     if budget:
         header, rows = budget_table(budget)
@@ -110,4 +127,4 @@ def conformance_sections(
 
 
 __all__ = ["VERDICT_HEADER", "budget_notes", "budget_table", "conformance_sections",
-           "verdict_rows"]
+           "verdict_notes", "verdict_rows"]
