@@ -184,8 +184,10 @@ def fit(
     Notes
     -----
     Angle convention: ``angle_deg`` is the table angle theta of the seed's figures, the same
-    encoder reading for every mounting, theta = 0 with the gyro's I axis pointing to the local
-    upward side of the equatorial plane (specific force on I = +gamma cos L). Flipping the
+    encoder reading for every mounting: at theta = 0 the gyro's I axis is horizontal and the
+    other in-plane axis (S for the O mountings, O for the S mountings) at its highest; theta
+    grows as I rises, so ``fI = gamma cos L sin(theta)`` and, in the O mountings,
+    ``fS = gamma cos L cos(theta)`` (:mod:`inertest.equipment.polar_axis_table`). Flipping the
     table over its trunnion for the Sp mountings must not re-zero the encoder differently: an
     Sp angle read 180 deg off reverses S1 and C1 of that mounting. With all four mountings the
     O and S pairs then disagree and the model checks warn; with only one pair (O-Np + O-Sp)
