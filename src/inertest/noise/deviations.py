@@ -14,9 +14,13 @@ Conventions
 
 Records larger than memory: pass a read-only ``np.memmap`` or any 1-D array-like that supports
 ``len()`` and slicing (such as :class:`inertest.io.raw_samples.SampleFile`); the phase is then
-rebuilt chunk by chunk from checkpoints of the running sum and never held whole, with the same
-result as in memory (to rounding). An ``np.ndarray`` stays in memory at any size (its phase
-costs 8 bytes per sample more) unless ``stream=True``.
+built chunk by chunk and never held whole, with the same result as in memory (to rounding).
+Every tau of every statistic but TOTDEV, and the noise-type sums, come from one pass that reads
+and integrates each chunk once; memory is bounded by ``(2 + L)`` chunks of float64 phase,
+``L`` the number of distinct lags longer than a chunk (at most ``_MAX_CURSORS`` per pass; on the
+octave grid ``L <= 3 log2(N / CHUNK)``): about 90 MB of buffers for octave OADEV at 2e8
+samples, 150 MB for every statistic. TOTDEV reads its windows per tau. An ``np.ndarray`` stays
+in memory at any size (its phase costs 8 bytes per sample more) unless ``stream=True``.
 """
 
 from __future__ import annotations
@@ -194,16 +198,23 @@ class _RatePhase(_Phase):
         self.tau0 = tau0
         self.mean = mean
         self.chunk = CHUNK
-        # cum[k] = sum_{i<k} (y_i - mean), sequentially accumulated: checkpoints every CHUNK.
-        ck = [0.0]
-        c = 0.0
-        buf = np.empty(CHUNK + 1)
-        from inertest.noise import kernels  # numba: loaded on first use
-        for i in range(0, self.n, CHUNK):
-            blk = np.ascontiguousarray(y[i : i + CHUNK], dtype=np.float64)  # type: ignore[index]
-            c = kernels.integrate(blk, mean, c, tau0, buf[: blk.size + 1])
-            ck.append(c)
-        self.checkpoints = np.asarray(ck)
+        self._checkpoints: NDArray | None = None
+
+    @property
+    def checkpoints(self) -> NDArray:
+        """``cum[k CHUNK]``, ``cum[k] = sum_{i<k} (y_i - mean)`` summed in order (first use)."""
+        if self._checkpoints is None:
+            ck = [0.0]
+            c = 0.0
+            buf = np.empty(CHUNK + 1)
+            from inertest.noise import kernels  # numba: loaded on first use
+            for i in range(0, self.n, CHUNK):
+                blk = np.ascontiguousarray(self.y[i : i + CHUNK],  # type: ignore[index]
+                                           dtype=np.float64)
+                c = kernels.integrate(blk, self.mean, c, self.tau0, buf[: blk.size + 1])
+                ck.append(c)
+            self._checkpoints = np.asarray(ck)
+        return self._checkpoints
 
     def read(self, start: int, stop: int) -> NDArray:
         start = max(0, start)
@@ -458,6 +469,160 @@ def _decimated(src: _Phase, m: int, count: int):  # noqa: ANN202 - generator of 
         yield src.read(a * m, (b - 1) * m + 1)[::m].copy()  # do not keep the chunk alive
 
 
+
+# --------------------------------------------------------------------------- one streamed pass
+# Streaming evaluates every tau of every statistic in one pass over the record. Each term is
+# indexed by the largest phase index p it reads; its other points lie at lags 0 < L <= 3m
+# behind p. The pass integrates each chunk of phase once (the running sum carried in sample
+# order, so the points are the digits of the in-memory phase) and keeps the last CHUNK points
+# as a tail: lags up to one chunk are views of that buffer. Each longer lag L gets its own
+# cursor, a second integrator running L points behind, shared by every tau that needs that lag
+# (on the octave grid the lags 2m of one tau and m of the next coincide). Memory: the buffer
+# (2 chunks) plus one chunk per long lag, at most _MAX_CURSORS per pass (more taus, more passes).
+
+#: Long lags (more than one chunk) served per pass; each costs one chunk of memory.
+_MAX_CURSORS = 24
+
+
+class _Cursor:
+    """Phase points ``x[p], x[p+1], ...`` produced in order from ``p = 0`` (one integrator)."""
+
+    def __init__(self, src: _Phase) -> None:
+        self.src = src
+        self.pos = 0
+        self.c = 0.0
+        self.buf = np.empty(0)
+
+    def next(self, count: int, out: NDArray | None = None) -> NDArray:
+        """The next ``count`` points (in ``out[:count]`` when given; ``out`` one longer)."""
+        src = self.src
+        p, q = self.pos, self.pos + count
+        self.pos = q
+        if not isinstance(src, _RatePhase):
+            x = src.read(p, q)
+            if out is None:
+                return x
+            out[:count] = x
+            return out[:count]
+        from inertest.noise import kernels  # numba: loaded on first use
+
+        if out is None:
+            if self.buf.size < count + 1:
+                self.buf = np.empty(count + 1)
+            out = self.buf
+        blk = np.ascontiguousarray(src.y[p : min(q, src.n)], dtype=np.float64)  # type: ignore[index]
+        self.c = kernels.integrate(blk, src.mean, self.c, src.tau0, out[: blk.size + 1])
+        return out[:count]
+
+
+def _lags(statistic: str, m: int) -> tuple[int, ...]:
+    """Lags of the points of one term behind its last point, oldest first."""
+    if statistic in ("oadev", "adev"):
+        return (2 * m, m, 0)
+    return (3 * m, 2 * m, m, 0)
+
+
+def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[int, int],
+                 points: dict[int, int], tick: Callable[[int], None]
+                 ) -> tuple[dict[tuple[str, int], float], dict[int, NDArray],
+                            dict[int, NDArray]]:
+    """Sums of squares of ``requests`` (statistic, m) and noise-type data in one pass.
+
+    ``orders[m]``: lag-1 sums of the decimated phase ``x[0], x[m], ...`` and its differences
+    (that many rows, see ``kernels.lag1_update``) are wanted; ``points[m]``: the decimated
+    phase itself (``count + 1`` points, for the B1 ratio). TOTDEV is not handled here.
+    """
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    chunk = CHUNK
+    nx = src.size
+    long_lags = sorted({lag for s, m in requests for lag in _lags(s, m) if lag > chunk})
+    if len(long_lags) > _MAX_CURSORS:  # bounded memory: split the taus into several passes
+        head: list[tuple[str, int]] = []
+        seen: set[int] = set()
+        rest: list[tuple[str, int]] = []
+        for s, m in sorted(requests, key=lambda r: r[1]):
+            new = {lag for lag in _lags(s, m) if lag > chunk} - seen
+            if rest or (head and len(seen) + len(new) > _MAX_CURSORS):
+                rest.append((s, m))
+            else:
+                head.append((s, m))
+                seen |= new
+        sums, states, pts = _stream_pass(src, head, orders, points, tick)
+        more, _, _ = _stream_pass(src, rest, {}, {}, tick)
+        sums.update(more)
+        return sums, states, pts
+    cursors = {lag: _Cursor(src) for lag in long_lags}
+    main = _Cursor(src)
+    buf = np.zeros(2 * chunk + 1)  # buf[chunk + p - p0] = x[p] for p0 - chunk <= p < p1
+    sums = {r: 0.0 for r in requests}
+    windows = {r: 0.0 for r in requests if r[0] in ("mdev", "tdev")}  # s_j of modified Allan
+    states = {m: np.zeros((k, kernels.LAG1_FIELDS)) for m, k in orders.items()}
+    counts = {m: (nx - 1) // m for m in set(orders) | set(points)}
+    pts: dict[int, list[NDArray]] = {m: [] for m in points}
+    work = sum(_work(s, m, nx) for s, m in requests)
+    for p0 in range(0, nx, chunk):
+        p1 = min(nx, p0 + chunk)
+        main.next(p1 - p0, buf[chunk:])
+        seg = {lag: c.next(p1 - max(p0, lag)) for lag, c in cursors.items() if p1 > lag}
+
+        def win(lag: int, a: int, b: int, p0: int = p0, seg: dict = seg) -> NDArray:
+            """``x[a - lag : b - lag]`` for positions ``p0 <= a <= b <= p1``."""
+            if lag <= chunk:
+                return buf[chunk + a - lag - p0 : chunk + b - lag - p0]
+            base = max(p0, lag)
+            return seg[lag][a - base : b - base]
+
+        for r in requests:
+            s, m = r
+            lags = _lags(s, m)
+            first = lags[0]  # position of the first term
+            if s in ("oadev", "ohdev"):
+                a, b = max(p0, first), min(p1, nx)
+                if b > a:
+                    w = [win(lag, a, b) for lag in lags]
+                    if s == "oadev":
+                        sums[r] += kernels.sum_second_diff(w[0], w[1], w[2], 1)
+                    else:
+                        sums[r] += kernels.sum_third_diff(w[0], w[1], w[2], w[3], 1)
+            elif s in ("adev", "hdev"):
+                n = _terms(s, m, nx)
+                a = max(p0, first)
+                a += (-a) % m  # terms at multiples of m
+                b = min(p1, first + (n - 1) * m + 1)
+                if b > a:
+                    w = [win(lag, a, b) for lag in lags]
+                    if s == "adev":
+                        sums[r] += kernels.sum_second_diff(w[0], w[1], w[2], m)
+                    else:
+                        sums[r] += kernels.sum_third_diff(w[0], w[1], w[2], w[3], m)
+            else:  # modified Allan: window sum s_0 over p in [2m, 3m), then the recursion
+                a, b = max(p0, 2 * m), min(p1, 3 * m)
+                if b > a:
+                    windows[r] += kernels.second_diff_sum(win(2 * m, a, b), win(m, a, b),
+                                                          win(0, a, b))
+                a, b = max(p0, first), min(p1, nx)
+                if b > a:
+                    w = [win(lag, a, b) for lag in lags]
+                    acc, windows[r] = kernels.sum_modified(w[0], w[1], w[2], w[3], windows[r],
+                                                           b - a)
+                    sums[r] += acc
+        x = buf[chunk : chunk + p1 - p0]
+        for m, count in counts.items():
+            a = p0 + (-p0) % m
+            b = min(p1, count * m + 1)
+            if b > a:
+                if m in states:
+                    kernels.lag1_extend(np.ascontiguousarray(x[a - p0 : b - p0 : m]), states[m])
+                if m in pts:
+                    pts[m].append(x[a - p0 : b - p0 : m].copy())
+        buf[:chunk] = buf[chunk : 2 * chunk]
+        tick(work * p1 // nx - work * p0 // nx)
+    for r in windows:  # the last term of the modified Allan sum
+        sums[r] += windows[r] * windows[r]
+    return sums, states, {m: np.concatenate(v) for m, v in pts.items()}
+
+
 def _family(statistic: str) -> str:
     return "hadamard" if statistic in ("hdev", "ohdev") else "allan"
 
@@ -467,14 +632,17 @@ _NO_TYPE = 99
 
 
 def _noise_type(src: _Phase, m: int, family: str,
-                sums: dict[tuple[str, int], float] | None = None) -> int | None:
+                sums: dict[tuple[str, int], float] | None = None,
+                state: NDArray | None = None, points: NDArray | None = None) -> int | None:
     """Noise type alpha at tau = m tau0 from the whole record (SP 1065 5.6).
 
     At least :data:`MIN_ACF_AVERAGES` averages: lag-1 autocorrelation of the decimated phase
     and its differences (Riley & Greenhall 2004; dmax 2 for the Allan family, 3 for Hadamard).
     Fewer: B1 ratio of the frequency averages, with R(n) = MVAR/AVAR between white and flicker
     phase noise (Stable32's method for short series). None when fewer than 3 averages.
-    ``sums`` caches the OADEV and MDEV sums of squares by (statistic, m) (in memory).
+    ``sums`` caches the OADEV and MDEV sums of squares by (statistic, m). A streamed record
+    passes what its one pass gathered: ``state``, the lag-1 sums (at least ``dmax + 1`` rows),
+    or ``points``, the decimated phase; in memory ``state`` may hold rows 0-1 already summed.
     """
     from inertest.noise import kernels  # numba: loaded on first use
 
@@ -483,7 +651,16 @@ def _noise_type(src: _Phase, m: int, family: str,
     mem = isinstance(src, _MemoryPhase)
     if count >= MIN_ACF_AVERAGES:
         if mem:
-            state = kernels.lag1_state_of(src.x, m, count, dmax + 1)
+            # orders 0 and 1 first: for most noise types the decision falls there
+            rows = kernels.lag1_first_two(src.x, m, count) if state is None else state
+            r1 = [r1_of_state(row) for row in rows]
+            if all(_delta(r) >= 0.25 for r in r1):
+                state = kernels.lag1_sums(src.x, m, count, dmax + 1)
+                r1 += [r1_of_state(row) for row in state[2:]]
+            return alpha_from_lag1(r1 + [0.0] * (dmax + 1 - len(r1)), phase=True,
+                                   alpha_min=alpha_min)
+        if state is not None:
+            state = state[: dmax + 1]
         else:
             acc = Lag1(dmax)
             for blk in _decimated(src, m, count):
@@ -497,7 +674,7 @@ def _noise_type(src: _Phase, m: int, family: str,
         var, avar = kernels.b1_stats(src.x, m, count)
         alpha = b1_decide(var, avar, count, alpha_min=alpha_min)
     else:
-        xs = np.concatenate(list(_decimated(src, m, count)))
+        xs = points if points is not None else np.concatenate(list(_decimated(src, m, count)))
         alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min)
     if alpha == 1:  # phase noise: R(n) tells white from flicker
         mm = min(m, src.size // 3)
@@ -512,8 +689,11 @@ def _noise_type(src: _Phase, m: int, family: str,
                                                               False)[0])
             s_mod, s_oa = cache["mdev", mm], cache["oadev", mm]
         else:
-            s_mod = _sum_squares(src, "mdev", mm, n_mod, _no_tick)
-            s_oa = _sum_squares(src, "oadev", mm, n_oa, _no_tick)
+            cache = {} if sums is None else sums
+            need = [(k, mm) for k in ("mdev", "oadev") if (k, mm) not in cache]
+            if need:
+                cache.update(_stream_pass(src, need, {}, {}, _no_tick)[0])
+            s_mod, s_oa = cache["mdev", mm], cache["oadev", mm]
         mvar = _variance("mdev", s_mod, mm, n_mod, 1.0)
         avar_n = _variance("oadev", s_oa, mm, n_oa, 1.0)
         if avar_n > 0:
@@ -522,6 +702,11 @@ def _noise_type(src: _Phase, m: int, family: str,
             else:
                 alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min, rn=mvar / avar_n, m=mm)
     return alpha
+
+
+def _delta(r1: float) -> float:
+    """Riley & Greenhall's ``delta = r1 / (1 + r1)`` (as :func:`alpha_from_lag1` forms it)."""
+    return r1 / (1.0 + r1) if r1 > -1.0 else -1.0
 
 
 def _no_tick(k: int) -> None:
@@ -570,10 +755,18 @@ def _alpha_and_edf(statistic: str, alpha: NDArray, ms: NDArray, ns: NDArray,
     return alpha, edf
 
 
-def _memory_sums(x: NDArray, statistic: str, ms: NDArray, ns: NDArray) -> NDArray:
-    """Sums of squares of one statistic at every tau of a phase record held in memory."""
+def _memory_sums(x: NDArray, statistic: str, ms: NDArray, ns: NDArray,
+                 rows: dict[int, NDArray]) -> NDArray:
+    """Sums of squares of one statistic at every tau of a phase record held in memory.
+
+    HDEV also leaves the noise-type rows 0-1 of each m in ``rows`` (same decimated series).
+    """
     from inertest.noise import kernels  # numba: loaded on first use
 
+    if statistic == "hdev":
+        ssq, r = kernels.hadamard_decimated(x, ms, ns)
+        rows.update({int(m): r[k] for k, m in enumerate(ms)})
+        return ssq
     if statistic in ("adev", "oadev"):
         return kernels.allan_sums(x, ms, ns, statistic == "adev")
     if statistic in ("hdev", "ohdev"):
@@ -642,6 +835,22 @@ def deviations(
 
     alpha_cache: dict[tuple[int, str], int | None] = {}
     sums: dict[tuple[str, int], float] = {}  # OADEV, MDEV sums by m, reused for R(n)
+    states: dict[int, NDArray] = {}
+    points: dict[int, NDArray] = {}
+    if not isinstance(src, _MemoryPhase):
+        # every tau of every statistic (but TOTDEV) and the noise-type data in one pass
+        reqs = sorted({("mdev" if s == "tdev" else s, int(m))
+                       for s in stats if s != "totdev" for m in grids[s]})
+        orders: dict[int, int] = {}
+        wanted: dict[int, int] = {}
+        for s in stats:
+            for m in (int(v) for v in grids[s]):
+                count = (nx - 1) // m
+                if count >= MIN_ACF_AVERAGES:
+                    orders[m] = max(orders.get(m, 0), 4 if _family(s) == "hadamard" else 3)
+                elif count >= 3:
+                    wanted[m] = count
+        sums, states, points = _stream_pass(src, reqs, orders, wanted, tick)
     out: dict[str, DeviationResult] = {}
     for s in stats:
         ms = np.asarray(grids[s], dtype=np.int64)
@@ -653,24 +862,37 @@ def deviations(
             i = 0
             while i < ms.size:
                 j, w = i, 0
-                while j < ms.size and (j == i or w < _GROUP_WORK):
+                while j < ms.size and (j - i < 3 or w < _GROUP_WORK):  # 3: octave passes
                     w += _work(s, int(ms[j]), nx)
                     j += 1
-                ssq[i:j] = _memory_sums(src.x, s, ms[i:j], ns[i:j])
+                ssq[i:j] = _memory_sums(src.x, s, ms[i:j], ns[i:j], states)
                 tick(w)
                 i = j
             if s in ("oadev", "mdev", "tdev"):
                 kind = "oadev" if s == "oadev" else "mdev"
                 sums.update({(kind, int(m)): float(v) for m, v in zip(ms, ssq, strict=True)})
-        else:
+        elif s == "totdev":
             for i, m in enumerate(int(v) for v in ms):
                 ssq[i] = _sum_squares(src, s, m, int(ns[i]), tick)
+        else:
+            kind = "mdev" if s == "tdev" else s
+            ssq[:] = [sums[kind, int(m)] for m in ms]
         var = _variances(s, ssq, ms, ns, src.tau0)
+        if isinstance(src, _MemoryPhase):  # noise-type rows 0-1 of every new m in one call
+            new = np.array([m for m in ms if int(m) not in states
+                            and (nx - 1) // m >= MIN_ACF_AVERAGES
+                            and (int(m), _family(s)) not in alpha_cache], dtype=np.int64)
+            if new.size:
+                from inertest.noise import kernels  # numba: loaded on first use
+
+                rows = kernels.lag1_rows_many(src.x, new)
+                states.update({int(m): rows[k] for k, m in enumerate(new)})
         alph = np.empty(ms.size, dtype=np.int64)
         for i, m in enumerate(int(v) for v in ms):
             key = (m, _family(s))
             if key not in alpha_cache:
-                alpha_cache[key] = _noise_type(src, m, key[1], sums)
+                alpha_cache[key] = _noise_type(src, m, key[1], sums, states.get(m),
+                                               points.get(m))
             a = alpha_cache[key]
             alph[i] = _NO_TYPE if a is None else a
         alph, edf = _alpha_and_edf(s, alph, ms, ns, nx)
@@ -685,6 +907,8 @@ def deviations(
             confidence=confidence, rate_hz=1.0 / src.tau0, data_type=data_type, name=_NAMES[s],
             n_samples=nx - 1,
         )
+    if done[0] < work:  # streamed MDEV and TDEV share one sum
+        tick(work - done[0])
     return out
 
 

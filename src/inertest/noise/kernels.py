@@ -1,8 +1,11 @@
 """Fused numba kernels: sums of squared phase differences, one pass, no temporaries.
 
-Each kernel receives *windows* of the phase record (views of one array in memory, or buffers
-read from a file by :mod:`inertest.noise.streaming`), so the in-memory and the streaming paths
-run the same arithmetic in the same order and give the same result.
+Each kernel receives *windows* of the phase record (views of one array in memory, or chunk
+buffers of the one-pass streaming engine in :mod:`inertest.noise.deviations`); both paths form
+every difference with the same expression, so they agree to round-off in the order of the sums
+(NIST SP 1065 eqs. 7-25). The whole-record kernels trade a fixed summation order for SIMD lanes,
+cache tiles and shared loads (several octaves per pass, four interleaved modified-Allan
+recursions, tiled lag-1 sums); tests hold them to the sequential sums within 1e-12.
 """
 
 from __future__ import annotations
@@ -117,35 +120,112 @@ def sum_modified(
 # reflected phase by index instead of building two reflected copies of the record per tau.
 
 
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _ssq2_octave(x0: NDArray, x1: NDArray, x2: NDArray, x4: NDArray,
+                 x8: NDArray) -> tuple[float, float, float]:
+    """:func:`_ssq2` at m, 2m and 4m in one pass (windows at lags 0, m, 2m, 4m, 8m).
+
+    The three sums share their loads (``x[i]``, ``x[i+2m]``, ``x[i+4m]``), which is what
+    bounds :func:`_ssq2`; each difference is the same expression as there.
+    """
+    a = 0.0
+    b = 0.0
+    c = 0.0
+    for i in range(x0.shape[0]):
+        u0 = x0[i]
+        u2 = x2[i]
+        u4 = x4[i]
+        d = u2 - 2.0 * x1[i] + u0
+        e = u4 - 2.0 * u2 + u0
+        f = x8[i] - 2.0 * u4 + u0
+        a += d * d
+        b += e * e
+        c += f * f
+    return a, b, c
+
+
+#: Terms per tile of :func:`allan_sums`: the windows of the short taus stay in L2 between them.
+_ALLAN_TILE = 1 << 16
+
+
 @numba.njit(cache=True, nogil=True)
 def allan_sums(x: NDArray, ms: NDArray, terms: NDArray, strided: bool) -> NDArray:
     """Sums of squared second differences of ``x`` at each averaging factor ``ms[k]``.
 
     ``terms[k]`` differences ``x[i+2m] - 2 x[i+m] + x[i]`` for ``i = 0, 1, ...`` (overlapping
     Allan, SP 1065 eq. 11) or ``i = 0, m, 2m, ...`` (``strided``: non-overlapping, eq. 7).
+    Overlapping sums at three successive octaves (m, 2m, 4m) are taken in one pass over the
+    terms they share, then each over its own remaining terms; every tau is summed tile by
+    tile of terms, so that the record is read from the cache rather than from memory.
     """
-    out = np.empty(ms.size)
-    for k in range(ms.size):
-        m = ms[k]
-        if strided:
+    out = np.zeros(ms.size)
+    if strided:
+        for k in range(ms.size):
+            m = ms[k]
             span = (terms[k] - 1) * m + 1
             out[k] = sum_second_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span], m)
+        return out
+    # groups: (first index, size 1 or 3, terms summed together)
+    first = np.empty(ms.size, dtype=np.int64)
+    size = np.empty(ms.size, dtype=np.int64)
+    common = np.empty(ms.size, dtype=np.int64)
+    g = 0
+    k = 0
+    while k < ms.size:
+        m = ms[k]
+        first[g] = k
+        if k + 2 < ms.size and ms[k + 1] == 2 * m and ms[k + 2] == 4 * m:
+            size[g] = 3
+            common[g] = min(terms[k], terms[k + 1], terms[k + 2])
         else:
-            n = terms[k]
-            out[k] = _ssq2(x[:n], x[m : m + n], x[2 * m : 2 * m + n])
+            size[g] = 1
+            common[g] = terms[k]
+        k += size[g]
+        g += 1
+    longest = 0
+    for j in range(g):
+        longest = max(longest, common[j])
+    tile = _ALLAN_TILE
+    for a in range(0, longest, tile):
+        for j in range(g):
+            b = min(a + tile, common[j])
+            if b <= a:
+                continue
+            k = first[j]
+            m = ms[k]
+            if size[j] == 3:
+                p, q, r = _ssq2_octave(x[a:b], x[a + m : b + m], x[a + 2 * m : b + 2 * m],
+                                       x[a + 4 * m : b + 4 * m], x[a + 8 * m : b + 8 * m])
+                out[k] += p
+                out[k + 1] += q
+                out[k + 2] += r
+            else:
+                out[k] += _ssq2(x[a:b], x[a + m : b + m], x[a + 2 * m : b + 2 * m])
+    for j in range(g):  # the terms of the shorter taus of a group beyond their common ones
+        if size[j] == 3:
+            n = common[j]
+            for k in range(first[j], first[j] + 3):
+                mk = ms[k]
+                nk = terms[k]
+                if nk > n:
+                    out[k] += _ssq2(x[n:nk], x[n + mk : nk + mk], x[n + 2 * mk : nk + 2 * mk])
     return out
 
 
 @numba.njit(cache=True, nogil=True)
 def hadamard_sums(x: NDArray, ms: NDArray, terms: NDArray, strided: bool) -> NDArray:
-    """Sums of squared third differences (Hadamard, SP 1065 eqs. 17-18), as :func:`allan_sums`."""
+    """Sums of squared third differences (Hadamard, SP 1065 eqs. 17-18), as :func:`allan_sums`.
+
+    Non-overlapping sums (``strided``) run over a contiguous copy of ``x[0], x[m], ...``.
+    """
     out = np.empty(ms.size)
     for k in range(ms.size):
         m = ms[k]
-        if strided:
-            span = (terms[k] - 1) * m + 1
-            out[k] = sum_third_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span],
-                                    x[3 * m : 3 * m + span], m)
+        if strided and m > 1:  # gathered tile by tile: SIMD sums
+            out[k] = _lag1_two_strided(x, m, terms[k] + 2, np.zeros((2, LAG1_FIELDS)), True)
+        elif strided:
+            n = terms[k]
+            out[k] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
         else:
             n = terms[k]
             out[k] = _ssq3(x[:n], x[m : m + n], x[2 * m : 2 * m + n], x[3 * m : 3 * m + n])
@@ -153,19 +233,134 @@ def hadamard_sums(x: NDArray, ms: NDArray, terms: NDArray, strided: bool) -> NDA
 
 
 @numba.njit(cache=True, nogil=True)
-def modified_sums(x: NDArray, ms: NDArray, terms: NDArray) -> NDArray:
-    """Sums of squared window sums of second differences (modified Allan, SP 1065 eq. 14).
+def _modified_window(x: NDArray, m: int, j: int) -> float:
+    """``s_j = sum_{i=j}^{j+m-1} (x[i+2m] - 2 x[i+m] + x[i])``, summed in order."""
+    s = 0.0
+    for i in range(j, j + m):
+        s += x[i + 2 * m] - 2.0 * x[i + m] + x[i]
+    return s
 
-    The same recursion as :func:`sum_modified`, over the whole record at once.
+
+@numba.njit(cache=True, nogil=True)
+def _modified_steps(x: NDArray, m: int, j: int, count: int, out: NDArray) -> None:
+    """``out[k] = d[j+k+m] - d[j+k]`` for ``k < count``: steps of the window sum (SIMD)."""
+    x0 = x[j : j + count]
+    x1 = x[j + m : j + m + count]
+    x2 = x[j + 2 * m : j + 2 * m + count]
+    x3 = x[j + 3 * m : j + 3 * m + count]
+    for k in range(count):
+        out[k] = (x3[k] - 2.0 * x2[k] + x1[k]) - (x2[k] - 2.0 * x1[k] + x0[k])
+
+
+#: Terms per tile of :func:`_modified_one` (four lanes of steps stay in L1).
+_MOD_TILE = 1024
+
+
+@numba.njit(cache=True, nogil=True)
+def _modified_one(x: NDArray, m: int, n: int) -> float:
+    """Sum of ``s_j**2`` for ``j < n`` (modified Allan, SP 1065 eq. 14) in four lanes.
+
+    The terms are cut into four runs; each starts from its window sum ``s_j`` summed directly
+    and follows ``s_{j+1} = s_j + (d[j+m] - d[j])`` (``d`` the second differences, the same
+    expression as :func:`sum_modified`). The steps of a tile are formed in SIMD lanes; the four
+    recursions then run interleaved, so their additions overlap in the pipeline. Restarting
+    every quarter bounds the round-off the recursion carries.
+    """
+    if n < 64:  # too short for four runs
+        acc, s = sum_modified(x[: n - 1], x[m : m + n - 1], x[2 * m : 2 * m + n - 1],
+                              x[3 * m : 3 * m + n - 1], _modified_window(x, m, 0), n - 1)
+        return acc + s * s
+    q = n // 4
+    j0, j1, j2, j3 = 0, q, 2 * q, 3 * q
+    s0 = _modified_window(x, m, j0)
+    s1 = _modified_window(x, m, j1)
+    s2 = _modified_window(x, m, j2)
+    s3 = _modified_window(x, m, j3)
+    a0 = a1 = a2 = a3 = 0.0
+    tile = _MOD_TILE
+    b0 = np.empty(tile)
+    b1 = np.empty(tile)
+    b2 = np.empty(tile)
+    b3 = np.empty(tile)
+    for k0 in range(0, q - 1, tile):
+        cnt = min(tile, q - 1 - k0)
+        _modified_steps(x, m, j0 + k0, cnt, b0)
+        _modified_steps(x, m, j1 + k0, cnt, b1)
+        _modified_steps(x, m, j2 + k0, cnt, b2)
+        _modified_steps(x, m, j3 + k0, cnt, b3)
+        for k in range(cnt):
+            a0 += s0 * s0
+            a1 += s1 * s1
+            a2 += s2 * s2
+            a3 += s3 * s3
+            s0 += b0[k]
+            s1 += b1[k]
+            s2 += b2[k]
+            s3 += b3[k]
+    a0 += s0 * s0
+    a1 += s1 * s1
+    a2 += s2 * s2
+    m2, m3 = 2 * m, 3 * m
+    for i in range(j3 + q - 1, n):  # the last run takes the remainder
+        a3 += s3 * s3
+        if i < n - 1:
+            s3 += ((x[i + m3] - 2.0 * x[i + m2] + x[i + m])
+                   - (x[i + m2] - 2.0 * x[i + m] + x[i]))
+    return (a0 + a1) + (a2 + a3)
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _sumsq(b: NDArray, n: int) -> float:
+    """Sum of ``b[k]**2`` for ``k < n`` (SIMD lanes)."""
+    s = 0.0
+    for k in range(n):
+        s += b[k] * b[k]
+    return s
+
+
+@numba.njit(cache=True, nogil=True)
+def lag1_rows_many(x: NDArray, ms: NDArray) -> NDArray:
+    """:func:`lag1_first_two` at every ``ms[k]``, shape (ms.size, 2, LAG1_FIELDS)."""
+    rows = np.zeros((ms.size, 2, LAG1_FIELDS))
+    nx = x.shape[0]
+    for k in range(ms.size):
+        count = (nx - 1) // ms[k]
+        if count >= 2:
+            rows[k] = lag1_first_two(x, ms[k], count)
+    return rows
+
+
+@numba.njit(cache=True, nogil=True)
+def hadamard_decimated(x: NDArray, ms: NDArray, terms: NDArray) -> tuple[NDArray, NDArray]:
+    """Non-overlapping Hadamard sums and the noise-type rows 0-1 of each ``m``, in one pass.
+
+    The terms of HDEV at ``m`` are the third differences of ``x[0], x[m], ..., x[count m]``,
+    the very series whose lag-1 sums identify the noise type (``count = terms + 2``): one
+    pass over it gives :func:`hadamard_sums` (``strided``) and :func:`lag1_first_two`.
+    Returns the sums and the (ms.size, 2, LAG1_FIELDS) rows.
     """
     out = np.empty(ms.size)
+    rows = np.zeros((ms.size, 2, LAG1_FIELDS))
     for k in range(ms.size):
         m = ms[k]
         n = terms[k]
-        s = second_diff_sum(x[:m], x[m : 2 * m], x[2 * m : 3 * m])
-        acc, s = sum_modified(x[: n - 1], x[m : m + n - 1], x[2 * m : 2 * m + n - 1],
-                              x[3 * m : 3 * m + n - 1], s, n)
-        out[k] = acc
+        if m > 1:
+            out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
+        else:
+            out[k] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
+            _lag1_two(x[: n + 3], rows[k])
+    return out, rows
+
+
+@numba.njit(cache=True, nogil=True)
+def modified_sums(x: NDArray, ms: NDArray, terms: NDArray) -> NDArray:
+    """Sums of squared window sums of second differences (modified Allan, SP 1065 eq. 14).
+
+    The recursion of :func:`sum_modified` over the whole record, in four interleaved runs.
+    """
+    out = np.empty(ms.size)
+    for k in range(ms.size):
+        out[k] = _modified_one(x, ms[k], terms[k])
     return out
 
 
@@ -322,10 +517,253 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
 
 
 @numba.njit(cache=True, nogil=True)
+def lag1_extend(z: NDArray, state: NDArray) -> None:
+    """:func:`lag1_update` with the sums of each tile in SIMD lanes (streamed records).
+
+    The differences are formed by the same subtractions, carried across blocks by the last
+    raw value of each order; only the order of the additions differs (round-off).
+    """
+    orders = state.shape[0]
+    i = 0
+    nz = z.shape[0]
+    while i < nz and state[orders - 1, 0] == 0.0:
+        _lag1_step(z[i], state)
+        i += 1
+    if i >= nz:
+        return
+    tile = _LAG1_TILE
+    buf = np.empty((orders, tile))
+    for t0 in range(i, nz, tile):
+        cnt = min(tile, nz - t0)
+        for k in range(cnt):
+            buf[0, k] = z[t0 + k]
+        for d in range(1, orders):
+            buf[d, 0] = buf[d - 1, 0] - state[d - 1, 7]
+            for k in range(1, cnt):
+                buf[d, k] = buf[d - 1, k] - buf[d - 1, k - 1]
+        for d in range(orders):
+            row = state[d]
+            sh = row[1]
+            s1, s2, s11 = _moments(buf[d], cnt, sh)
+            row[0] += cnt
+            row[2] += s1
+            row[3] += s2
+            row[4] += s11 + row[6] * (buf[d, 0] - sh)
+            row[6] = buf[d, cnt - 1] - sh
+            row[7] = buf[d, cnt - 1]
+
+
+@numba.njit(cache=True, nogil=True)
 def lag1_state_of(x: NDArray, m: int, count: int, orders: int) -> NDArray:
     """Lag-1 sums of ``x[0], x[m], ..., x[count m]`` and its differences (whole record)."""
     state = np.zeros((orders, LAG1_FIELDS))
     lag1_update(x[: count * m + 1 : m], state)
+    return state
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _moments(b: NDArray, n: int, shift: float) -> tuple[float, float, float]:
+    """Sums of ``v``, ``v**2`` over ``k < n`` and of ``v_k v_{k+1}`` over ``k < n - 1``."""
+    s1 = 0.0
+    s2 = 0.0
+    s11 = 0.0
+    for k in range(n - 1):
+        v = b[k] - shift
+        s1 += v
+        s2 += v * v
+        s11 += v * (b[k + 1] - shift)
+    if n > 0:
+        v = b[n - 1] - shift
+        s1 += v
+        s2 += v * v
+    return s1, s2, s11
+
+
+#: Decimated points per tile of :func:`lag1_sums` (the tile and its differences stay in L1).
+_LAG1_TILE = 2048
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _lag1_two(a: NDArray, state: NDArray) -> None:
+    """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass."""
+    npts = a.shape[0]
+    sh0 = a[0]
+    sh1 = a[1] - a[0]
+    p1 = p2 = p11 = q1 = q2 = q11 = 0.0
+    for k in range(npts - 2):
+        u0 = a[k]
+        u1 = a[k + 1]
+        u2 = a[k + 2]
+        v = u0 - sh0
+        p1 += v
+        p2 += v * v
+        p11 += v * (u1 - sh0)
+        w = (u1 - u0) - sh1
+        q1 += w
+        q2 += w * w
+        q11 += w * ((u2 - u1) - sh1)
+    u0 = a[npts - 2]
+    u1 = a[npts - 1]
+    v = u0 - sh0
+    p1 += v
+    p2 += v * v
+    v1 = u1 - sh0
+    p11 += v * v1
+    p1 += v1
+    p2 += v1 * v1
+    w = (u1 - u0) - sh1
+    q1 += w
+    q2 += w * w
+    state[0, 0] = npts
+    state[0, 1] = sh0
+    state[0, 2] = p1
+    state[0, 3] = p2
+    state[0, 4] = p11
+    state[0, 6] = v1
+    state[0, 7] = u1
+    state[1, 0] = npts - 1
+    state[1, 1] = sh1
+    state[1, 2] = q1
+    state[1, 3] = q2
+    state[1, 4] = q11
+    state[1, 6] = w
+    state[1, 7] = u1 - u0
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, sh1: float,
+                 acc: NDArray) -> None:
+    """Add rows 0-1 sums of the points ``a`` to ``acc`` (p1, p2, p11, q1, q2, q11).
+
+    Row 0: ``v = a[k] - sh0`` for ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] -
+    a[k]) - sh1`` for ``k < n1``, pairs for ``k < n1p`` (the subtractions of :func:`_lag1_two`).
+    """
+    p1 = p2 = p11 = q1 = q2 = q11 = 0.0
+    for k in range(n0):
+        v = a[k] - sh0
+        p1 += v
+        p2 += v * v
+    for k in range(n0p):
+        p11 += (a[k] - sh0) * (a[k + 1] - sh0)
+    for k in range(n1):
+        w = (a[k + 1] - a[k]) - sh1
+        q1 += w
+        q2 += w * w
+    for k in range(n1p):
+        q11 += ((a[k + 1] - a[k]) - sh1) * ((a[k + 2] - a[k + 1]) - sh1)
+    acc[0] += p1
+    acc[1] += p2
+    acc[2] += p11
+    acc[3] += q1
+    acc[4] += q2
+    acc[5] += q11
+
+
+@numba.njit(cache=True, nogil=True)
+def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
+                      ssq3: bool) -> float:
+    """Rows 0-1 of ``x[0], x[m], ..., x[count m]`` by tiles gathered into a small buffer.
+
+    No copy of the decimated series is made (a fresh array of N/2 points costs more in page
+    faults than the sums). With ``ssq3``, also returns the sum of its squared third
+    differences (non-overlapping Hadamard, the expression of :func:`sum_third_diff`).
+    """
+    npts = count + 1
+    tile = _LAG1_TILE
+    buf = np.empty(tile + 3)
+    d3 = np.empty(tile)
+    acc = np.zeros(6)
+    sh0 = x[0]
+    sh1 = x[m] - x[0]
+    h = 0.0
+    for t0 in range(0, npts, tile):
+        w = min(tile + 3, npts - t0)
+        for k in range(w):
+            buf[k] = x[(t0 + k) * m]
+        cnt = min(tile, npts - t0)
+        _two_moments(buf, cnt, min(cnt, npts - 1 - t0), min(cnt, npts - 1 - t0),
+                     min(cnt, npts - 2 - t0), sh0, sh1, acc)
+        if ssq3:
+            c3 = min(tile, npts - 3 - t0)
+            if c3 > 0:
+                for k in range(c3):
+                    d3[k] = buf[k + 3] - 3.0 * buf[k + 2] + 3.0 * buf[k + 1] - buf[k]
+                h += _sumsq(d3, c3)
+    last = x[count * m]
+    prev = x[(count - 1) * m]
+    state[0, 0] = npts
+    state[0, 1] = sh0
+    state[0, 2] = acc[0]
+    state[0, 3] = acc[1]
+    state[0, 4] = acc[2]
+    state[0, 6] = last - sh0
+    state[0, 7] = last
+    state[1, 0] = npts - 1
+    state[1, 1] = sh1
+    state[1, 2] = acc[3]
+    state[1, 3] = acc[4]
+    state[1, 4] = acc[5]
+    state[1, 6] = (last - prev) - sh1
+    state[1, 7] = last - prev
+    return h
+
+
+@numba.njit(cache=True, nogil=True)
+def lag1_first_two(x: NDArray, m: int, count: int) -> NDArray:
+    """Rows 0 and 1 of :func:`lag1_sums` (the decimated phase and its first difference).
+
+    One fused SIMD pass over ``x[0], x[m], ..., x[count m]`` (``count >= 2``); most noise
+    types are decided on these two rows (Riley & Greenhall 2004).
+    """
+    state = np.zeros((2, LAG1_FIELDS))
+    if m == 1:
+        _lag1_two(x[: count + 1], state)  # contiguous: SIMD loads
+    else:
+        _lag1_two_strided(x, m, count, state, False)
+    return state
+
+
+@numba.njit(cache=True, nogil=True)
+def lag1_sums(x: NDArray, m: int, count: int, orders: int) -> NDArray:
+    """Lag-1 sums of ``x[0], x[m], ..., x[count m]`` and its differences, tile by tile.
+
+    Same rows as :func:`lag1_update` (the differences formed by the same subtractions); the
+    sums of each tile run in SIMD lanes, so they differ from the sequential sums by round-off
+    only. Row d holds the d-th difference; rows do not depend on how many are asked for.
+    """
+    npts = count + 1
+    state = np.zeros((orders, LAG1_FIELDS))
+    tile = _LAG1_TILE
+    buf = np.empty((orders, tile + orders))
+    shift = np.zeros(orders)
+    for t0 in range(0, npts, tile):
+        width = min(tile + orders, npts - t0)
+        for k in range(width):
+            buf[0, k] = x[(t0 + k) * m]
+        for d in range(1, orders):
+            for k in range(width - d):
+                buf[d, k] = buf[d - 1, k + 1] - buf[d - 1, k]
+        for d in range(orders):
+            length = npts - d  # points of the d-th difference
+            if t0 >= length:
+                continue
+            if t0 == 0:
+                shift[d] = buf[d, 0]
+            hi = min(t0 + tile, length)  # this tile's points: t0 .. hi - 1
+            pair_hi = min(t0 + tile, length - 1)  # pairs (i, i + 1) for i < pair_hi
+            s1, s2, s11 = _moments(buf[d], hi - t0, shift[d])
+            if pair_hi == hi:  # the pair across the tile edge
+                s11 += (buf[d, hi - t0 - 1] - shift[d]) * (buf[d, hi - t0] - shift[d])
+            row = state[d]
+            row[2] += s1
+            row[3] += s2
+            row[4] += s11
+            if hi == length:
+                row[6] = buf[d, hi - 1 - t0] - shift[d]
+                row[7] = buf[d, hi - 1 - t0]
+    for d in range(orders):
+        state[d, 0] = npts - d
+        state[d, 1] = shift[d]
     return state
 
 
