@@ -100,3 +100,31 @@ def test_columns_from_arrow_buffers_equal_to_numpy_and_load_no_pandas(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.split()
     assert out == ["False"]
+
+
+@pytest.mark.parametrize("text", [
+    "a,b\n" + "0,x\n" * 50 + "22.5,y\n",          # ints first, then a float
+    "a,b\n" + ",x\n" * 50 + "3,y\n",              # empty first, then a number
+    "a,b\n" + "1,x\n" * 50 + "abc,y\n",           # numbers first, then text
+    "a,b\n" + "1,\n" * 50 + "1,y\n",              # empty text first
+    "a,b\n" + "".join(f"{2**60 + i},L{i % 3}\n" for i in range(300)),
+    "a,b\n" + "".join(f"{i * 0.1!r},L{i}\n" for i in range(300)),
+    'a,b\n' + '"x,1",2\n' * 40 + '"y\nz",\n',
+    "a,b\ntrue,2024-01-01\n" * 40,
+    "a,b\n",
+])
+def test_csv_read_in_blocks_equals_the_whole_file(tmp_path, monkeypatch, text):
+    # The streaming read (blocks of 64 bytes here) gives the columns of the whole-file read,
+    # or hands over to it (types that change after the first block, empty files).
+    from inertest.io import data_file
+
+    p = tmp_path / "d.csv"
+    p.write_text(text)
+    monkeypatch.setattr(data_file, "_CSV_BLOCK_BYTES", 64)
+    blocks = read_table(p)
+    monkeypatch.setattr(data_file, "_read_csv_blocks", lambda path: None)
+    whole = read_table(p)
+    assert list(blocks) == list(whole)
+    for name, col in whole.items():
+        assert blocks[name].dtype == col.dtype
+        np.testing.assert_array_equal(blocks[name], col)

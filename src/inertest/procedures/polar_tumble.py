@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
-from inertest.equipment.motion import run_starts, unique_by_runs
+from inertest.equipment.motion import run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
@@ -198,7 +198,8 @@ def fit(
     mounting, angle_deg = cols["mounting"], cols["angle_deg"]
     site, inst = plan.site, plan.instrument
     _check_latitude(site.latitude_rad)
-    unknown = sorted(set(unique_by_runs(mounting)[0].tolist()) - set(table.MOUNTINGS))
+    starts = run_starts(mounting, angle_deg)  # runs of equal (mounting, angle) rows
+    unknown = sorted(set(np.unique(mounting[starts]).tolist()) - set(table.MOUNTINGS))
     if unknown:
         raise DataError(
             f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "
@@ -206,7 +207,6 @@ def fit(
         )
     # Positions from the runs of equal (mounting, angle) rows: a label and the inputs per
     # position, an integer position per row (no per-row strings, inputs or design).
-    starts = run_starts(mounting, angle_deg)
     run_mounting, run_angle = mounting[starts], angle_deg[starts]
     present = [m for m in table.MOUNTINGS if np.any(run_mounting == m)]
     labels, run_code = np.unique(table.position_labels(run_mounting, run_angle),
@@ -228,21 +228,25 @@ def fit(
     )
     del position  # noise.unit_index holds the positions from here on
     k = DEG_PER_H_TO_RAD_PER_S
+    # Per-row results in place (each a new array of n rows otherwise): the same numbers.
+    fitted_deg_h = np.subtract(drift, lsq.residuals)
+    fitted_deg_h /= k
+    drift /= k
     harmonics = {}
+    run_stop = np.append(starts[1:], mounting.shape[0])
     for m in present:
-        sel = mounting == m
+        runs = np.flatnonzero(run_mounting == m)
+        rows: slice | NDArray[np.bool_] = slice(starts[runs[0]], run_stop[runs[-1]])
+        if runs[-1] - runs[0] + 1 != runs.size:  # the mounting's rows are not one block
+            rows = mounting == m
         try:
-            harmonics[m] = _harmonics(m, angle_deg[sel], drift[sel] / k, sel, noise)
+            harmonics[m] = _harmonics(m, angle_deg[rows], drift[rows], rows, noise)
         except IdentifiabilityError as exc:
             # The general least squares above still says what the data determine.
             messages.append(f"no Fourier terms for {exc}")
             warnings.warn(messages[-1], InertestWarning, stacklevel=2)
     closed = _closed_forms(harmonics, site.latitude_rad, site.gravity_g)
     del noise
-    # Per-row results in place (each a new array of n rows otherwise): the same numbers.
-    fitted_deg_h = np.subtract(drift, lsq.residuals)
-    fitted_deg_h /= k
-    drift /= k
     return PolarTumbleResult(
         site_latitude_deg=site.latitude_deg,
         site_gravity_m_s2=site.gravity_m_s2,
@@ -328,16 +332,20 @@ def _spacing_messages(
 
 def _harmonics(
     mounting: str, angle_deg: NDArray[np.float64], drift_deg_h: NDArray[np.float64],
-    rows: NDArray[np.bool_], noise: NoiseFit,
+    rows: slice | NDArray[np.bool_], noise: NoiseFit,
 ) -> MountingHarmonics:
-    """B0..C2 by GLS over the position means of one mounting, under the fitted noise model."""
+    """B0..C2 by GLS over the position means of one mounting, under the fitted noise model.
+
+    ``rows``: the mounting's rows (a slice when they are one block: views, not copies).
+    """
     k = DEG_PER_H_TO_RAD_PER_S
-    units = np.unique(noise.unit_index[rows])
-    counts = np.bincount(noise.unit_index[rows], minlength=units.max() + 1)[units]
-    ybar = np.bincount(noise.unit_index[rows], drift_deg_h,
-                       minlength=units.max() + 1)[units] / counts
-    angle = np.bincount(noise.unit_index[rows], np.mod(angle_deg, 360.0),
-                        minlength=units.max() + 1)[units]
+    unit = noise.unit_index[rows]
+    size = int(unit.max()) + 1
+    all_counts = np.bincount(unit, minlength=size)
+    units = np.flatnonzero(all_counts)  # np.unique(unit), without sorting the rows
+    counts = all_counts[units]
+    ybar = np.bincount(unit, drift_deg_h, minlength=size)[units] / counts
+    angle = np.bincount(unit, np.mod(angle_deg, 360.0), minlength=size)[units]
     angle = angle / counts
     n_angles = np.unique(np.round(np.mod(angle, 360.0), 9)).size
     if n_angles < 5:
