@@ -227,6 +227,12 @@ class Identification:
         least ``exp(-1)`` of its own, listed as ``close`` in the JSON) add the spread of their
         estimates to the covariance (:func:`inertest.estimation.identify.solve`). Empty
         otherwise.
+    bias_time_scale : float or None
+        When flicker noise is behind the covariance: the time over which the std of the
+        constant (bias-type) terms holds, in test durations (the bias averaged over that time
+        around the test; default 2, about the bias during this test). For 1/f noise the
+        variance of a mean grows with the averaging time, so over a longer time the bias
+        wanders further, by about the bias instability. None otherwise.
     """
 
     coefficients: dict[str, Estimate]
@@ -244,6 +250,7 @@ class Identification:
     noise_components: Mapping[str, float] = field(default_factory=dict)
     checks: ModelChecks | None = None
     noise_model_weights: Mapping[str, float] = field(default_factory=dict)
+    bias_time_scale: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready summary (no per-sample arrays); the checks under ``"checks"``."""
@@ -274,6 +281,17 @@ class Identification:
                 "weights": {k: float(v) for k, v in self.noise_model_weights.items()},
                 "close": [k for k, v in self.noise_model_weights.items()
                           if v >= top * np.exp(-1.0) * (1 - 1e-12)],
+            }
+        if self.bias_time_scale is not None:
+            noise = d["noise"]
+            assert isinstance(noise, dict)
+            noise["bias_time_scale"] = {
+                "value": float(self.bias_time_scale), "unit": "test durations",
+                "meaning": "under flicker (1/f) noise the std of the constant (bias-type) "
+                           "terms is that of their mean over this time around the test "
+                           "(flicker from 1/(2 x this x the test's duration)); the bias "
+                           "wanders further over longer times, by about the bias "
+                           "instability (plan key bias_time_scale)",
             }
         if self.checks is not None:
             d["checks"] = self.checks.to_dict()

@@ -93,6 +93,55 @@ def test_flicker_kernel_equals_the_dense_average_of_the_integrated_spectrum(cont
                                _dense_unit_kernel(u.index, u.counts, C), atol=1e-9)
 
 
+@pytest.mark.parametrize("scale", [2.0, 32.0])
+def test_flicker_kernel_for_a_bias_time_scale_starts_at_1_over_2_scale_n(scale):
+    """``bias_time_scale`` s: the quadrature of cos(2 pi f L) / f from 1/(2 s n); s = 2 is the
+    old 1/(4 n) bit for bit."""
+    n = 40
+    u = idf._units(np.ones((n, 1)), np.zeros(n), np.repeat(np.arange(8), 5).astype(str))
+    c = np.array([scipy.integrate.quad(lambda f, L=L: np.cos(2 * np.pi * f * L) / f,
+                                       0.5 / (scale * n), 0.5, limit=400)[0] for L in range(n)])
+    i = np.arange(n)
+    C = c[np.abs(np.subtract.outer(i, i))] / c[0]
+    np.testing.assert_allclose(idf._flicker_unit_kernel(u, scale),
+                               _dense_unit_kernel(u.index, u.counts, C), atol=1e-9)
+    if scale == 2.0:
+        np.testing.assert_array_equal(idf._flicker_unit_kernel(u, scale),
+                                      idf._flicker_unit_kernel(u))
+
+
+def test_bias_time_scale_widens_the_constant_term_not_the_slope_and_is_stated():
+    """Under flicker a longer bias time scale raises the std of the constant term (the bias
+    wanders over the longer time), barely that of a slope; the JSON says which time scale."""
+    rng = np.random.default_rng(11)
+    G, m = 24, 5
+    t = np.repeat(np.linspace(-1, 1, G), m)
+    A = np.column_stack([np.ones(G * m), np.cos(np.pi * t)])
+    y = A @ [1.0, 0.5] + 0.01 * rng.normal(size=G * m) + 0.01 * np.cumsum(rng.normal(size=G * m))
+    groups = np.repeat(np.arange(G), m).astype(str)
+    kw = dict(names=("b", "k"), units=dict.fromkeys("bk", "V"),
+              si_per_unit=dict.fromkeys("bk", 1.0), noise_unit="V", si_per_noise_unit=1.0,
+              groups=groups, noise_model="flicker")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InertestWarning)
+        _, short = idf.identify(A, y, **kw)
+        _, long = idf.identify(A, y, bias_time_scale=64.0, **kw)
+        _, white = idf.identify(A, y, **{**kw, "noise_model": "white"})
+    assert long.coefficients["b"].std > 1.3 * short.coefficients["b"].std
+    assert long.coefficients["k"].std < 1.1 * short.coefficients["k"].std
+    assert short.bias_time_scale == 2.0
+    stated = json.loads(json.dumps(long.to_dict()))["noise"]["bias_time_scale"]
+    assert stated["value"] == 64.0 and stated["unit"] == "test durations"
+    assert "bias instability" in stated["meaning"]
+    assert "bias_time_scale" not in white.to_dict()["noise"]
+
+
+@pytest.mark.parametrize("bad", [0.5, float("nan"), True, "8"])
+def test_bias_time_scale_is_checked(bad):
+    with pytest.raises(PlanError, match="bias_time_scale"):
+        idf.solve(np.ones((10, 1)), np.zeros(10), bias_time_scale=bad)
+
+
 def test_given_sigma_is_reported_and_serialises_without_nan():
     rng = np.random.default_rng(5)
     A, y, groups, _ = _balanced(rng, sb=0.0)

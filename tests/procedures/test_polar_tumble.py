@@ -163,6 +163,7 @@ def test_bad_data():
     ({"mountings": "O-Np"}, "mountings must be a non-empty list"),
     ({"noise_model": "whte"}, 'did you mean "white"'),
     ({"samples_per_positon": 2}, 'did you mean "samples_per_position"'),
+    ({"bias_time_scale": 0.5}, "bias_time_scale must be >= 1"),
 ])
 def test_plan_parameters_are_read_strictly(params, message):
     with pytest.raises(PlanError, match=message):
@@ -200,6 +201,52 @@ def test_monte_carlo_reported_std_matches_scatter():
     truth = [TRUTH[n] for n in res.coefficients] + [k.evaluate(TRUTH) for k in res.combinations]
     z = (runs.mean(axis=0) - truth) / (runs.std(axis=0, ddof=1) / np.sqrt(len(runs)))
     assert np.all(np.abs(z) < 4), z
+
+
+def _flicker_with_history(rng, n, history):
+    """1/f noise over ``history`` records (lines k / (history n), random phases), a random
+    window of ``n`` rows of it; unit std of the whole history (independent of the library)."""
+    m = history * n
+    k = np.arange(1, m // 2 + 1)
+    amp = 1.0 / np.sqrt(k)
+    phase = rng.uniform(0.0, 2 * np.pi, k.size)
+    lines = np.r_[0.0, amp * rng.rayleigh(1.0, k.size) * np.exp(1j * phase)]
+    x = np.fft.irfft(lines, m) * (m / 2)  # sum over k of |line k| cos(2 pi k t / m + phase)
+    x /= np.sqrt(np.sum(amp**2))  # E[x^2] = sum of amp^2 E[R^2] / 2 = sum of amp^2
+    start = rng.integers(0, m - n + 1)
+    return x[start:start + n]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("history", [2, 8, 32])
+def test_flicker_bias_time_scale_matches_the_history_of_the_1_over_f_noise(history):
+    """Issue 15 review: under 1/f noise whose history is 2, 8, 32 records the std of the
+    bias-type DF + DII fell to 1.00, 0.67, 0.49 of the scatter (the variance of a mean grows
+    with the time it is taken over). With bias_time_scale = the history, reported std /
+    scatter is 0.8-1.25 for the bias-type and the slope-type terms alike."""
+    plan = make_plan(positions=16, spp=5)
+    plan = Plan(plan.site, plan.instrument, pt.PolarTumbleSpec.from_mapping(
+        {"positions": 16, "samples_per_position": 5, "noise_model": "flicker",
+         "bias_time_scale": float(history)}))
+    clean = pt.simulate(plan, TRUTH)
+    n = clean["output"].size
+    rng = np.random.default_rng(150 + history)
+    runs, reported = [], []
+    for _ in range(200):
+        data = dict(clean, output=clean["output"] + 0.002 * rng.normal(size=n)
+                    + 0.002 * _flicker_with_history(rng, n, history))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InertestWarning)
+            res = pt.fit(plan, data)
+        assert res.identification.bias_time_scale == history
+        runs.append([res.coefficients[c].value for c in ("DI", "DO", "DS")]
+                    + [k.value for k in res.combinations])
+        reported.append([res.coefficients[c].std for c in ("DI", "DO", "DS")]
+                        + [k.std for k in res.combinations])
+    names = ["DI", "DO", "DS"] + [k.name for k in res.combinations]
+    assert any(nm.startswith("DF") for nm in names)
+    ratio = np.mean(reported, axis=0) / np.std(runs, axis=0, ddof=1)
+    assert np.all((ratio > 0.8) & (ratio < 1.25)), dict(zip(names, ratio.round(3), strict=True))
 
 
 def test_coefficient_order_is_the_design_order():

@@ -28,6 +28,10 @@ from inertest.results import Combination, Estimate, Identification, ModelChecks,
 
 #: Explains the null space of a fit in words: (fit, design) -> statements.
 Explainer = Callable[[LinearFit, NDArray[np.float64]], Sequence[str]]
+#: Default time scale of the constant (bias-type) terms under flicker, in test durations: the
+#: flicker model's spectrum starts at ``1 / (2 * scale)`` cycles per record, ``1/(4 T)`` for a
+#: test of duration ``T`` (see :func:`_flicker_unit_kernel`).
+BIAS_TIME_SCALE_DEFAULT = 2.0
 
 
 def identify(
@@ -45,6 +49,7 @@ def identify(
     explain: Explainer | None = None,
     groups: ArrayLike | None = None,
     noise_model: str = "white",
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[LinearFit, Identification]:
     """Solve ``y = A x`` and report what the data determine, in engineering units.
 
@@ -77,6 +82,9 @@ def identify(
     noise_model : str
         Noise model (:data:`NOISE_MODELS`, see :func:`solve`); default ``white``, the classical
         least squares.
+    bias_time_scale : float
+        Under flicker, the time over which the constant terms are meant [test durations]
+        (see :func:`solve`).
 
     Returns
     -------
@@ -93,7 +101,8 @@ def identify(
     fit, _, result = identify_with_noise(
         A, y, names=names, units=units, si_per_unit=si_per_unit, noise_unit=noise_unit,
         si_per_noise_unit=si_per_noise_unit, sigma_si=sigma_si, pivot_order=pivot_order,
-        normalize_to=normalize_to, explain=explain, groups=groups, noise_model=noise_model)
+        normalize_to=normalize_to, explain=explain, groups=groups, noise_model=noise_model,
+        bias_time_scale=bias_time_scale)
     return fit, result
 
 
@@ -112,10 +121,12 @@ def identify_with_noise(
     explain: Explainer | None = None,
     groups: ArrayLike | None = None,
     noise_model: str = "white",
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[LinearFit, NoiseFit, Identification]:
     """:func:`identify`, also returning the :class:`NoiseFit` (unit covariance, labels)."""
     names = tuple(names)
-    fit, noise = solve(A, y, sigma_si=sigma_si, groups=groups, noise_model=noise_model)
+    fit, noise = solve(A, y, sigma_si=sigma_si, groups=groups, noise_model=noise_model,
+                       bias_time_scale=bias_time_scale)
     fac = np.array([si_per_unit[n] for n in names])
     ident = fit.identifiable
     coefficients = {
@@ -150,6 +161,7 @@ def identify_with_noise(
         noise_components={k: v / si_per_noise_unit for k, v in noise.components.items()},
         checks=noise.checks,
         noise_model_weights=dict(noise.weights),
+        bias_time_scale=noise.bias_time_scale,
     )
     return fit, noise, result
 
@@ -229,8 +241,21 @@ _MAX_UNITS = 2000
 #: ``auto``: candidate noise models within this much AIC of the best count as "close" (the
 #: data cannot tell them apart; Burnham & Anderson 2002, sec. 2.6) and their spread is added.
 AUTO_CLOSE_AIC = 2.0
-#: Lowest frequency of the flicker model, in cycles per record (see :func:`_flicker_unit_kernel`).
-_FLICKER_LOW = 0.25
+
+
+def check_bias_time_scale(value: object) -> float:
+    """Validate ``bias_time_scale`` (test durations, at least 1; a plan key or an argument)."""
+    if (isinstance(value, bool) or not isinstance(value, int | float)
+            or not np.isfinite(value) or value < 1.0):
+        raise PlanError(
+            "bias_time_scale is the time over which a constant term is meant, in test "
+            f"durations (e.g. calibration interval / test duration), at least 1; got {value!r}")
+    return float(value)
+
+
+def _flicker_low(n: int, bias_time_scale: float) -> float:
+    """Lowest frequency of the flicker model [cycles per row] for an ``n``-row record."""
+    return 1.0 / (2.0 * check_bias_time_scale(bias_time_scale) * max(n, 1))
 
 
 def check_noise_model(value: object) -> str:
@@ -271,6 +296,9 @@ class NoiseFit:
     aic : dict
         With ``auto``: the AIC of each candidate (restricted likelihood of the unit means;
         empty otherwise), for a choice common to several outputs (:func:`solve_outputs`).
+    bias_time_scale : float or None
+        When flicker is behind the covariance (the model, or a close candidate of ``auto``):
+        the time over which the constant terms' std holds [test durations]; None otherwise.
     """
 
     model: str
@@ -283,6 +311,7 @@ class NoiseFit:
     checks: ModelChecks = field(repr=False)
     weights: dict[str, float] = field(default_factory=dict)
     aic: dict[str, float] = field(default_factory=dict)
+    bias_time_scale: float | None = None
 
     def unit_means(self, values: ArrayLike) -> NDArray[np.float64]:
         """Mean of ``values`` (one per row) over each unit."""
@@ -543,14 +572,17 @@ def _generic_unit_kernel(
     return 0.5 * (out + out.T)
 
 
-def _flicker_row_covariance(n: int) -> NDArray[np.float64]:
+def _flicker_row_covariance(
+    n: int, bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT
+) -> NDArray[np.float64]:
     """Autocovariance at lags ``0..n`` of flicker noise over an ``n``-row record (arbitrary scale).
 
-    The spectrum is ``1/f`` from :data:`_FLICKER_LOW` / ``n`` to the Nyquist frequency (cycles
-    per row), so ``c(L) = int cos(2 pi f L) / f df = Ci(pi L) - Ci(2 pi f_lo L)`` and
+    The spectrum is ``1/f`` from ``f_lo = 1 / (2 s n)`` (``s`` the ``bias_time_scale`` in
+    record lengths) to the Nyquist frequency (cycles per row), so
+    ``c(L) = int cos(2 pi f L) / f df = Ci(pi L) - Ci(2 pi f_lo L)`` and
     ``c(0) = ln(1 / (2 f_lo))`` (Ci the cosine integral).
     """
-    f_lo = _FLICKER_LOW / max(n, 1)
+    f_lo = _flicker_low(n, bias_time_scale)
     lag = np.arange(1, n + 1, dtype=float)
     c = np.empty(n + 1)
     c[0] = np.log(0.5 / f_lo)
@@ -559,7 +591,8 @@ def _flicker_row_covariance(n: int) -> NDArray[np.float64]:
 
 
 def _flicker_phi(
-    n: int, lags: NDArray[np.intp], block: int = 65536
+    n: int, lags: NDArray[np.intp], block: int = 65536,
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[float, NDArray[np.float64]]:
     """``c(0)``, and ``Phi`` at ``lags`` (sorted, ``0..n + 1``) of the flicker row covariance.
 
@@ -568,7 +601,7 @@ def _flicker_phi(
     over the whole record (so the same numbers to the last bit), ``block`` lags at a time:
     O(block) memory instead of five arrays of the record's length (~48 MB at 1e6 rows).
     """
-    f_lo = _FLICKER_LOW / max(n, 1)
+    f_lo = _flicker_low(n, bias_time_scale)
     c0 = float(np.log(0.5 / f_lo))
     out = np.empty(lags.size)
     s_prev = phi_prev = 0.0  # running sum of c(1..j), and Phi at the block's start
@@ -590,21 +623,28 @@ def _flicker_phi(
     return c0, out
 
 
-def _flicker_unit_kernel(u: _Units) -> NDArray[np.float64]:
+def _flicker_unit_kernel(
+    u: _Units, bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT
+) -> NDArray[np.float64]:
     """Covariance of unit means of flicker (1/f) noise of unit variance per row.
 
-    Flicker is band-limited 1/f noise over the row index: power ``1/f`` from ``1/(4 n)`` cycles
-    per row (n rows in the record) to the Nyquist frequency, autocovariance by the cosine
-    integral (:func:`_flicker_row_covariance`). Slower wander is a constant over the record,
+    Flicker is band-limited 1/f noise over the row index: power ``1/f`` from
+    ``1/(2 s n)`` cycles per row (n rows in the record, ``s = bias_time_scale``, default 2:
+    ``1/(4 n)``) to the Nyquist frequency, autocovariance by the cosine integral
+    (:func:`_flicker_row_covariance`). Slower wander is a constant over the record,
     indistinguishable from the constant terms of the model. The lower edge is that of an
-    ``1/f`` periodogram over twice the record (lines ``k / (2 n)``, the first standing for the
-    band from ``1/(4 n)``), the usual way 1/f noise is synthesised (Kasdin, Proc. IEEE 83(5),
+    ``1/f`` periodogram over ``s`` records (lines ``k / (s n)``, the first standing for the
+    band from ``1/(2 s n)``), the usual way 1/f noise is synthesised (Kasdin, Proc. IEEE 83(5),
     1995, doi:10.1109/5.381848): the reported uncertainties of the constant terms match the
-    scatter under such noise (Monte Carlo in the procedures' tests). An earlier kernel, a sum
-    of AR(1) processes with correlation times 1, 4, 16, ... rows up to a quarter of the record
-    (Keshner, Proc. IEEE 70(3), 1982), is flat below ``1/(2 pi n / 4)`` and so put too much of
-    the flicker into the record mean relative to the residuals: the biases of a 12-position
-    triad test came out 1.2-1.4x conservative.
+    scatter under such noise with a history of ``s`` records, i.e. they are uncertainties of
+    the constant terms as the mean over a time of ``s`` test durations that holds the test
+    (Monte Carlo in the procedures' tests). For 1/f noise the variance of a mean grows as the
+    logarithm of that time, so a bias-type term has a std only for a stated time scale; the
+    terms that change sign within the test (slopes, harmonics) barely depend on it. An
+    earlier kernel, a sum of AR(1) processes with correlation times 1, 4, 16, ... rows up to
+    a quarter of the record (Keshner, Proc. IEEE 70(3), 1982), is flat below
+    ``1/(2 pi n / 4)`` and so put too much of the flicker into the record mean relative to
+    the residuals: the biases of a 12-position triad test came out 1.2-1.4x conservative.
 
     Notes
     -----
@@ -619,7 +659,7 @@ def _flicker_unit_kernel(u: _Units) -> NDArray[np.float64]:
         lags = [np.abs(a1[None, :] - a0[:, None]), np.abs(a1[None, :] - a1[:, None]),
                 np.abs(a0[None, :] - a0[:, None]), np.abs(a0[None, :] - a1[:, None])]
         want = np.unique(np.concatenate([d.ravel() for d in lags]))
-        c0, phi = _flicker_phi(n, want)
+        c0, phi = _flicker_phi(n, want, bias_time_scale=bias_time_scale)
 
         def Phi(d: NDArray[np.intp]) -> NDArray[np.float64]:
             return phi[np.searchsorted(want, d)]
@@ -627,7 +667,7 @@ def _flicker_unit_kernel(u: _Units) -> NDArray[np.float64]:
         S = Phi(lags[0]) - Phi(lags[1]) - Phi(lags[2]) + Phi(lags[3])
         K = S / np.outer(u.counts, u.counts)
         return 0.5 * (K + K.T) / c0
-    c = _flicker_row_covariance(n)
+    c = _flicker_row_covariance(n, bias_time_scale)
     col = c[:n] / c[0]
     return _generic_unit_kernel(
         u, lambda v: scipy.linalg.matmul_toeplitz((col, col), v, check_finite=False))
@@ -783,6 +823,7 @@ def solve(
     groups: ArrayLike | None = None,
     noise_model: str = "auto",
     alpha: float = CHECK_ALPHA,
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[LinearFit, NoiseFit]:
     """Least squares under a noise model of the instrument, with model checks.
 
@@ -814,8 +855,11 @@ def solve(
             White noise plus a random walk over the row index (a drift that wanders during the
             test); its step variance by REML, GLS over the unit means.
         ``flicker``
-            White noise plus flicker (1/f) noise over the row index, band-limited to the
-            record (:func:`_flicker_unit_kernel`).
+            White noise plus flicker (1/f) noise over the row index, band-limited from
+            ``1 / (2 bias_time_scale)`` cycles per record (:func:`_flicker_unit_kernel`).
+            The std of a constant (bias-type) term is then that of the term as its mean over
+            ``bias_time_scale`` test durations holding the test (default 2: about the bias
+            during this test); the long-term bias wanders by the bias instability beyond it.
         ``auto``
             Every model above fitted; the one with the smallest AIC of the restricted
             likelihood of the unit means gives the estimate (``white`` when the noise is
@@ -828,6 +872,11 @@ def solve(
             Every candidate's Akaike weight is in ``NoiseFit.weights``.
     alpha : float
         Significance level of the model checks.
+    bias_time_scale : float
+        Time over which the constant terms are meant under ``flicker`` (and the flicker
+        candidate of ``auto``), in test durations, at least 1: e.g. the calibration interval
+        divided by the test's duration, so that their std includes the slow wander of the
+        bias over that interval (:data:`BIAS_TIME_SCALE_DEFAULT`: about the test itself).
 
     Returns
     -------
@@ -850,6 +899,7 @@ def solve(
     if noise_model not in NOISE_MODELS:
         raise InputError(
             f'unknown noise model "{noise_model}"; use one of {", ".join(NOISE_MODELS)}')
+    check_bias_time_scale(bias_time_scale)
     y = np.asarray(y, dtype=float)
     if isinstance(A, PositionDesign):
         # Per-position sufficient statistics: the n x p design is never built.
@@ -889,7 +939,7 @@ def solve(
     kernels: dict[str, Callable[[], NDArray[np.float64]]] = {
         "position-offsets": lambda: np.eye(G),
         "random-walk": lambda: _rw_unit_kernel(u),
-        "flicker": lambda: _flicker_unit_kernel(u),
+        "flicker": lambda: _flicker_unit_kernel(u, bias_time_scale),
     }
     if n == G and not given:
         kernels.pop("position-offsets")  # no repeated readings: offsets are white noise
@@ -941,6 +991,7 @@ def solve(
     weights: dict[str, float] = {}
     aic: dict[str, float] = {}
     x_checked = fit.x
+    near = [model]
     if noise_model == "auto" and len(cands) > 1:
         aic = {m: a for m, (a, *_) in cands.items()}
         near = [m for m in cands if aic[m] <= aic[model] + AUTO_CLOSE_AIC]
@@ -952,7 +1003,8 @@ def solve(
     checks = _checks(u, x_checked, V, model, given, sw2 if n > G else np.nan, alpha)
     noise = NoiseFit(model=model, white_sigma=components["white"], sigma_given=given,
                      components=components, unit_index=u.index, unit_labels=u.labels,
-                     unit_covariance=V, checks=checks, weights=weights, aic=aic)
+                     unit_covariance=V, checks=checks, weights=weights, aic=aic,
+                     bias_time_scale=float(bias_time_scale) if "flicker" in near else None)
     if not checks.fits:
         warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=3)
     return fit, noise
@@ -984,6 +1036,7 @@ def solve_outputs(
     groups: ArrayLike | None = None,
     noise_model: str = "auto",
     alpha: float = CHECK_ALPHA,
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> list[tuple[LinearFit, NoiseFit]]:
     """:func:`solve` for each column of ``Y`` (shape (n, k)) over one design, one noise model.
 
@@ -999,7 +1052,8 @@ def solve_outputs(
     Y = np.asarray(Y, dtype=float)
 
     def one(i: int, m: str) -> tuple[LinearFit, NoiseFit]:
-        return solve(A, Y[:, i], sigma_si=sigma_si, groups=groups, noise_model=m, alpha=alpha)
+        return solve(A, Y[:, i], sigma_si=sigma_si, groups=groups, noise_model=m, alpha=alpha,
+                     bias_time_scale=bias_time_scale)
 
     k = Y.shape[1]
     if noise_model != "auto":
@@ -1018,7 +1072,9 @@ def solve_outputs(
                 warnings.simplefilter("ignore", InertestWarning)
                 x = {m: fit.x if m == model else one(i, m)[0].x for m in near}
             fit = _with_selection_spread(fit, x, {m: weights[m] for m in near})
-        out.append((fit, replace(noise, weights=weights, aic=first[i][1].aic)))
+        out.append((fit, replace(noise, weights=weights, aic=first[i][1].aic,
+                                 bias_time_scale=float(bias_time_scale) if "flicker" in near
+                                 else None)))
     return out
 
 

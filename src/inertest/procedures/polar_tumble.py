@@ -34,8 +34,10 @@ from inertest.equipment.motion import run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
+    BIAS_TIME_SCALE_DEFAULT,
     NOISE_MODELS,
     NoiseFit,
+    check_bias_time_scale,
     check_noise_model,
     combination_name,
 )
@@ -70,6 +72,11 @@ class PolarTumbleSpec:
         ``white``, ``position-offsets`` (the table re-settles, the drift moves between
         positions), ``random-walk`` or ``flicker``; see
         :func:`inertest.estimation.identify.solve`.
+    bias_time_scale : float
+        Under flicker noise, the time over which the drift's constant terms (DF + DII) are
+        meant, in test durations (e.g. calibration interval / test duration); default 2, about
+        the drift during this test. For 1/f noise the bias wanders further over longer times,
+        and a longer time scale includes that wander in the std.
     """
 
     kind: ClassVar[str] = KIND
@@ -77,6 +84,7 @@ class PolarTumbleSpec:
     angles_deg: tuple[float, ...] = tuple(np.arange(16) * 22.5)
     samples_per_position: int = 1
     noise_model: str = "auto"
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT
 
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> PolarTumbleSpec:
@@ -90,7 +98,8 @@ class PolarTumbleSpec:
             count = 16 if v["positions"] is None else v["positions"]
             angles = tuple(float(a) for a in np.arange(count) * 360.0 / count)
         return cls(mountings=v["mountings"], angles_deg=angles,
-                   samples_per_position=v["samples_per_position"], noise_model=v["noise_model"])
+                   samples_per_position=v["samples_per_position"], noise_model=v["noise_model"],
+                   bias_time_scale=check_bias_time_scale(v["bias_time_scale"]))
 
 
 #: Parameters of the ``[procedure]`` table of a polar-tumble plan.
@@ -103,6 +112,9 @@ FIELDS = (
     Field("samples_per_position", "integer", default=1, positive=True,
           doc="readings at each angle (simulation)"),
     Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
+    Field("bias_time_scale", default=BIAS_TIME_SCALE_DEFAULT, unit="test durations",
+          minimum=1.0, doc="time over which the constant terms are meant under flicker noise "
+          "(e.g. calibration interval / test duration)"),
 )
 SPEC = PolarTumbleSpec
 
@@ -224,7 +236,7 @@ def fit(
     model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
     lsq, noise, ident = identify_drift(
         f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=labels,
-        noise_model=model, position_index=position,
+        noise_model=model, position_index=position, bias_time_scale=spec.bias_time_scale,
     )
     del position  # noise.unit_index holds the positions from here on
     k = DEG_PER_H_TO_RAD_PER_S

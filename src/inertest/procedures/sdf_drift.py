@@ -15,7 +15,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment.motion import StaticPositions, unique_by_runs
 from inertest.errors import InputError
-from inertest.estimation.identify import NoiseFit, PositionDesign, identify_with_noise
+from inertest.estimation.identify import (
+    BIAS_TIME_SCALE_DEFAULT,
+    NoiseFit,
+    PositionDesign,
+    identify_with_noise,
+)
 from inertest.estimation.least_squares import LinearFit
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
 from inertest.results import Identification
@@ -87,6 +92,7 @@ def identify_drift(
     groups: ArrayLike | None = None,
     noise_model: str = "auto",
     position_index: ArrayLike | None = None,
+    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[LinearFit, NoiseFit, Identification]:
     """Fit the 10-term static drift model and report what the data determine.
 
@@ -114,6 +120,9 @@ def identify_drift(
         per position and ``groups`` their ``G`` labels: the design is then solved per position
         (:class:`~inertest.estimation.identify.PositionDesign`), never built row by row; the
         same estimates.
+    bias_time_scale : float
+        Under flicker, the time over which the constant terms (DF and its combinations) are
+        meant, in test durations (:func:`inertest.estimation.identify.solve`).
 
     Returns
     -------
@@ -147,6 +156,7 @@ def identify_drift(
         explain=lambda fit, design: _explain_null_space(fit, design, gravity_g),
         groups=groups,
         noise_model=noise_model,
+        bias_time_scale=bias_time_scale,
     )
 
 
