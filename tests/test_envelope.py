@@ -143,3 +143,13 @@ def test_optional_blocks_take_their_place_and_only_when_given():
     assert list(doc) == list(ENVELOPE_KEYS)
     assert doc["uncertainty_budget"] == budget and doc["conformance"] == verdicts
     assert json.loads(json.dumps(doc)) == doc
+
+
+def test_envelope_lifts_the_message_of_a_failed_check():
+    """A model that does not fit says so in ``messages`` too (issue 15 review), each once."""
+    bad = {"name": "noise model fit", "verdict": "model does not fit", "message": "misfit: why"}
+    good = {"name": "noise model fit", "verdict": "consistent", "message": None}
+    doc = envelope("polar-tumble", checks=[bad, good], messages=["a note", "misfit: why"])
+    assert doc["messages"] == ["a note", "misfit: why"]
+    assert envelope("polar-tumble", checks=[bad, good])["messages"] == ["misfit: why"]
+    assert envelope("polar-tumble", checks=[good])["messages"] == []

@@ -149,3 +149,24 @@ def test_import_inertest_loads_no_heavy_dependency():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == ""
+
+
+def test_noise_model_argument_overrides_the_plan(tumble, examples_dir, capsys):
+    """README: ``fit(plan, data, noise_model=...)`` (issue 15 review: it raised TypeError)."""
+    from inertest.cli import main
+    from inertest.errors import PlanError
+
+    plan, data = tumble
+    assert inertest.fit(plan, data).identification.noise_model != "flicker"
+    assert inertest.fit(plan, data, noise_model="flicker").identification.noise_model == "flicker"
+    out = inertest.run(plan, data, noise_model="white")
+    assert out.to_dict()["identification"]["noise"]["model"] == "white"
+    with pytest.raises(PlanError, match="noise_model must be one of"):
+        inertest.fit(plan, data, noise_model="pink")
+    assert main(["fit", str(plan), str(data), "--no-store", "--json",
+                 "--noise-model", "position-offsets"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["identification"]["noise"]["model"] == "position-offsets"
+    servo = inertest.load_plan(examples_dir / "servo_table" / "plan.toml")
+    with pytest.raises(PlanError, match="no choice of noise model"):
+        inertest.fit(servo, {}, noise_model="white")

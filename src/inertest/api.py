@@ -12,6 +12,7 @@ Example
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import os
 from collections.abc import Mapping
 from typing import Any
@@ -19,6 +20,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from inertest.errors import PlanError
 from inertest.io.data_file import read_table
 from inertest.io.plan_file import load_plan as _load_plan
 from inertest.io.plan_file import load_truth
@@ -40,7 +42,8 @@ def load_data(path: PathLike) -> dict[str, NDArray]:
 
 
 def fit(
-    plan: Plan | PathLike, data: Mapping[str, Any] | PathLike, *, sigma: float | None = None
+    plan: Plan | PathLike, data: Mapping[str, Any] | PathLike, *, sigma: float | None = None,
+    noise_model: str | None = None,
 ) -> Any:
     """Identify the instrument's coefficients from the test data (``inertest fit``).
 
@@ -52,6 +55,10 @@ def fit(
         Measurements with the columns the procedure names.
     sigma : float, optional
         Known noise per row [output unit]; estimated from the residuals when omitted.
+    noise_model : str, optional
+        Noise model of the instrument (``auto``, ``white``, ``position-offsets``,
+        ``random-walk``, ``flicker``; :func:`inertest.estimation.identify.solve`), overriding
+        the plan's ``[procedure] noise_model``; default: the plan's.
 
     Returns
     -------
@@ -65,7 +72,14 @@ def fit(
         # A plan's sample rate that the data's own clock contradicts scales every integral.
         where = "(in memory)" if isinstance(data, Mapping) else str(data)
         check_sample_rate(d, float(rate), source=f"data {where}")
-    result = procedure_module(p.kind).fit(p, d, sigma=sigma)
+    module = procedure_module(p.kind)
+    if noise_model is None:
+        result = module.fit(p, d, sigma=sigma)
+    elif "noise_model" in inspect.signature(module.fit).parameters:
+        result = module.fit(p, d, sigma=sigma, noise_model=noise_model)
+    else:
+        raise PlanError(f"the {p.kind} procedure has no choice of noise model; got "
+                        f"noise_model={noise_model!r}: leave it out")
     if dataclasses.is_dataclass(result) and "instrument" in {
         f.name for f in dataclasses.fields(result)
     }:

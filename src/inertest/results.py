@@ -130,6 +130,18 @@ class ModelChecks:
         Significance level of the tests.
     verdict : str
         ``"consistent"`` or ``"model does not fit"``.
+    shift_units, shift_f, shift_dof, shift_p_value : tuple of str, float, (int, int), float
+        The one or two units whose own free mean most improves the fit, its F statistic
+        against the scatter of the other units (numerator and denominator dof) and the
+        Bonferroni p-value over every unit and pair (mean-shift outlier test). A ratio of parts
+        of the same residuals, it tests even when the noise level (and a fitted variance
+        component) came from them; empty / None with too few dof.
+    plausibility : str or None
+        Why a fitted noise component is implausible (a position offset far above the noise
+        within positions: a misfit absorbed as noise), else None.
+    message : str or None
+        The warning when the model does not fit (why, and what to check), else None; the
+        result envelope repeats it in its ``messages`` (:func:`envelope`).
     """
 
     noise_model: str
@@ -146,6 +158,12 @@ class ModelChecks:
     outlier_threshold: float
     alpha: float
     verdict: str
+    shift_units: tuple[str, ...] = ()
+    shift_f: float | None = None
+    shift_dof: tuple[int, int] = (0, 0)
+    shift_p_value: float | None = None
+    plausibility: str | None = None
+    message: str | None = None
     name: str = "noise model fit"
 
     @property
@@ -175,7 +193,18 @@ class ModelChecks:
             },
             "outliers": [o.to_dict() for o in self.outliers],
             "outlier_threshold": self.outlier_threshold,
+            "mean_shift": {
+                "statistic": "F of a free mean for the one or two units that most improve the "
+                             "fit, against the scatter of the other units (Bonferroni over "
+                             "every unit and pair)",
+                "units": list(self.shift_units),
+                "F": _finite_or_none(self.shift_f),
+                "dof": list(self.shift_dof),
+                "p_value": _finite_or_none(self.shift_p_value),
+            },
+            "plausibility": self.plausibility,
             "alpha": self.alpha,
+            "message": self.message,
         }
 
 
@@ -418,7 +447,8 @@ def envelope(
     checks : sequence of mapping
         Self-checks of the result, each ``{"name", "verdict", ...}``.
     messages : sequence of str
-        Notes and warnings in plain language.
+        Notes and warnings in plain language; the ``message`` of each check whose verdict is
+        not ``consistent``/``ok`` (a model that does not fit the data) is added to them.
     test : mapping, optional
         Who ran the test, when, with what equipment (ids, calibration due dates) and in which
         environment, the software version and the data's SHA-256 (:func:`inertest.lab.
@@ -449,6 +479,13 @@ def envelope(
         "checks": [dict(c) for c in checks],
         "messages": [str(m) for m in messages],
     }
+    lifted = doc["messages"]
+    assert isinstance(lifted, list)
+    for c in checks:
+        note = c.get("message")
+        if (isinstance(note, str) and note and c.get("verdict") not in ("consistent", "ok")
+                and note not in lifted):
+            lifted.append(note)
     return with_blocks(doc, test=test, uncertainty_budget=uncertainty_budget,
                        conformance=conformance)
 

@@ -134,6 +134,7 @@ def run(
     allow_duplicate: bool = False,
     equipment: PathLike | Mapping[str, Equipment] | None = None,
     spec: PathLike | Spec | None = None,
+    noise_model: str | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -171,6 +172,8 @@ def run(
         limited quantity gets a verdict under the spec's ILAC-G8 decision rule, its guard band
         the budget's expanded uncertainty U. Budget and verdicts go into the envelope (JSON,
         stored run) and the report.
+    noise_model : str, optional
+        Overrides the plan's ``[procedure] noise_model`` (:func:`inertest.api.fit`).
 
     Returns
     -------
@@ -198,7 +201,7 @@ def run(
     d = data if isinstance(data, Mapping) else load_data(data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = fit(p, d, sigma=sigma)
+        result = fit(p, d, sigma=sigma, noise_model=noise_model)
     messages = tuple(str(w.message) for w in caught)
     budget, conformance = (judge(p, result, used, spec_doc)
                            if lab is not None or spec_doc is not None else (None, None))

@@ -165,7 +165,8 @@ def test_plan_errors():
 
 def test_json_has_calibration_block_and_engineering_units():
     plan = make_plan("12", spp=3, nominal=1670.7)
-    d = tm.fit(plan, tm.simulate(plan, TRUTH, noise=2.0, rng=4)).to_dict()
+    # Seed 5: at seed 4 the pair check alarms (p = 0.00088), one of the 1 in 200 seeds it does.
+    d = tm.fit(plan, tm.simulate(plan, TRUTH, noise=2.0, rng=5)).to_dict()
     acc = d["result"]["calibration"]["accelerometer"]
     assert np.shape(acc["matrix"]) == (3, 3) and len(acc["offset"]) == 3
     assert acc["unit"] == "m/s^2" and acc["raw_unit"] == "count"

@@ -20,8 +20,7 @@ from inertest.cli._common import (
 )
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
-from inertest.report.identification import coefficient_rows
-from inertest.report.rounding import format_number
+from inertest.report.identification import coefficient_rows, noise_model_text
 from inertest.runner import run
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -51,6 +50,9 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
 @click.argument("data", type=_FILE)
 @click.option("--sigma", type=float, default=None,
               help="Known noise per reading in the output unit (default: from the residuals).")
+@click.option("--noise-model", default=None,
+              help="Noise model of the instrument: auto, white, position-offsets, random-walk or "
+              "flicker (default: the plan's [procedure] noise_model, else auto).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (result envelope).")
 @click.option("--report", "report_dir", type=click.Path(file_okay=True, path_type=Path),
               default=None, help="Write the self-contained HTML report into this folder (a new "
@@ -72,7 +74,8 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               help="Instrument specification (TOML, see examples/specs): a verdict per limited "
               "quantity under its ILAC-G8 decision rule, with the uncertainty budget.")
 def fit(
-    plan: Path, data: Path, sigma: float | None, as_json: bool, report_dir: Path | None,
+    plan: Path, data: Path, sigma: float | None, noise_model: str | None, as_json: bool,
+    report_dir: Path | None,
     pdf: bool, no_store: bool, db: str | None, tested_at: datetime | None,
     allow_duplicate: bool, equipment: Path | None, spec: Path | None,
 ) -> None:
@@ -91,7 +94,8 @@ def fit(
         plain_text_figures()
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
-              allow_duplicate=allow_duplicate, equipment=equipment, spec=spec)
+              allow_duplicate=allow_duplicate, equipment=equipment, spec=spec,
+              noise_model=noise_model)
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
@@ -135,8 +139,8 @@ def print_result(result, truth: Mapping[str, float] | None = None) -> None:
     ident = result.identification
     header, rows = coefficient_rows(ident, truth)
     print_table(f"{result.procedure}: what the data determine", header, rows)
-    if ident.sigma_from_residuals:
-        click.echo(f"noise per reading: {format_number(ident.noise_sigma)} {ident.noise_unit} "
-                   f"(from residuals, {ident.dof} dof)")
+    click.echo(safe_line(noise_model_text(ident)))
+    if ident.checks is not None and not ident.checks.fits:
+        click.echo(safe_line(f"model check: {ident.checks.verdict} (see the warning above)"))
     for s in ident.not_separable:
         click.echo(f"not determined: {s}")

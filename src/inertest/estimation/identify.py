@@ -238,6 +238,11 @@ CHECK_ALPHA = 1e-3
 _MIN_UNIT_DOF = 4
 #: Largest number of units for which a correlated noise model is fitted (dense G x G).
 _MAX_UNITS = 2000
+#: Largest number of units whose pairs the mean-shift check tries (G (G - 1) / 2 of them).
+_MAX_PAIR_UNITS = 400
+#: Position offsets larger than this many times the white noise per reading are implausible
+#: (a wrong label or a missing term absorbed as an "offset"), see :func:`_plausibility`.
+OFFSET_PLAUSIBLE_RATIO = 100.0
 #: ``auto``: candidate noise models within this much AIC of the best count as "close" (the
 #: data cannot tell them apart; Burnham & Anderson 2002, sec. 2.6) and their spread is added.
 AUTO_CLOSE_AIC = 2.0
@@ -1001,12 +1006,16 @@ def solve(
                 fit, {m: x_checked if m == model else under(m)[0].x for m in near},
                 {m: weights[m] for m in near})
     checks = _checks(u, x_checked, V, model, given, sw2 if n > G else np.nan, alpha)
+    implausible = _plausibility(components)
+    if implausible is not None:
+        checks = replace(checks, plausibility=implausible, verdict="model does not fit")
+    checks = _with_message(checks)
     noise = NoiseFit(model=model, white_sigma=components["white"], sigma_given=given,
                      components=components, unit_index=u.index, unit_labels=u.labels,
                      unit_covariance=V, checks=checks, weights=weights, aic=aic,
                      bias_time_scale=float(bias_time_scale) if "flicker" in near else None)
     if not checks.fits:
-        warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=3)
+        warnings.warn(str(checks.message), InertestWarning, stacklevel=3)
     return fit, noise
 
 
@@ -1189,7 +1198,7 @@ def model_checks(
     u = _Units(index=idx, labels=None if labels is None else tuple(labels), counts=np.ones(G),
                first=idx, last=idx, y=e, A=A, n_rows=G)
     c = _checks(u, np.zeros(A.shape[1]), V, noise_model, sigma_given, np.nan, alpha)
-    return replace(c, unit=unit)
+    return _with_message(replace(c, unit=unit))
 
 
 def _checks(
@@ -1249,13 +1258,102 @@ def _checks(
     thr = max(4.0, -float(scipy.special.ndtri(alpha / (2 * G))))  # = scipy.stats.norm.isf
     outliers = tuple(Outlier(u.label(int(i)), float(z[i]))
                      for i in np.flatnonzero(np.abs(z) > thr))
-    bad = (p is not None and p < alpha) or (serial_p is not None and serial_p < alpha)
+    # Residuals at the rounding level of the data (noise-free data) test nothing.
+    rounding = float(np.max(np.abs(resid), initial=0.0)) <= 1e-9 * float(
+        np.max(np.abs(u.y), initial=0.0))
+    shift_units, shift_f, shift_dof, shift_p = _mean_shift(
+        e, Q, 0 if rounding else dof, u.label, scale_known=given and model == "white")
+    bad = any(q is not None and q < alpha for q in (p, serial_p, shift_p))
     return ModelChecks(
         noise_model=model, unit="reading" if u.labels is None else "position",
         n_units=G, statistic=statistic, chi_square=chi2, dof=dof, p_value=p,
         serial_chi_square=serial, serial_dof=lags if serial is not None else 0,
         serial_p_value=serial_p, outliers=outliers, outlier_threshold=thr, alpha=alpha,
-        verdict="model does not fit" if bad or outliers else "consistent")
+        verdict="model does not fit" if bad or outliers else "consistent",
+        shift_units=shift_units, shift_f=shift_f, shift_dof=shift_dof, shift_p_value=shift_p)
+
+
+def _with_message(c: ModelChecks) -> ModelChecks:
+    """``c`` with its :attr:`~inertest.results.ModelChecks.message` (None when it fits)."""
+    return replace(c, message=None if c.fits else _misfit_message(c))
+
+
+def _mean_shift(
+    e: NDArray[np.float64], Q: NDArray[np.float64], dof: int, label: Callable[[int], str],
+    *, scale_known: bool = False,
+) -> tuple[tuple[str, ...], float | None, tuple[int, int], float | None]:
+    """Most significant shift of one or two units against the scatter of the others.
+
+    ``e``: whitened unit residuals, ``Q``: orthonormal basis of the fitted directions. For a
+    set ``S`` of one or two units, adding a free mean to each (the mean-shift outlier model)
+    lowers the residual sum of squares by ``d_S = e_S' (I - QQ')_SS^-1 e_S``; under the model
+    ``F_S = (d_S / |S|) / ((|e|^2 - d_S) / (dof - |S|))`` is ``F(|S|, dof - |S|)`` whatever the
+    level of the noise, so the test holds when that level was fitted to these same residuals
+    (Cook & Weisberg, *Residuals and Influence in Regression*, Chapman & Hall 1982, sec. 2.2).
+    The p-value is Bonferroni over the ``G`` single units and the ``G (G - 1) / 2`` pairs
+    (pairs only up to :data:`_MAX_PAIR_UNITS` units): a swapped pair of labels shifts two units
+    by opposite amounts that the fit spreads over the others, masking each unit on its own.
+    With ``scale_known`` (``e`` whitened by a given noise level) the others' variance is taken
+    as at least 1, the level given: residuals far below it (noise-free data) test nothing.
+    Returns the units, ``F``, its dof and the p-value (None when there are too few dof).
+    """
+    G = e.size
+    rss = float(e @ e)
+    if dof < 3 or rss <= 0:
+        return (), None, (0, 0), None
+    m = np.clip(1.0 - np.sum(Q**2, axis=1), 0.0, None)  # diagonal of I - QQ'
+    ok = m > 1e-8
+    best: tuple[tuple[int, ...], float, tuple[int, int], float] = ((), 0.0, (0, 0), 1.0)
+    pairs = dof >= 4 and 2 <= G <= _MAX_PAIR_UNITS
+    tests = G + (G * (G - 1) // 2 if pairs else 0)
+    floor = 1.0 if scale_known else 0.0
+    d1 = np.where(ok, e**2 / np.where(ok, m, 1.0), 0.0)
+    rest = np.maximum(rss - d1, 1e-12 * rss)  # all the misfit in the tested units: F large
+    f1 = d1 / np.maximum(rest / (dof - 1), floor)
+    i = int(np.argmax(f1))
+    p1 = min(1.0, tests * float(scipy.special.fdtrc(1, dof - 1, f1[i])))
+    if ok[i]:
+        best = ((i,), float(f1[i]), (1, dof - 1), p1)
+    if pairs:
+        M = -(Q @ Q.T)
+        M[np.diag_indices(G)] = m
+        iu, ju = np.triu_indices(G, 1)
+        a, b, c = m[iu], m[ju], M[iu, ju]
+        det = a * b - c**2
+        good = det > 1e-8 * np.maximum(a * b, 1e-300)
+        det = np.where(good, det, 1.0)
+        ei, ej = e[iu], e[ju]
+        d2 = np.where(good, (b * ei**2 - 2 * c * ei * ej + a * ej**2) / det, 0.0)
+        rest2 = np.maximum(rss - d2, 1e-12 * rss)
+        f2 = (d2 / 2) / np.maximum(rest2 / (dof - 2), floor)
+        k = int(np.argmax(f2))
+        p2 = min(1.0, tests * float(scipy.special.fdtrc(2, dof - 2, f2[k])))
+        if good[k] and p2 < best[3]:
+            best = ((int(iu[k]), int(ju[k])), float(f2[k]), (2, dof - 2), p2)
+    if not best[0]:
+        return (), None, (0, 0), None
+    return tuple(label(j) for j in best[0]), best[1], best[2], best[3]
+
+
+def _plausibility(components: Mapping[str, float]) -> str | None:
+    """Why the fitted position offsets are implausible, or None.
+
+    An offset per position whose std is more than :data:`OFFSET_PLAUSIBLE_RATIO` times the
+    white noise per reading is what a wrong label (two positions swapped, an angle read off)
+    or a missing term looks like once ``position-offsets`` absorbs it: the variance test is
+    then no test (the offset level is fitted to the same residuals), and the estimates carry
+    the misfit with a std to match. A fixture that really re-settles that much calls for a
+    better fixture or for the noise given (``--sigma``).
+    """
+    offset, white = components.get("position offset"), components.get("white")
+    if offset is None or white is None or not (white > 0):
+        return None
+    ratio = offset / white
+    if not ratio > OFFSET_PLAUSIBLE_RATIO:
+        return None
+    return (f"the fitted position offsets (std {ratio:.3g} times the noise per reading, above "
+            f"{OFFSET_PLAUSIBLE_RATIO:g}) are implausible for a fixture: a wrong label or a "
+            "missing term taken for offsets")
 
 
 def _misfit_message(c: ModelChecks) -> str:
@@ -1268,6 +1366,13 @@ def _misfit_message(c: ModelChecks) -> str:
                    f"{c.serial_dof} dof, p = {c.serial_p_value:.2g})")
     if c.outliers:
         why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers))
+    if c.shift_p_value is not None and c.shift_p_value < c.alpha:
+        why.append(f"{' and '.join(c.shift_units)} off the model against the scatter of the "
+                   f"other {c.unit}s (F = {c.shift_f:.4g} for {c.shift_dof[0]}, "
+                   f"{c.shift_dof[1]} dof, p = {c.shift_p_value:.2g} over every one or two "
+                   f"{c.unit}s)")
+    if c.plausibility:
+        why.append(c.plausibility)
     return (f'the model with "{c.noise_model}" noise does not fit the data: {"; ".join(why)}; '
             "check the labels (mounting, angle, position), the settling of the table, and the "
             "noise model; the uncertainties are not reliable")

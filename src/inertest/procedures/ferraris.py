@@ -118,7 +118,7 @@ from __future__ import annotations
 import functools
 import warnings
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
@@ -746,7 +746,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         checks=checks,
     )
     if not checks.fits:
-        warnings.warn(_misfit_message(checks), InertestWarning, stacklevel=2)
+        warnings.warn(str(checks.message), InertestWarning, stacklevel=2)
 
     calibration = ImuCalibration(
         accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
@@ -887,12 +887,13 @@ def _model_checks(
                  "3 turns' |a| - g against the noise model, face tilts and Earth rate")
     if fitted_offsets:
         statistic += " (the pair sums also gave the position offsets: a weak test)"
-    return ModelChecks(
+    checks = ModelChecks(
         noise_model=model, unit="face pair / turn", n_units=n, statistic=statistic,
         chi_square=chi2, dof=dof, p_value=p, serial_chi_square=None, serial_dof=0,
         serial_p_value=None, outliers=outliers, outlier_threshold=thr, alpha=CHECK_ALPHA,
         verdict="model does not fit" if p < CHECK_ALPHA or outliers else "consistent",
         name="face pairs and turns against the noise model")
+    return checks if checks.fits else replace(checks, message=_misfit_message(checks))
 
 
 def _misfit_message(c: ModelChecks) -> str:

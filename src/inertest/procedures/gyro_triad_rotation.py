@@ -713,11 +713,14 @@ def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_Gyro
         if checks.outliers:
             why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})"
                                                for o in checks.outliers[:4]))
-        warnings.warn(
+        if checks.shift_p_value is not None and checks.shift_p_value < checks.alpha:
+            why.append(f"{' and '.join(checks.shift_units)} off the model against the other "
+                       f"windows (F = {checks.shift_f:.4g}, p = {checks.shift_p_value:.2g})")
+        checks = replace(checks, message=(
             f'gyro-triad-rotation: the model with "{fits[0].model}" noise does not fit the '
             f"windows: {'; '.join(why)}; check the attitude, axis, direction and part labels "
-            "and the noise model; the uncertainties are not reliable",
-            InertestWarning, stacklevel=3)
+            "and the noise model; the uncertainties are not reliable"))
+        warnings.warn(str(checks.message), InertestWarning, stacklevel=3)
     return checks
 
 

@@ -30,6 +30,8 @@ th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 td { white-space: nowrap; overflow-wrap: normal; } td.w { white-space: normal; }
 th { background: #eee; } td.l, th.l { text-align: left; }
 .note { background: #fff8e0; border-left: 4px solid #e0b000; padding: 0.4em 0.8em; }
+.warning { background: #fde8e8; border-left: 6px solid #c00000; padding: 0.4em 0.8em;
+           font-weight: bold; }
 figure { margin: 0.8em 0; max-width: 100%; break-inside: avoid; }
 img { max-width: 100%; height: auto; } code, pre { background: #f3f3f3; }
 figcaption { font-style: italic; break-before: avoid; }
@@ -108,6 +110,11 @@ def paragraph(text: str, *, note: bool = False) -> str:
     """A paragraph of escaped text; ``note=True`` highlights it."""
     cls = ' class="note"' if note else ""
     return f"<p{cls}>{html.escape(text)}</p>"
+
+
+def warning(text: str) -> str:
+    """A paragraph of escaped text highlighted as a warning (a result not to be trusted)."""
+    return f'<p class="warning" role="alert">{html.escape(text)}</p>'
 
 
 def preformatted(text: str) -> str:
