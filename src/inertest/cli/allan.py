@@ -9,8 +9,6 @@ from pathlib import Path
 
 import click
 import numpy as np
-from rich.console import Console
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
@@ -129,6 +127,15 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
                          f"from {', '.join(STATISTICS)}")
     want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
     samples = read_samples(data, column, dtype=dtype)
+    from rich.console import Console  # ~0.1 s: only when the command runs
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+
     console = Console(stderr=True)
     with Progress(TextColumn("allan"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
                   console=console,

@@ -17,7 +17,6 @@ from inertest.cli._common import (
 )
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
-from inertest.io.thermal_model import write_thermal_model
 from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
 from inertest.report.rounding import format_with_std
 
@@ -122,6 +121,8 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
             with target_directory(report_dir, inputs=[data]) as tmp:
                 (tmp / "index.html").write_text(html, encoding="utf-8")
         if model_out is not None:
+            from inertest.io.thermal_model import write_thermal_model
+
             write_thermal_model(model_out, result.model(model_name))
     except BaseException:
         if stored is not None and db_store is not None:
@@ -214,6 +215,8 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         with target_directory(report_dir, inputs=[plan, data]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if model is not None and model_out is not None:
+        from inertest.io.thermal_model import write_thermal_model
+
         write_thermal_model(model_out, model)
     if as_json:
         echo_json(result.to_dict())
