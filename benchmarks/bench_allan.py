@@ -66,7 +66,7 @@ def _speed(stat: str, sizes: list[int], peer_max: int, target: float) -> None:
     ours_t, peer_t, peer_n = [], [], []
     for n in sizes:
         y = np.random.default_rng(1).standard_normal(n)
-        rep = 3 if n <= 10_000_000 else 2
+        rep = 7 if n <= 1_000_000 else 3 if n <= 10_000_000 else 2
         t_ours, t_peer, ours, peer = float("inf"), float("inf"), None, None
         for i in range(rep):  # interleaved: both see the same load
             t, ours = _best(lambda y=y: deviations(y, RATE_HZ, [stat], "octave")[stat], 1)

@@ -96,3 +96,21 @@ def test_lag1_extend_in_blocks_equals_sequential_update(block):
     np.testing.assert_allclose(got[:, 2:8], ref[:, 2:8], rtol=1e-11, atol=0)
     for d in range(4):
         assert r1_of_state(got[d]) == pytest.approx(r1_of_state(ref[d]), abs=1e-10)
+
+
+def test_decimated_series_taken_from_each_other_equal_direct():
+    x = np.cumsum(np.random.default_rng(10).standard_normal(40_001))
+    ms = np.array([1, 2, 4, 8, 12, 24, 100, 1000])
+    count = (x.size - 1) // ms
+    h, rows = kernels.hadamard_decimated(x, ms, count - 2)
+    many = kernels.lag1_rows_many(x, ms)
+    for k, m in enumerate(ms):
+        span = (count[k] - 3) * m + 1
+        ref = kernels.sum_third_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span],
+                                     x[3 * m : 3 * m + span], m)
+        assert h[k] == pytest.approx(ref, rel=1e-12)
+        seq = kernels.lag1_state_of(x, m, count[k], 2)
+        for got in (rows[k], many[k]):
+            np.testing.assert_allclose(got[:, 2:7], seq[:, 2:7], rtol=1e-11, atol=0)
+            for d in range(2):
+                assert r1_of_state(got[d]) == pytest.approx(r1_of_state(seq[d]), abs=1e-10)

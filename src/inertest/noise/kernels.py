@@ -319,15 +319,74 @@ def _sumsq(b: NDArray, n: int) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
+def _decimate_into(x: NDArray, m: int, count: int, scratch: NDArray, have: int) -> bool:
+    """Put ``x[0], x[m], ..., x[count m]`` in ``scratch[: count + 1]``; True when done.
+
+    ``scratch`` holds ``x`` decimated by ``have`` (0: nothing yet). When ``m`` is a multiple
+    of ``have`` the points are taken from there, in place (index ``k r >= k``, ascending): the
+    octave grid reads each decimation from the previous one, half as long, not from the record.
+    """
+    if scratch.shape[0] < count + 1:
+        return False
+    if have > 0 and m % have == 0:
+        r = m // have
+        for k in range(count + 1):
+            scratch[k] = scratch[k * r]
+    else:
+        for k in range(count + 1):
+            scratch[k] = x[k * m]
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
 def lag1_rows_many(x: NDArray, ms: NDArray) -> NDArray:
-    """:func:`lag1_first_two` at every ``ms[k]``, shape (ms.size, 2, LAG1_FIELDS)."""
+    """:func:`lag1_first_two` at every ``ms[k]`` (ascending), shape (ms.size, 2, LAG1_FIELDS).
+
+    Each decimated series is taken from the previous one where the factors allow
+    (see :func:`_decimate_into`); the same numbers as :func:`lag1_first_two`.
+    """
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
     nx = x.shape[0]
+    scratch = np.empty(0)
+    have = 0
     for k in range(ms.size):
-        count = (nx - 1) // ms[k]
-        if count >= 2:
-            rows[k] = lag1_first_two(x, ms[k], count)
+        m = ms[k]
+        count = (nx - 1) // m
+        if count < 2:
+            continue
+        if m == 1:
+            _lag1_two(x[: count + 1], rows[k])
+            continue
+        if scratch.shape[0] == 0:
+            scratch = np.empty(count + 1)
+        if _decimate_into(x, m, count, scratch, have):
+            _lag1_two(scratch[: count + 1], rows[k])
+            have = m
+        else:
+            _lag1_two_strided(x, m, count, rows[k], False)
     return rows
+
+
+@numba.njit(cache=True, nogil=True)
+def _ssq3_ordered(a: NDArray, n: int) -> float:
+    """Sum of ``(a[i+3] - 3 a[i+2] + 3 a[i+1] - a[i])**2`` for ``i < n`` (contiguous ``a``).
+
+    Each difference is rounded as :func:`sum_third_diff` rounds it (no contraction); the
+    squares are summed in SIMD lanes.
+    """
+    tile = _LAG1_TILE
+    buf = np.empty(tile)
+    s = 0.0
+    for i0 in range(0, n, tile):
+        cnt = min(tile, n - i0)
+        a0 = a[i0 : i0 + cnt]
+        a1 = a[i0 + 1 : i0 + 1 + cnt]
+        a2 = a[i0 + 2 : i0 + 2 + cnt]
+        a3 = a[i0 + 3 : i0 + 3 + cnt]
+        for k in range(cnt):
+            buf[k] = a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]
+        s += _sumsq(buf, cnt)
+    return s
 
 
 @numba.njit(cache=True, nogil=True)
@@ -336,19 +395,29 @@ def hadamard_decimated(x: NDArray, ms: NDArray, terms: NDArray) -> tuple[NDArray
 
     The terms of HDEV at ``m`` are the third differences of ``x[0], x[m], ..., x[count m]``,
     the very series whose lag-1 sums identify the noise type (``count = terms + 2``): one
-    pass over it gives :func:`hadamard_sums` (``strided``) and :func:`lag1_first_two`.
+    pass over it gives :func:`hadamard_sums` (``strided``) and :func:`lag1_first_two`, each
+    series taken from the previous one where the factors allow (:func:`_decimate_into`).
     Returns the sums and the (ms.size, 2, LAG1_FIELDS) rows.
     """
     out = np.empty(ms.size)
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
+    scratch = np.empty(0)
+    have = 0
     for k in range(ms.size):
         m = ms[k]
         n = terms[k]
-        if m > 1:
-            out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
-        else:
+        if m == 1:
             out[k] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
             _lag1_two(x[: n + 3], rows[k])
+            continue
+        if scratch.shape[0] == 0:
+            scratch = np.empty(n + 3)
+        if _decimate_into(x, m, n + 2, scratch, have):
+            out[k] = _ssq3_ordered(scratch, n)
+            _lag1_two(scratch[: n + 3], rows[k])
+            have = m
+        else:
+            out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
     return out, rows
 
 
