@@ -304,9 +304,11 @@ class Identification:
             assert isinstance(noise, dict)
             top = max(self.noise_model_weights.values())
             noise["selection"] = {
-                "rule": "auto: the noise model of smallest AIC (restricted likelihood); its "
-                        "covariance plus the Akaike-weighted spread of the estimates of the "
-                        "models within 2 AIC of it (close)",
+                "rule": "auto: white noise unless a correlated model beats it by the "
+                        "likelihood-ratio test (restricted likelihood, boundary corrected, "
+                        "5 % for the family), else the correlated model of smallest AIC; its "
+                        "covariance plus the spread of the estimates of the models within 2 "
+                        "of it per output (close), with the Akaike weights of that criterion",
                 "weights": {k: float(v) for k, v in self.noise_model_weights.items()},
                 "close": [k for k, v in self.noise_model_weights.items()
                           if v >= top * np.exp(-1.0) * (1 - 1e-12)],

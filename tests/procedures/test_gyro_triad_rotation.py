@@ -274,6 +274,34 @@ def test_monte_carlo_noise_model_matrix(case):
         assert 0.8 < np.mean(ratio[group]) < 1.25, (group, ratio[group])
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["white", "position-offsets", "random-walk", "flicker"])
+def test_monte_carlo_auto_noise_model_is_honest_under_each_noise(case):
+    """``noise_model = "auto"`` on the sessions of the matrix above: reported std / scatter
+    within 0.8-1.25 for each group (K, M, B) whichever the drift. The bias under flicker was
+    0.78 with the choice by AIC and a spread cut at 2 of the AIC summed over the gyros (a
+    random walk, whose bias estimate is poor under flicker, chosen on a third of the sessions
+    with flicker left out of the spread); 0.85 with the cut at 2 per gyro
+    (identify.common_noise_model)."""
+    plan = make_plan(rate_deg_s=20.0, rotation_window_s=20.0, static_window_s=40.0, repeats=3,
+                     window_noise="sqrt-window")
+    base = gtr.simulate(plan, TRUTH)
+    reps = 150
+    noise = _window_noise(case, base["duration_s"], np.random.default_rng(11), reps)
+    est, std = np.empty((reps, 12)), np.empty((reps, 12))
+    for r in range(reps):
+        data = {**base, **{f"counts_{a}": base[f"counts_{a}"] + noise[r, i]
+                           for i, a in enumerate("xyz")}}
+        with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
+            warnings.simplefilter("ignore", InertestWarning)
+            res = gtr.fit(plan, data, noise_model="auto")
+        est[r] = [res.coefficients[k].value for k in gtr.NAMES]
+        std[r] = [res.coefficients[k].std for k in gtr.NAMES]
+    ratio = np.sqrt(np.mean(std**2, axis=0)) / est.std(axis=0, ddof=1)
+    for group in (slice(0, 3), slice(3, 9), slice(9, 12)):
+        assert 0.8 < np.mean(ratio[group]) < 1.25, (group, ratio[group])
+
+
 def test_window_kernel_random_walk_and_flicker_against_sampled_integrals():
     """The window kernels against integrals of the covariance written out on a fine grid:
     min(s, t) for the random walk, and the mean of exp(-|s - t|/tau) over the taus for

@@ -49,8 +49,9 @@ window [count]; ``sqrt-window``: angle random walk of the rate output, ``sigma s
 [count/sqrt(s)]), and ``noise_model`` the drift of the rate bias (``white``: none;
 ``position-offsets``: a rate offset per window, count ``d T``; ``random-walk``: a rate random
 walk over the session, count ``int_T W(t) dt``; ``flicker``: 1/f rate noise, a sum of
-Ornstein-Uhlenbeck processes with log-spaced times; ``auto``: the smallest AIC over the three
-gyros, plus the spread of the close models' estimates, as in
+Ornstein-Uhlenbeck processes with log-spaced times; ``auto``: white unless a drift model
+passes the likelihood-ratio test over the three gyros, else the smallest AIC, plus the spread
+of the close models' estimates, as in
 :func:`inertest.estimation.identify.solve_outputs`). The variance
 components are estimated per gyro by REML (Patterson & Thompson, Biometrika 58(3), 1971,
 doi:10.1093/biomet/58.3.545) and the coefficients by GLS with that covariance.
@@ -436,9 +437,10 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     with ``W`` the white shape (``window_noise``) and ``K`` the kernel of the bias drift in
     session time (:func:`window_kernel`); ``theta`` (and ``s2`` unless ``sigma`` is given) by
     REML, the coefficients by GLS. ``white`` is ordinary weighted least squares. With ``auto``
-    the three gyros share the model of smallest AIC summed over them, and each adds the
-    Akaike-weighted spread of its estimates under the models within 2 of that sum (the rule
-    of :func:`inertest.estimation.identify.solve_outputs`).
+    the three gyros share one model, white unless a drift model beats it by the
+    likelihood-ratio test pooled over them, else the drift model of smallest summed AIC, and
+    each adds the weighted spread of its estimates under the models within 2 per gyro of it
+    (the rule of :func:`inertest.estimation.identify.solve_outputs`).
 
     Raises
     ------
@@ -729,9 +731,10 @@ def _fit_gyros(X: NDArray[np.float64], Y: NDArray[np.float64], W: NDArray[np.flo
                ) -> tuple[list[_GyroFit], dict[str, float]]:
     """Each gyro's fit under one noise model, and with ``auto`` the Akaike weights.
 
-    ``auto`` is the rule of :func:`inertest.estimation.identify.solve_outputs`: the model of
-    smallest AIC summed over the three gyros; each gyro's covariance gains the spread of its
-    estimates under the models within 2 of that sum, with the summed AICs' Akaike weights
+    ``auto`` is the rule of :func:`inertest.estimation.identify.solve_outputs`: white unless a
+    drift model beats it by the likelihood-ratio test pooled over the three gyros, else the
+    drift model of smallest summed AIC; each gyro's covariance gains the spread of its
+    estimates under the models within 2 per gyro of it, with the weights of that criterion
     (:func:`inertest.estimation.identify.common_noise_model`, :func:`~inertest.estimation.
     identify.selection_spread`).
     """

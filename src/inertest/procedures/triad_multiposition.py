@@ -462,10 +462,10 @@ def fit(
     as the unit of independence: white noise is ordinary least squares; the correlated models
     estimate their variance component by REML from the position means and fit them by GLS, so
     that the stated uncertainty holds when the fixture re-settles between positions or the
-    bias wanders during the test. With ``auto`` the three outputs share one noise model, the
-    one of smallest AIC summed over them, and each adds the Akaike-weighted spread of its
-    estimates under the models within 2 of that sum
-    (:func:`inertest.estimation.identify.solve_outputs`).
+    bias wanders during the test. With ``auto`` the three outputs share one noise model, white
+    unless a correlated model beats it by the likelihood-ratio test pooled over them, else the
+    one of smallest summed AIC, and each adds the weighted spread of its estimates under the
+    models within 2 per output of it (:func:`inertest.estimation.identify.solve_outputs`).
 
     Raises
     ------
