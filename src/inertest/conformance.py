@@ -30,13 +30,13 @@ from __future__ import annotations
 import math
 import os
 import re
-import tomllib
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from inertest.budget import UncertaintyBudget, quantities_of
 from inertest.errors import PlanError, UnitError
+from inertest.lab import read_toml_file
 from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
 from inertest.units import compound_unit, convert
 
@@ -278,16 +278,8 @@ def read_spec(path: str | os.PathLike[str], result: Any = None) -> Spec:
         quantity the result does not have (with did-you-mean).
     """
     source = f"spec file {os.fspath(path)}"
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SpecError(f"{source} does not exist; give --spec an instrument specification "
-                        "(see examples/specs/)") from None
-    except OSError as exc:
-        raise SpecError(f"{source} cannot be read: {exc.strerror}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(f"{source} is not valid TOML: {exc}") from None
+    doc = read_toml_file(path, source=source, error=SpecError,
+                         missing="give --spec an instrument specification (see examples/specs/)")
     spec = spec_from_mapping(doc, source=source)
     if result is not None:
         spec.check_quantities(quantities_of(result))

@@ -216,17 +216,28 @@ def read_equipment(path: str | os.PathLike[str]) -> dict[str, Equipment]:
         The records keyed by id, in file order.
     """
     source = f"lab file {os.fspath(path)}"
+    doc = read_toml_file(path, source=source, error=LabFileError,
+                         missing="give --equipment the lab's equipment file (see "
+                         "examples/lab/equipment.toml)")
+    return equipment_from_mapping(doc, source=source)
+
+
+def read_toml_file(path: str | os.PathLike[str], *, source: str, error: type[PlanError],
+                   missing: str) -> dict[str, Any]:
+    """Parse the TOML file ``path``; a missing, unreadable or invalid file raises ``error``.
+
+    ``source`` names the file in the messages (``"lab file PATH"``); ``missing`` is the fix
+    given when it does not exist.
+    """
     try:
         with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
+            return tomllib.load(fh)
     except FileNotFoundError:
-        raise LabFileError(f"{source} does not exist; give --equipment the lab's equipment "
-                           "file (see examples/lab/equipment.toml)") from None
+        raise error(f"{source} does not exist; {missing}") from None
     except OSError as exc:
-        raise LabFileError(f"{source} cannot be read: {exc.strerror}") from None
+        raise error(f"{source} cannot be read: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
-        raise LabFileError(f"{source} is not valid TOML: {exc}") from None
-    return equipment_from_mapping(doc, source=source)
+        raise error(f"{source} is not valid TOML: {exc}") from None
 
 
 def select_equipment(
