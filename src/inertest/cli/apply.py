@@ -31,9 +31,10 @@ import numpy as np
 
 from inertest.cli._common import check_paths
 from inertest.errors import DataError
-from inertest.io.calibration_file import load_calibration
+from inertest.io.calibration_file import load_calibration, read_json_object
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import is_hdf5
+from inertest.procedures.spec import require_columns
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -79,11 +80,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA."""
     check_paths([output], [calibration, data])
     # thermal models load their procedures (scipy.stats): only when a command runs
-    from inertest.io.thermal_model import (
-        is_thermal_model,
-        is_triad_thermal_model,
-        read_json_object,
-    )
+    from inertest.io.thermal_model import is_thermal_model, is_triad_thermal_model
 
     doc = read_json_object(calibration, "calibration")
     if is_thermal_model(doc):
@@ -161,17 +158,11 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
     from inertest.procedures.thermal_compensation import QUANTITIES
 
     model = load_thermal_model(model_path)
-    if temperature_column is None:
-        raise click.UsageError(f"{model_path} is a thermal model: name the temperature column "
-                               "with --temperature-column")
     cols = ([c.strip() for c in columns.split(",") if c.strip()] if columns is not None
             else [QUANTITIES[model.quantity][0]])
-    table = read_table(data)
-    need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
-    arr = _read_numeric(data, table, need, "--temperature-column, --columns"
-                        + (", --time-column" if model.uses_rate else ""))
-    temp = arr[temperature_column]
-    rate = _rate_and_range_check(model, data, temp, arr.get(time_column), extrapolate)
+    table, arr, temp, rate = _thermal_inputs(model, model_path, "thermal model", data,
+                                             temperature_column, time_column, cols, "--columns",
+                                             extrapolate)
     out = dict(table)
     units: dict[str, str] = {}
     unit = "deg/h" if model.quantity == "bias" else ""
@@ -190,22 +181,33 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
                f"{model.model_type} model) to {output}")
 
 
-def _read_numeric(data: Path, table: dict, need: list[str], hint: str) -> dict[str, np.ndarray]:
-    """The columns ``need`` of ``table`` as finite floats; errors name the column and row."""
+def _thermal_inputs(
+    model, model_path: Path, what: str, data: Path, temperature_column: str | None,
+    time_column: str, cols: list[str] | tuple[str, ...], columns_option: str, extrapolate: bool,
+) -> tuple[dict, dict[str, np.ndarray], np.ndarray, np.ndarray | None]:
+    """DATA's table, the columns the thermal model needs, the temperature and the rate.
+
+    The columns (to correct, temperature [degC], time [s]) as finite floats, the rate
+    [degC/min] only if the model uses it; errors name the option that fixes them.
+    """
+    if temperature_column is None:
+        raise click.UsageError(f"{model_path} is a {what}: name the temperature column with "
+                               "--temperature-column")
+    table = read_table(data)
+    need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
     missing = [c for c in need if c not in table]
     if missing:
+        hint = (f"--temperature-column, {columns_option}"
+                + (", --time-column" if model.uses_rate else ""))
         raise DataError(f"{data} lacks column(s) {', '.join(missing)} (found: "
                         f"{', '.join(table)}); name them with {hint}")
     try:
-        arr = {c: np.asarray(table[c], dtype=float) for c in need}
-    except (TypeError, ValueError):
-        raise DataError(f"columns {', '.join(need)} of {data} must be numeric") from None
-    for c, a in arr.items():
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise DataError(f'column "{c}" of {data} has NaN/inf (first at data row '
-                            f"{bad[0] + 1}); repair or remove those rows")
-    return arr
+        arr = require_columns(table, need, (), procedure="its")
+    except DataError as exc:
+        raise DataError(f"{data}: {exc}") from None
+    temp = arr[temperature_column]
+    return table, arr, temp, _rate_and_range_check(model, data, temp, arr.get(time_column),
+                                                    extrapolate)
 
 
 def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarray | None,
@@ -254,16 +256,10 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
     from inertest.io.thermal_model import load_triad_thermal_model
 
     model = load_triad_thermal_model(model_path)
-    if temperature_column is None:
-        raise click.UsageError(f"{model_path} is a triad thermal model: name the temperature "
-                               "column with --temperature-column")
     cols = _columns(columns or "output_x,output_y,output_z", "--columns")
-    table = read_table(data)
-    need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
-    arr = _read_numeric(data, table, need, "--temperature-column, --columns x,y,z"
-                        + (", --time-column" if model.uses_rate else ""))
-    temp = arr[temperature_column]
-    rate = _rate_and_range_check(model, data, temp, arr.get(time_column), extrapolate)
+    table, arr, temp, rate = _thermal_inputs(model, model_path, "triad thermal model", data,
+                                             temperature_column, time_column, cols,
+                                             "--columns x,y,z", extrapolate)
     u, std = model.compensate(np.column_stack([arr[c] for c in cols]), temp, rate)
     hdf5 = is_hdf5(output)
     out: dict[str, np.ndarray] = {}

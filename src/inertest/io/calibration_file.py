@@ -10,13 +10,8 @@ from inertest.errors import InputError
 from inertest.models.triad import ImuCalibration
 
 
-def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration") -> ImuCalibration:
-    """The triad calibration held in ``path``.
-
-    Accepted: a result envelope (``result.calibration``, schema version 2), an older ``fit
-    --json`` result (top-level ``calibration``), or a bare ``{"accelerometer": ..., "gyroscope":
-    ...}`` block.
-    """
+def read_json_object(path: str | os.PathLike[str], what: str) -> dict:
+    """The JSON object in ``path``; anything else is an InputError naming the file."""
     p = Path(path)
     try:
         doc = json.loads(p.read_text(encoding="utf-8"))
@@ -24,8 +19,19 @@ def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration")
         raise InputError(f"{what} file {p} is not JSON: {exc}") from None
     if not isinstance(doc, dict):
         raise InputError(f"{what} file {p} must hold a JSON object")
+    return doc
+
+
+def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration") -> ImuCalibration:
+    """The triad calibration held in ``path``.
+
+    Accepted: a result envelope (``result.calibration``, schema version 2), an older ``fit
+    --json`` result (top-level ``calibration``), or a bare ``{"accelerometer": ..., "gyroscope":
+    ...}`` block.
+    """
+    doc = read_json_object(path, what)
     body = doc.get("result") if isinstance(doc.get("result"), dict) else doc
     block = body.get("calibration", body)
     if not isinstance(block, dict):
-        raise InputError(f'"calibration" in {p} must be an object')
+        raise InputError(f'"calibration" in {Path(path)} must be an object')
     return ImuCalibration.from_dict(block)

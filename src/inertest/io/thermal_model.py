@@ -14,25 +14,18 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 from inertest.errors import InputError
 from inertest.io.atomic import write_text
+from inertest.io.calibration_file import read_json_object
 from inertest.procedures.thermal_model import MODEL_KIND, ThermalModel, model_from_dict
 from inertest.procedures.thermal_triad import MODEL_KIND as TRIAD_MODEL_KIND
 from inertest.procedures.thermal_triad import TriadThermalModel
 
-
-def read_json_object(path: str | os.PathLike[str], what: str) -> dict:
-    """The JSON object in ``path``; anything else is an InputError naming the file."""
-    p = Path(path)
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise InputError(f"{what} file {p} is not JSON: {exc}") from None
-    if not isinstance(doc, dict):
-        raise InputError(f"{what} file {p} must hold a JSON object")
-    return doc
+_M = TypeVar("_M", ThermalModel, TriadThermalModel)
 
 
 def is_thermal_model(doc: dict) -> bool:
@@ -47,24 +40,25 @@ def is_triad_thermal_model(doc: dict) -> bool:
 
 def load_triad_thermal_model(path: str | os.PathLike[str]) -> TriadThermalModel:
     """The triad thermal model in ``path`` (written by ``thermal triad --model-out``)."""
-    doc = read_json_object(path, "triad thermal model")
-    if doc.get("kind") == "thermal-triad":
-        raise InputError(f"{path} is a thermal triad result, not a model; write the model with "
-                         "inertest thermal triad PLAN DATA --model-out MODEL.json")
-    try:
-        return TriadThermalModel.from_dict(doc)
-    except InputError as exc:
-        raise InputError(f"{path}: {exc}") from None
+    return _load_model(path, "triad thermal model", TriadThermalModel.from_dict,
+                       result_kind="thermal-triad", command="thermal triad", args="PLAN DATA")
 
 
 def load_thermal_model(path: str | os.PathLike[str]) -> ThermalModel:
     """The thermal model in ``path`` (written by :func:`write_thermal_model`)."""
-    doc = read_json_object(path, "thermal model")
-    if doc.get("kind") == "thermal-compensation":
-        raise InputError(f"{path} is a thermal fit result, not a model; write the model with "
-                         "inertest thermal fit DATA --model-out MODEL.json")
+    return _load_model(path, "thermal model", model_from_dict,
+                       result_kind="thermal-compensation", command="thermal fit", args="DATA")
+
+
+def _load_model(path: str | os.PathLike[str], what: str, from_dict: Callable[[dict], _M], *,
+                result_kind: str, command: str, args: str) -> _M:
+    """The model in ``path``; the ``result_kind`` result of ``command`` is refused with the fix."""
+    doc = read_json_object(path, what)
+    if doc.get("kind") == result_kind:
+        raise InputError(f"{path} is a {command} result, not a model; write the model with "
+                         f"inertest {command} {args} --model-out MODEL.json")
     try:
-        return model_from_dict(doc)
+        return from_dict(doc)
     except InputError as exc:
         raise InputError(f"{path}: {exc}") from None
 

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
+from inertest.procedures.spec import require_columns
 from inertest.procedures.thermal_model import (
     NetworkThermalModel,
     PolynomialThermalModel,
@@ -425,20 +426,7 @@ def fit_thermal(
         raise InputError(f"quantity {quantity!r} unknown; use one of {', '.join(QUANTITIES)}")
     column, unit = QUANTITIES[quantity]
     need = ("cycle", "time_s", "temperature_c", column)
-    missing = [c for c in need if c not in data]
-    if missing:
-        raise DataError(
-            f"thermal data lacks column(s) {', '.join(missing)}; it needs {', '.join(need)} "
-            f"(found: {', '.join(map(str, data))})"
-        )
-    try:
-        cols = {c: np.asarray(data[c], dtype=float) for c in need}
-    except (TypeError, ValueError):
-        raise DataError(f"columns {', '.join(need)} must be numeric") from None
-    for c, a in cols.items():
-        bad = np.flatnonzero(~np.isfinite(a))
-        if bad.size:
-            raise DataError(f'column "{c}" has NaN/inf (first at data row {bad[0] + 1})')
+    cols = require_columns(data, need, (), procedure="thermal")
     if validation_cycles < 1 or max_degree < 1 or hidden < 1 or max_iter < 1:
         raise InputError("validation_cycles, max_degree, hidden and max_iter must be >= 1")
     cycle = cols["cycle"].astype(int)

@@ -401,15 +401,22 @@ def _power(base: str, k: int) -> str:
     return "" if k == 0 else base if k == 1 else f"{base}^{k}"
 
 
+def check_model_header(doc: Mapping[str, object], *, kind: str, version: int, what: str,
+                       fix: str) -> None:
+    """Refuse a model document of another ``kind`` or ``format_version`` (InputError, ``fix``)."""
+    if doc.get("kind") != kind:
+        raise InputError(f'not a {what}: "kind" is {doc.get("kind")!r}, expected "{kind}" '
+                         f"({fix})")
+    found = doc.get("format_version")
+    if found != version:
+        raise InputError(f"{what} format_version {found!r} is not supported (this inertest "
+                         f"reads {version}); {fix}")
+
+
 def model_from_dict(doc: Mapping[str, object]) -> ThermalModel:
     """Rebuild a model from its JSON document (:meth:`to_dict`); bad documents raise InputError."""
-    if doc.get("kind") != MODEL_KIND:
-        raise InputError(f'not a thermal model: "kind" is {doc.get("kind")!r}, expected '
-                         f'"{MODEL_KIND}" (write one with inertest thermal fit --model-out)')
-    version = doc.get("format_version")
-    if version != FORMAT_VERSION:
-        raise InputError(f"thermal model format_version {version!r} is not supported (this "
-                         f"inertest reads {FORMAT_VERSION}); refit with this version")
+    check_model_header(doc, kind=MODEL_KIND, version=FORMAT_VERSION, what="thermal model",
+                       fix="write one with inertest thermal fit --model-out")
     try:
         quantity = str(doc["quantity"])
         if quantity not in QUANTITY_UNITS:

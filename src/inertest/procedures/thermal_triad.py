@@ -45,6 +45,7 @@ from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.plan import Plan
 from inertest.procedures import triad_multiposition as tmp
+from inertest.procedures.thermal_model import check_model_header
 from inertest.results import envelope
 
 KIND = "thermal-triad"
@@ -377,13 +378,9 @@ class TriadThermalModel:
     @classmethod
     def from_dict(cls, d: Mapping[str, object]) -> TriadThermalModel:
         """Inverse of :meth:`to_dict`; errors name the key and the fix."""
-        if d.get("kind") != MODEL_KIND:
-            raise InputError(f'not a triad thermal model (kind "{d.get("kind")}", expected '
-                             f'"{MODEL_KIND}")')
-        version = d.get("format_version")
-        if version != MODEL_FORMAT_VERSION:
-            raise InputError(f"triad thermal model format_version {version!r} is not "
-                             f"{MODEL_FORMAT_VERSION}; write it again with this inertest")
+        check_model_header(d, kind=MODEL_KIND, version=MODEL_FORMAT_VERSION,
+                           what="triad thermal model",
+                           fix="write one with inertest thermal triad --model-out")
         try:
             su = d["scale_unit"]
             scale = triad.ScaleUnit(str(su["unit"]), float(su["si_per_unit"]),  # type: ignore[index]
