@@ -354,17 +354,9 @@ def test_second_real_session_in_si_units_with_clockwise_turns():
     rotation_deg = -360, sections from its list file). A +360 plan is refused with the fix; with
     -360 the accelerometer matches imucal to rounding and the gyro matrix within the bias-choice
     bound of the first real-data test."""
-    import json
-
     pd = pytest.importorskip("pandas")
     imucal = pytest.importorskip("imucal")
-    folder = REAL.parent
-    df = pd.read_csv(folder / "example_ferraris_session.csv")
-    sections = json.loads((folder / "example_ferraris_session_list.json").read_text())
-    part = np.full(len(df), "between", dtype=object)
-    for name, s in sections.items():
-        part[s["start"]:s["end"]] = name
-    data = {c: df[c].to_numpy(float) for c in df.columns} | {"part": part.astype(str)}
+    df, part, data = _example_session_table()
     params = {"sample_rate_hz": 102.4, "acc_unit": "m/s^2", "gyr_unit": "deg/s",
               "g_sensitivity": True}
     with pytest.raises(DataError, match="set rotation_deg = -360"):
@@ -551,7 +543,8 @@ def test_noise_model_and_components_in_the_result():
 # --- model checks (issue 15): the session's redundancy against the noise model -------------
 
 
-def _example_session():
+def _example_session_table():
+    """imucal's second session: its frame, the part of each row (from the list file), the data."""
     import json
 
     pd = pytest.importorskip("pandas")
@@ -562,6 +555,11 @@ def _example_session():
     for name, s in sections.items():
         part[s["start"]:s["end"]] = name
     data = {c: df[c].to_numpy(float) for c in df.columns} | {"part": part.astype(str)}
+    return df, part, data
+
+
+def _example_session():
+    _, _, data = _example_session_table()
     return make_plan(sample_rate_hz=102.4, acc_unit="m/s^2", gyr_unit="deg/s",
                      g_sensitivity=True, rotation_deg=-360.0), data
 

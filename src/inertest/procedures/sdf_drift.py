@@ -32,28 +32,15 @@ _SQUARES = ("DII", "DOO", "DSS")
 def row_inputs(
     motion: StaticPositions, labels: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Inputs of the drift model for each data row, from the fixture's motion.
+    """Inputs of the drift model for each data row: :func:`position_inputs` spread over the rows.
 
-    Parameters
-    ----------
-    motion : StaticPositions
-        The fixture's positions (segments by label).
-    labels : array_like of str, shape (n,)
-        Position label of each row.
-
-    Returns
-    -------
-    f_ios_g : ndarray, shape (n, 3)
-        Specific force on I, O, S [g0].
-    rate_in_rad_s : ndarray, shape (n,)
-        Inertial angular rate on the input axis I [rad/s] (the Earth rate at rest).
+    ``labels`` (array_like of str, shape (n,)) is the position label of each row; the returns
+    are ``f_ios_g`` of shape (n, 3) [g0] and ``rate_in_rad_s`` of shape (n,) [rad/s].
     """
     # The inputs of each position once, then spread over its rows (no per-row attitude).
     uniq, inv = unique_by_runs(np.asarray(labels).astype(str, copy=False))
-    parts = [motion.inputs_of_rows(np.array([u])) for u in uniq]
-    f = np.concatenate([p.f_i for p in parts]).reshape(-1, 3)
-    w = np.concatenate([p.omega_i[:, 0] for p in parts])
-    return (f / G0)[inv], w[inv]
+    f, w = position_inputs(motion, uniq)
+    return f[inv], w[inv]
 
 
 def position_inputs(
