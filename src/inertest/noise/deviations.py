@@ -65,6 +65,9 @@ CHUNK = 1 << 20
 #: In memory, taus are summed in groups of about this many samples (one progress tick each).
 _GROUP_WORK = 1 << 24
 
+#: In memory, samples from which the m = 1 noise-type rows are taken while integrating.
+_FUSE_ROWS = 1 << 22
+
 Progress = Callable[[int, int], None]
 
 
@@ -163,6 +166,11 @@ class _MemoryPhase(_Phase):
         self.size = x.size
         self.tau0 = tau0
         self.chunk = max(1, x.size)
+        # Taken while the phase was built (phase_source(fuse=...)): noise-type rows 0-1 by m,
+        # Hadamard sums by m, and x[::2] (scratch the HDEV sums may overwrite).
+        self.rows: dict[int, NDArray] = {}
+        self.hdev: dict[int, float] = {}
+        self.half: NDArray | None = None
 
     def read(self, start: int, stop: int) -> NDArray:
         return self.x[start:stop]
@@ -263,9 +271,15 @@ def _check_finite_angle(x: ArrayLike) -> None:
 
 
 def phase_source(
-    data: ArrayLike, rate: float, data_type: str = "rate", *, stream: bool | None = None
+    data: ArrayLike, rate: float, data_type: str = "rate", *, stream: bool | None = None,
+    fuse: str = "",
 ) -> _Phase:
-    """Validate the input and build the phase points (SP 1065: N rates -> N + 1 phases)."""
+    """Validate the input and build the phase points (SP 1065: N rates -> N + 1 phases).
+
+    ``fuse`` (rate records in memory): ``"rows"`` also takes the noise-type rows at m = 1
+    while integrating, ``"hadamard"`` those at m = 1 and 2 with the Hadamard sums there and
+    ``x[::2]`` (see ``kernels.integrate_fused``); the phase is the same either way.
+    """
     if data_type not in DATA_TYPES:
         raise InputError(f"data_type {data_type!r} is not known; use 'rate' or 'angle'")
     try:
@@ -301,8 +315,21 @@ def phase_source(
         if stream:
             return _RatePhase(data, tau0, mean)
         x = np.empty(n + 1)
-        kernels.integrate(np.ascontiguousarray(data, dtype=np.float64), mean, 0.0, tau0, x)
-        return _MemoryPhase(x, tau0)
+        yc = np.ascontiguousarray(data, dtype=np.float64)
+        if not fuse:
+            kernels.integrate(yc, mean, 0.0, tau0, x)
+            return _MemoryPhase(x, tau0)
+        two = fuse == "hadamard" and n >= 6
+        half = np.empty(n // 2 + 1 if two else 0)
+        rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
+        h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, half, rows, two)
+        mp = _MemoryPhase(x, tau0)
+        mp.rows[1] = rows[0]
+        if two:
+            mp.rows[2] = rows[1]
+            mp.hdev.update({1: h1, 2: h2})
+            mp.half = half
+        return mp
     _check_finite_angle(data)
     src = _AnglePhase(data, tau0)
     if stream:
@@ -682,6 +709,9 @@ def _noise_type(src: _Phase, m: int, family: str,
         if mem:
             one = np.array([mm], dtype=np.int64)
             cache = {} if sums is None else sums
+            if ("mdev", mm) not in cache and ("oadev", mm) not in cache:  # one pass for both
+                cache["mdev", mm], cache["oadev", mm] = (
+                    float(v) for v in kernels.modified_allan_pair(src.x, mm, n_mod, n_oa))
             if ("mdev", mm) not in cache:
                 cache["mdev", mm] = float(kernels.modified_sums(src.x, one, np.array([n_mod]))[0])
             if ("oadev", mm) not in cache:
@@ -822,7 +852,10 @@ def deviations(
         )
     if not (0.0 < confidence < 1.0):
         raise InputError(f"confidence must be between 0 and 1, got {confidence}")
-    src = phase_source(data, rate, data_type, stream=stream)
+    # Rows at m = 1 taken while integrating pay only once the record outgrows the cache.
+    big = hasattr(data, "__len__") and len(data) >= _FUSE_ROWS  # type: ignore[arg-type]
+    src = phase_source(data, rate, data_type, stream=stream,
+                       fuse="hadamard" if "hdev" in stats else "rows" if big else "")
     nx = src.size
     grids = {s: averaging_factors(taus, 1.0 / src.tau0, s, nx) for s in stats}
     work = sum(_work(s, int(m), nx) for s in stats for m in grids[s])
@@ -837,6 +870,8 @@ def deviations(
     sums: dict[tuple[str, int], float] = {}  # OADEV, MDEV sums by m, reused for R(n)
     states: dict[int, NDArray] = {}
     points: dict[int, NDArray] = {}
+    if isinstance(src, _MemoryPhase):
+        states.update(src.rows)
     if not isinstance(src, _MemoryPhase):
         # every tau of every statistic (but TOTDEV) and the noise-type data in one pass
         reqs = sorted({("mdev" if s == "tdev" else s, int(m))
@@ -856,7 +891,18 @@ def deviations(
         ms = np.asarray(grids[s], dtype=np.int64)
         ns = np.array([_terms(s, int(m), nx) for m in ms], dtype=np.int64)
         ssq = np.empty(ms.size)
-        if isinstance(src, _MemoryPhase):
+        if (isinstance(src, _MemoryPhase) and s == "hdev" and src.half is not None
+                and ms.size >= 2 and ms[0] == 1 and ms[1] == 2):
+            # m = 1, 2 summed while the phase was built; the rest from x[::2], in place
+            from inertest.noise import kernels  # numba: loaded on first use
+
+            ssq[0], ssq[1] = src.hdev[1], src.hdev[2]
+            if ms.size > 2:
+                ssq[2:], r = kernels.hadamard_from(src.x, ms[2:], ns[2:], src.half, 2)
+                states.update({int(m): r[k] for k, m in enumerate(ms[2:])})
+            src.half = None
+            tick(sum(_work(s, int(m), nx) for m in ms))
+        elif isinstance(src, _MemoryPhase):
             # Taus in groups of about _GROUP_WORK samples: one kernel call per group, a
             # progress tick after each.
             i = 0

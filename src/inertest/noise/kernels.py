@@ -1009,3 +1009,240 @@ def greenhall_edf_many(alpha: NDArray, d: int, m: NDArray, terms: NDArray, modif
     for k in range(m.size):
         out[k] = greenhall_edf(alpha[k], d, m[k], terms[k], modified, overlapping)
     return out
+
+
+# --------------------------------------------------------------------------- fused phase build
+# The phase of an in-memory rate record is integrated tile by tile; while a tile is still in
+# L1 the sums that read the whole record at m = 1 (and, for HDEV, the series x[::2]) are taken
+# from it, so the record is not read back from memory for them.
+
+#: Samples per tile of :func:`integrate_fused`.
+_FUSE_TILE = 4096
+
+
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
+                acc: NDArray, third: bool) -> None:
+    """Add the terms of indices ``k0 <= k < k1`` of the series ``a[:npts]`` to ``acc``.
+
+    Index ``k`` owns: row 0 ``v_k = a[k] - sh0`` and the pair ``v_k v_{k+1}``; row 1
+    ``w_k = (a[k+1] - a[k]) - sh1`` and ``w_k w_{k+1}``; with ``third`` the squared third
+    difference starting at ``k`` (the expressions of :func:`_lag1_two` and :func:`_ssq3`),
+    each only where its points exist. ``acc``: p1, p2, p11, q1, q2, q11, h.
+    """
+    p1 = p2 = p11 = q1 = q2 = q11 = h = 0.0
+    full = max(k0, min(k1, npts - 3))  # indices whose every term exists
+    c0 = a[k0:full]
+    c1 = a[k0 + 1 : full + 1]
+    c2 = a[k0 + 2 : full + 2]
+    for k in range(full - k0):  # no branch: SIMD lanes
+        u0 = c0[k]
+        u1 = c1[k]
+        u2 = c2[k]
+        v = u0 - sh0
+        p1 += v
+        p2 += v * v
+        p11 += v * (u1 - sh0)
+        w = (u1 - u0) - sh1
+        q1 += w
+        q2 += w * w
+        q11 += w * ((u2 - u1) - sh1)
+    if third and full > k0:
+        h += _ssq3(c0, c1, c2, a[k0 + 3 : full + 3])
+    for k in range(full, k1):
+        v = a[k] - sh0
+        p1 += v
+        p2 += v * v
+        if k + 1 < npts:
+            p11 += v * (a[k + 1] - sh0)
+            w = (a[k + 1] - a[k]) - sh1
+            q1 += w
+            q2 += w * w
+            if k + 2 < npts:
+                q11 += w * ((a[k + 2] - a[k + 1]) - sh1)
+                if third and k + 3 < npts:
+                    d = a[k + 3] - 3.0 * a[k + 2] + 3.0 * a[k + 1] - a[k]
+                    h += d * d
+    acc[0] += p1
+    acc[1] += p2
+    acc[2] += p11
+    acc[3] += q1
+    acc[4] += q2
+    acc[5] += q11
+    acc[6] += h
+
+
+@numba.njit(cache=True, nogil=True)
+def _rows_store(a: NDArray, npts: int, sh0: float, sh1: float, acc: NDArray,
+                state: NDArray) -> None:
+    """Rows 0-1 (``LAG1_FIELDS`` each) of ``a[:npts]`` from the sums of :func:`_rows_range`."""
+    last = a[npts - 1]
+    prev = a[npts - 2]
+    state[0, 0] = npts
+    state[0, 1] = sh0
+    state[0, 2] = acc[0]
+    state[0, 3] = acc[1]
+    state[0, 4] = acc[2]
+    state[0, 6] = last - sh0
+    state[0, 7] = last
+    state[1, 0] = npts - 1
+    state[1, 1] = sh1
+    state[1, 2] = acc[3]
+    state[1, 3] = acc[4]
+    state[1, 4] = acc[5]
+    state[1, 6] = (last - prev) - sh1
+    state[1, 7] = last - prev
+
+
+@numba.njit(cache=True, nogil=True)
+def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, half: NDArray,
+                    rows: NDArray, third: bool) -> tuple[float, float]:
+    """:func:`integrate` from 0, with the m = 1 noise-type rows (and HDEV sums) on the way.
+
+    ``out`` (``len(y) + 1``) receives the phase with the digits of :func:`integrate`. While each
+    tile is in cache: ``rows[0]`` gets rows 0-1 of :func:`lag1_first_two` at m = 1; with
+    ``third``, the sum of squared third differences of ``x`` (non-overlapping Hadamard at m = 1)
+    is returned first. A non-empty ``half`` (``(len(y)) // 2 + 1`` points) receives ``x[::2]``,
+    and ``rows[1]`` with the second value returned are the same quantities for that series
+    (Hadamard at m = 2); the sums differ from the separate kernels by round-off only.
+    """
+    nx = y.shape[0] + 1
+    acc1 = np.zeros(7)
+    acc2 = np.zeros(7)
+    nh = half.shape[0]
+    c = 0.0
+    out[0] = tau0 * c
+    sh0 = out[0]
+    sh1 = 0.0
+    sh1h = 0.0
+    done1 = 0  # indices of x already summed
+    done2 = 0  # indices of half already summed
+    tile = _FUSE_TILE
+    for t0 in range(0, nx - 1, tile):
+        t1 = min(nx - 1, t0 + tile)
+        for k in range(t0, t1):
+            c += y[k] - mean
+            out[k + 1] = tau0 * c
+        if t0 == 0:
+            sh1 = out[1] - out[0]
+        avail = t1 + 1  # x[0 : avail] is known
+        k1 = avail - 3 if avail < nx else nx
+        if k1 > done1:
+            _rows_range(out, done1, k1, nx, sh0, sh1, acc1, third)
+            done1 = k1
+        if nh > 0:
+            hav = min(nh, (avail + 1) // 2)  # half[0 : hav] = x[0 : 2 hav : 2]
+            for k in range((t0 + 1) // 2, hav):
+                half[k] = out[2 * k]
+            if hav >= 2:
+                if done2 == 0:
+                    sh1h = half[1] - half[0]
+                k2 = hav - 3 if avail < nx else nh
+                if k2 > done2:
+                    _rows_range(half, done2, k2, nh, sh0, sh1h, acc2, third)
+                    done2 = k2
+    _rows_store(out, nx, sh0, sh1, acc1, rows[0])
+    if nh >= 3:
+        _rows_store(half, nh, half[0], sh1h, acc2, rows[1])
+    return acc1[6], acc2[6]
+
+
+@numba.njit(cache=True, nogil=True)
+def hadamard_from(x: NDArray, ms: NDArray, terms: NDArray, scratch: NDArray,
+                  have: int) -> tuple[NDArray, NDArray]:
+    """:func:`hadamard_decimated` starting from ``scratch``, ``x`` decimated by ``have``.
+
+    ``scratch`` (its full length in use) is overwritten in place by the decimations of
+    ``ms`` (multiples of ``have``, ascending, counts no larger than the one it holds).
+    """
+    out = np.empty(ms.size)
+    rows = np.zeros((ms.size, 2, LAG1_FIELDS))
+    for k in range(ms.size):
+        m = ms[k]
+        n = terms[k]
+        if _decimate_into(x, m, n + 2, scratch, have):
+            out[k] = _ssq3_ordered(scratch, n)
+            _lag1_two(scratch[: n + 3], rows[k])
+            have = m
+        else:
+            out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
+    return out, rows
+
+
+@numba.njit(cache=True, nogil=True)
+def _modified_steps_pair(x: NDArray, m: int, j: int, count: int, out: NDArray,
+                         dl: NDArray) -> None:
+    """:func:`_modified_steps`, keeping the second differences ``d[j+k]`` in ``dl``."""
+    x0 = x[j : j + count]
+    x1 = x[j + m : j + m + count]
+    x2 = x[j + 2 * m : j + 2 * m + count]
+    x3 = x[j + 3 * m : j + 3 * m + count]
+    for k in range(count):
+        lo = x2[k] - 2.0 * x1[k] + x0[k]
+        hi = x3[k] - 2.0 * x2[k] + x1[k]
+        out[k] = hi - lo
+        dl[k] = lo
+
+
+@numba.njit(cache=True, nogil=True)
+def modified_allan_pair(x: NDArray, m: int, n_mod: int, n_oa: int) -> tuple[float, float]:
+    """MDEV and OADEV sums of squares at one ``m`` in one pass (the R(n) ratio, SP 1065 5.6.3).
+
+    The modified sum is that of :func:`modified_sums` digit for digit (same runs, same steps);
+    the overlapping Allan sum (``n_oa`` terms) takes the second differences the steps are
+    made of, so the record is read once for both.
+    """
+    n = n_mod
+    if n < 64:
+        one = np.array([m])
+        return (modified_sums(x, one, np.array([n]))[0],
+                allan_sums(x, one, np.array([n_oa]), False)[0])
+    q = n // 4
+    j0, j1, j2, j3 = 0, q, 2 * q, 3 * q
+    s0 = _modified_window(x, m, j0)
+    s1 = _modified_window(x, m, j1)
+    s2 = _modified_window(x, m, j2)
+    s3 = _modified_window(x, m, j3)
+    a0 = a1 = a2 = a3 = 0.0
+    oa = 0.0
+    tile = _MOD_TILE
+    b0 = np.empty(tile)
+    b1 = np.empty(tile)
+    b2 = np.empty(tile)
+    b3 = np.empty(tile)
+    dl = np.empty(tile)
+    for k0 in range(0, q - 1, tile):
+        cnt = min(tile, q - 1 - k0)
+        _modified_steps_pair(x, m, j0 + k0, cnt, b0, dl)
+        oa += _sumsq(dl, cnt)
+        _modified_steps_pair(x, m, j1 + k0, cnt, b1, dl)
+        oa += _sumsq(dl, cnt)
+        _modified_steps_pair(x, m, j2 + k0, cnt, b2, dl)
+        oa += _sumsq(dl, cnt)
+        _modified_steps_pair(x, m, j3 + k0, cnt, b3, dl)
+        oa += _sumsq(dl, cnt)
+        for k in range(cnt):
+            a0 += s0 * s0
+            a1 += s1 * s1
+            a2 += s2 * s2
+            a3 += s3 * s3
+            s0 += b0[k]
+            s1 += b1[k]
+            s2 += b2[k]
+            s3 += b3[k]
+    a0 += s0 * s0
+    a1 += s1 * s1
+    a2 += s2 * s2
+    m2, m3 = 2 * m, 3 * m
+    for i in range(j3 + q - 1, n):  # the last run takes the remainder
+        a3 += s3 * s3
+        if i < n - 1:
+            s3 += ((x[i + m3] - 2.0 * x[i + m2] + x[i + m])
+                   - (x[i + m2] - 2.0 * x[i + m] + x[i]))
+    for j in (j1 - 1, j2 - 1, j3 - 1):  # second differences the runs did not visit
+        d = x[j + m2] - 2.0 * x[j + m] + x[j]
+        oa += d * d
+    t = j3 + q - 1
+    if n_oa > t:
+        oa += _ssq2(x[t:n_oa], x[t + m : n_oa + m], x[t + m2 : n_oa + m2])
+    return (a0 + a1) + (a2 + a3), oa
