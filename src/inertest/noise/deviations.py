@@ -734,6 +734,29 @@ def _noise_type(src: _Phase, m: int, family: str,
     return alpha
 
 
+def _lag1_decide_many(rows: NDArray, alpha_min: int) -> NDArray:
+    """:func:`alpha_from_lag1` (phase data) at many taus from their lag-1 rows 0-1.
+
+    ``rows`` has shape ``(K, 2, LAG1_FIELDS)``; the arithmetic is that of :func:`r1_of_state`
+    and :func:`alpha_from_lag1`, element by element. Where neither order decides (both
+    ``delta >= 0.25``: higher orders are needed) the result is ``_NO_TYPE``.
+    """
+    n = rows[:, :, 0]
+    s1, s2, s11, first, last = (rows[:, :, k] for k in range(2, 7))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mean = s1 / n
+        den = s2 - n * mean * mean
+        num = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
+        r1 = np.where((n >= 1) & (den > 0), num / den, 0.0)
+        delta = np.where(r1 > -1.0, r1 / (1.0 + r1), -1.0)
+    a0 = np.round(-2.0 * delta[:, 0]) + 2.0
+    a1 = np.round(-2.0 * delta[:, 1])
+    alpha = np.where(delta[:, 0] < 0.25, a0, np.where(delta[:, 1] < 0.25, a1, np.nan))
+    out = np.clip(np.nan_to_num(alpha, nan=0.0), alpha_min, 2).astype(np.int64)
+    out[np.isnan(alpha)] = _NO_TYPE
+    return out
+
+
 def _delta(r1: float) -> float:
     """Riley & Greenhall's ``delta = r1 / (1 + r1)`` (as :func:`alpha_from_lag1` forms it)."""
     return r1 / (1.0 + r1) if r1 > -1.0 else -1.0
@@ -933,6 +956,15 @@ def deviations(
 
                 rows = kernels.lag1_rows_many(src.x, new)
                 states.update({int(m): rows[k] for k, m in enumerate(new)})
+        if isinstance(src, _MemoryPhase):  # lag-1 decisions at orders 0-1: all taus at once
+            fam = _family(s)
+            todo = [int(m) for m in ms if (int(m), fam) not in alpha_cache and int(m) in states
+                    and (nx - 1) // int(m) >= MIN_ACF_AVERAGES]
+            if todo:
+                got = _lag1_decide_many(np.stack([states[m][:2] for m in todo]),
+                                        -4 if fam == "hadamard" else -2)
+                alpha_cache.update({(m, fam): int(a) for m, a in zip(todo, got, strict=True)
+                                    if a != _NO_TYPE})
         alph = np.empty(ms.size, dtype=np.int64)
         for i, m in enumerate(int(v) for v in ms):
             key = (m, _family(s))
