@@ -342,8 +342,10 @@ def _decimate_into(x: NDArray, m: int, count: int, scratch: NDArray, have: int) 
 def lag1_rows_many(x: NDArray, ms: NDArray) -> NDArray:
     """:func:`lag1_first_two` at every ``ms[k]`` (ascending), shape (ms.size, 2, LAG1_FIELDS).
 
-    Each decimated series is taken from the previous one where the factors allow
-    (see :func:`_decimate_into`); the same numbers as :func:`lag1_first_two`.
+    Each decimated series from m = 4 on is taken from the previous one where the factors
+    allow (see :func:`_decimate_into`); m = 2, 3 are read strided from ``x`` (a fresh copy of
+    half the record costs more in page faults than it saves); the same numbers as
+    :func:`lag1_first_two`.
     """
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
     nx = x.shape[0]
@@ -356,6 +358,9 @@ def lag1_rows_many(x: NDArray, ms: NDArray) -> NDArray:
             continue
         if m == 1:
             _lag1_two(x[: count + 1], rows[k])
+            continue
+        if m < 4:  # no copy of half the record (a fresh one costs its page faults)
+            _lag1_two_strided(x, m, count, rows[k], False)
             continue
         if scratch.shape[0] == 0:
             scratch = np.empty(count + 1)
