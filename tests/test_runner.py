@@ -9,10 +9,12 @@ from pathlib import Path
 
 import pytest
 
+import batch_hooks
 import inertest
+import inertest.runner as runner
 from inertest.errors import InertestError, OutputPathError
 from inertest.io.atomic import REPORT_MARKER
-from inertest.runner import DuplicateRunError, run_batch
+from inertest.runner import WORKER_DIED, DuplicateRunError, run_batch
 from inertest.store import HistoryStore
 
 
@@ -170,3 +172,111 @@ def test_noise_model_argument_overrides_the_plan(tumble, examples_dir, capsys):
     servo = inertest.load_plan(examples_dir / "servo_table" / "plan.toml")
     with pytest.raises(PlanError, match="no choice of noise model"):
         inertest.fit(servo, {}, noise_model="white")
+
+
+# --- a run that takes its worker down (issue 18 review) ---------------------------------------
+
+
+def _hooked_pool(workers: int) -> ProcessPoolExecutor:
+    """A fork-server pool whose workers kill themselves on serial DIE, hang on HANG."""
+    import multiprocessing
+
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("forkserver"),
+                               initializer=batch_hooks.deadly_fit)
+
+
+def _manifest(tmp_path: Path, plan: Path, data: Path, serials: list[str]) -> Path:
+    """One run per serial, each with its own plan (the serial is the test hook's trigger)."""
+    text = plan.read_text(encoding="utf-8")
+    assert 'serial = "' in text
+    lines = []
+    for k, serial in enumerate(serials):
+        p = tmp_path / f"plan{k}.toml"
+        p.write_text("\n".join(f'serial = "{serial}"' if ln.strip().startswith("serial")
+                               else ln for ln in text.splitlines()) + "\n", encoding="utf-8")
+        lines.append(f'[[run]]\nplan = "{p}"\ndata = "{data}"\nreport = "{tmp_path / f"r{k}"}"\n')
+    path = tmp_path / "batch.toml"
+    path.write_text("\n".join(lines), encoding="utf-8")
+    return path
+
+
+@pytest.mark.slow
+def test_a_run_that_kills_its_worker_fails_alone_and_the_others_are_filed(tumble, tmp_path):
+    plan, data = tumble
+    manifest = _manifest(tmp_path, plan, data, ["A1", "DIE", "A3", "A4", "A5"])
+    db = tmp_path / "h.db"
+    pool = _hooked_pool(2)
+    try:
+        items = run_batch(manifest, executor=pool, store=str(db), allow_duplicate=True)
+    finally:
+        pool.shutdown(wait=True)
+    assert [i.error for i in items] == [None, WORKER_DIED, None, None, None]
+    assert _runs(db) == 4
+    assert not (tmp_path / "r1").exists()  # nothing of the dead run written
+    assert all((tmp_path / f"r{k}" / "index.html").is_file() for k in (0, 2, 3, 4))
+
+
+@pytest.mark.slow
+def test_batch_cli_survives_a_killed_worker_with_one_error_line(tumble, tmp_path, capsys,
+                                                                monkeypatch):
+    from inertest.cli import main
+
+    plan, data = tumble
+    monkeypatch.setattr(runner, "local_pool", _hooked_pool)
+    manifest = _manifest(tmp_path, plan, data, ["DIE", "B2", "B3"])
+    db = tmp_path / "h.db"
+    status = main(["batch", str(manifest), "--workers", "2", "--db", str(db),
+                   "--allow-duplicate", "--no-progress"])
+    err = capsys.readouterr().err
+    assert status == 1
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: 1 of 3 runs failed")
+    assert "worker process died" in lines[0] and "Traceback" not in err
+    assert _runs(db) == 2
+
+
+@pytest.mark.slow
+def test_a_run_over_the_timeout_is_stopped_and_fails_alone(tumble, tmp_path):
+    plan, data = tumble
+    manifest = _manifest(tmp_path, plan, data, ["C1", "C2", "HANG"])
+    db = tmp_path / "h.db"
+    pool = _hooked_pool(1)
+    pool.submit(int).result()  # started: the timeout counts fits, not the pool's start-up
+    try:
+        items = run_batch(manifest, executor=pool, store=str(db), allow_duplicate=True,
+                          timeout=5.0)
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+    assert [i.error is None for i in items] == [True, True, False]
+    assert "longer than the 5 s timeout" in items[2].error
+    assert _runs(db) == 2
+
+
+def test_a_dask_worker_lost_under_a_run_fails_that_run_only(tumble, tmp_path):
+    from concurrent.futures import Future
+
+    distributed = pytest.importorskip("distributed")
+    plan, data = tumble
+    manifest = _manifest(tmp_path, plan, data, ["D1", "DIE", "D3"])
+
+    class LosesSerialDie:
+        """Computes here; the DIE run's future fails as a lost Dask worker's would."""
+
+        def submit(self, fn, task):
+            fut = Future()
+            if 'serial = "DIE"' in task.plan.read_text(encoding="utf-8"):
+                fut.set_exception(distributed.KilledWorker("fit-1", None, 3))
+            else:
+                fut.set_result(fn(task))
+            return fut
+
+    items = run_batch(manifest, executor=LosesSerialDie(), store=str(tmp_path / "h.db"),
+                      allow_duplicate=True)
+    assert [i.error is None for i in items] == [True, False, True]
+    assert items[1].error.startswith(WORKER_DIED)
+    assert _runs(tmp_path / "h.db") == 2
+
+
+def test_timeout_must_be_positive(tumble):
+    with pytest.raises(InertestError, match="timeout"):
+        run_batch([tumble], timeout=0)

@@ -20,6 +20,8 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import os
+import sys
+import time
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -547,6 +549,7 @@ def run_batch(
     tested_at: datetime | None = None,
     progress: Callable[[BatchItem], None] | None = None,
     max_pending: int | None = None,
+    timeout: float | None = None,
 ) -> list[BatchItem]:
     """Run many tests: fits on ``executor``, then each filed here as its own transaction.
 
@@ -569,6 +572,11 @@ def run_batch(
     max_pending : int, optional
         Fits submitted ahead of the one being filed (memory stays bounded by this many results
         however long the manifest); default twice the executor's worker count, at least 4.
+    timeout : float, optional
+        Longest a fit may take [s], counted from when every earlier run is filed (the run is
+        then at the head of the queue); a run over it fails and its worker is stopped (a
+        process pool is restarted; on Dask the future is cancelled). Default: no limit. With
+        a timeout and no ``executor`` the fits run in a pool even for ``workers=1``.
 
     Returns
     -------
@@ -577,6 +585,16 @@ def run_batch(
 
     Notes
     -----
+    A run that fails does not stop the others, even when it takes its worker down. When a
+    process pool breaks (a worker killed or out of memory), the pool is restarted with the
+    same settings and the runs that were in flight are run again one at a time: one that
+    kills its worker alone fails with "worker process died (killed or out of memory)" and is
+    not tried again; the others are filed. After three restarts in a row with no fit finished
+    the pool is given up and the runs not yet done fail. A Dask worker lost under a run
+    (``KilledWorker``, after Dask's own retries) or a cancelled future fails that run only.
+    While it waits, the driver checks the pool every 0.5 s, so a pool that broke without
+    telling its futures is noticed rather than waited on forever.
+
     The results do not depend on where the fits ran: the same manifest gives bit-identical
     results serially, on a process pool and on a Dask cluster (``tests/test_dask_batch.py``).
     """
@@ -587,6 +605,9 @@ def run_batch(
                 for t in tasks]
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise PlanError(f"workers must be a whole number >= 1, got {workers!r}")
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, int | float)
+                                or not timeout > 0):
+        raise PlanError(f"timeout must be a number of seconds > 0, got {timeout!r}")
     if max_pending is not None and (isinstance(max_pending, bool)
                                     or not isinstance(max_pending, int) or max_pending < 1):
         raise PlanError(f"max_pending must be a whole number >= 1, got {max_pending!r}")
@@ -595,15 +616,10 @@ def run_batch(
             check_outputs([t.report_dir], [x for x in (t.plan, t.data, t.spec, t.equipment)
                                            if x is not None])
     _check_judging_files(todo)
-    if executor is not None or workers == 1 or len(todo) < 2:
-        return _file_all(todo, executor, store=store, allow_duplicate=allow_duplicate,
-                         tested_at=tested_at, progress=progress, max_pending=max_pending)
-    pool = local_pool(min(workers, len(todo)))
-    try:
-        return _file_all(todo, pool, store=store, allow_duplicate=allow_duplicate,
-                         tested_at=tested_at, progress=progress, max_pending=max_pending)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+    own = executor is None and (timeout is not None or (workers > 1 and len(todo) > 1))
+    return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
+                     store=store, allow_duplicate=allow_duplicate, tested_at=tested_at,
+                     progress=progress, max_pending=max_pending, timeout=timeout, own=own)
 
 
 def local_pool(workers: int) -> Any:
@@ -636,36 +652,35 @@ def _single_threaded_blas() -> None:
     threadpool_limits(1)
 
 
+WORKER_DIED = "worker process died (killed or out of memory)"
+_POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [s]
+_MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
+
+
+class _RunStoppedError(InertestError):
+    """A run the batch stopped or lost: its worker died, it timed out, or it was never run."""
+
+
 def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
               allow_duplicate: bool, tested_at: datetime | None,
-              progress: Callable[[BatchItem], None] | None,
-              max_pending: int | None) -> list[BatchItem]:
+              progress: Callable[[BatchItem], None] | None, max_pending: int | None,
+              timeout: float | None = None, own: bool = False) -> list[BatchItem]:
     """Submit the fits through a sliding window and file each result in task order."""
     from inertest.store import HistoryStore
 
     window = max_pending or max(4, 2 * _slots(executor))
-    pending: dict[int, Any] = {}
-    submitted = 0
-
-    def submit_up_to(k: int) -> None:
-        nonlocal submitted
-        while submitted < min(k, len(todo)):
-            task = todo[submitted]
-            pending[submitted] = (_Immediate(_compute, task) if executor is None
-                                  else executor.submit(_compute, task))
-            submitted += 1
-
-    own = store is True or isinstance(store, str)
-    db = HistoryStore(None if store is True else str(store)) if own else store
+    fits = _Fits(todo, executor, own=own, timeout=timeout)
+    own_db = store is True or isinstance(store, str)
+    db: Any = None
     when = _utc(tested_at) if tested_at is not None else datetime.now(UTC)
     out: list[BatchItem] = []
     try:
+        db = HistoryStore(None if store is True else str(store)) if own_db else store
         for k, t in enumerate(todo):
-            submit_up_to(k + window)
-            fut = pending.pop(k)
+            fits.submit_up_to(k + window)
             try:
                 (result, p, plan_text, digest, msgs, summary, lab, lab_source, budget,
-                 conformance) = fut.result()
+                 conformance) = fits.collect(k)
                 outcome = file_run(
                     result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
                     tested_at=when, store=db if db else False, report_dir=t.report_dir,
@@ -676,18 +691,258 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
                 item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
                 item = BatchItem(t, None, str(exc))
-            del fut
             out.append(item)
             if progress is not None:
                 progress(item)
     finally:
-        for fut in pending.values():
+        fits.close()
+        if own_db and db:
+            db.close()
+    return out
+
+
+class _Fits:
+    """The batch's fits on an executor: submitted in a window, collected in task order.
+
+    A process pool that breaks (a worker killed, out of memory, or gone without a word) is
+    restarted with the same settings; the fits that were in flight are run again one at a time,
+    and the one that kills its worker alone fails with :data:`WORKER_DIED` (never retried
+    again). After ``_MAX_BREAKS_IN_A_ROW`` restarts with no fit finished in between the pool is
+    given up and the runs not yet done fail. The driver never waits on a future without a
+    timeout: every ``_POLL_S`` it checks the pool's health and the run's ``timeout``.
+    """
+
+    def __init__(self, todo: Sequence[BatchTask], executor: Any, *, own: bool,
+                 timeout: float | None) -> None:
+        self.todo, self.executor, self.timeout = todo, executor, timeout
+        self.owned: list[Any] = [executor] if own and executor is not None else []
+        self.pending: dict[int, Any] = {}
+        self.ready: dict[int, Any] = {}  # results (or _RunStoppedError) of runs collected early
+        self.submitted = 0
+        self.breaks_in_a_row = 0
+        self.gave_up: str | None = None
+
+    # -- submitting -----------------------------------------------------------------------
+
+    def _submit(self, k: int) -> Any:
+        task = self.todo[k]
+        if self.executor is None:
+            return _Immediate(_compute, task)
+        try:
+            return self.executor.submit(_compute, task)
+        except Exception as exc:  # noqa: BLE001 - a pool that broke since: handled on collect
+            if not _is_broken_pool(exc):
+                raise
+            from concurrent.futures import Future
+
+            fut: Future[Any] = Future()
+            fut.set_exception(exc)
+            return fut
+
+    def submit_up_to(self, n: int) -> None:
+        while self.submitted < min(n, len(self.todo)) and self.gave_up is None:
+            self.pending[self.submitted] = self._submit(self.submitted)
+            self.submitted += 1
+
+    # -- collecting -----------------------------------------------------------------------
+
+    def collect(self, k: int) -> tuple[Any, ...]:
+        """Run ``k``'s computed tuple; raises its error, or :class:`_RunStoppedError`."""
+        if k not in self.ready and k not in self.pending:
+            raise _RunStoppedError(self.gave_up or "not run")
+        if k not in self.ready:
+            self.ready[k] = self._wait(k)
+        got = self.ready.pop(k)
+        if isinstance(got, BaseException):
+            raise got
+        return got  # type: ignore[no-any-return]
+
+    def _wait(self, k: int) -> Any:
+        """Wait for run ``k`` (pending): its tuple or its exception, never forever."""
+        fut = self.pending[k]
+        if self.executor is None:  # serial: computed here and now
+            del self.pending[k]
+            try:
+                return fut.result()
+            except (InertestError, OSError) as exc:
+                return exc
+        deadline = None if self.timeout is None else time.monotonic() + self.timeout
+        while True:
+            try:
+                value = fut.result(timeout=_POLL_S)
+            except TimeoutError:
+                if fut.done():  # the computation's own TimeoutError (an OSError): its error
+                    del self.pending[k]
+                    return fut.exception()
+                if _pool_broken(self.executor):
+                    return self._broken(k)
+                if deadline is not None and time.monotonic() > deadline:
+                    return self._timed_out(k)
+                continue
+            except Exception as exc:  # noqa: BLE001 - sorted below; the unknown re-raised
+                if _is_broken_pool(exc):
+                    return self._broken(k)
+                del self.pending[k]
+                lost = _worker_lost(exc)
+                if lost is not None:
+                    self.breaks_in_a_row = 0
+                    return _RunStoppedError(lost)
+                if isinstance(exc, InertestError | OSError):
+                    self.breaks_in_a_row = 0
+                    return exc
+                raise
+            del self.pending[k]
+            self.breaks_in_a_row = 0
+            return value
+
+    def _timed_out(self, k: int) -> _RunStoppedError:
+        fut = self.pending.pop(k)
+        stopped = _RunStoppedError(f"fit took longer than the {self.timeout:g} s timeout; stopped")
+        if self._restartable():  # the only way to stop a fit in a pool worker: end the worker
+            innocent = sorted(i for i, f in self.pending.items() if not _finished(f))
+            for i in innocent:
+                del self.pending[i]
+            self._restart()
+            for i in innocent:
+                self.pending[i] = self._submit(i)
+        else:
+            fut.cancel()
+        return stopped
+
+    def _broken(self, k: int) -> Any:
+        """The pool died under run ``k`` (or another): rerun the suspects alone, return ``k``'s."""
+        suspects = sorted(i for i, f in self.pending.items() if not _finished(f))
+        for i in suspects:
+            del self.pending[i]
+        self.breaks_in_a_row += 1
+        while suspects:
+            if self.breaks_in_a_row > _MAX_BREAKS_IN_A_ROW:
+                self.gave_up = (f"not run: the worker pool broke {self.breaks_in_a_row - 1} "
+                                f"times in a row without finishing a fit ({WORKER_DIED})")
+                for i in suspects:
+                    self.ready[i] = _RunStoppedError(self.gave_up)
+                break
+            if _pool_broken(self.executor):
+                self._restart()
+            i = suspects.pop(0)
+            self.pending[i] = self._submit(i)
+            got = self._wait_alone(i)
+            self.ready[i] = got
+        return self.ready.pop(k)
+
+    def _wait_alone(self, i: int) -> Any:
+        """Run ``i`` as the only fit on a fresh pool: if the pool breaks, ``i`` broke it."""
+        fut = self.pending[i]
+        deadline = None if self.timeout is None else time.monotonic() + self.timeout
+        while not _finished(fut) and not _pool_broken(self.executor):
+            if deadline is not None and time.monotonic() > deadline:
+                return self._timed_out(i)
+            try:
+                fut.result(timeout=_POLL_S)
+            except Exception:  # noqa: BLE001, S110 - read below, once finished
+                pass
+        if _finished(fut):
+            return self._wait(i)
+        del self.pending[i]
+        self.breaks_in_a_row += 1  # a restart that found its culprit; the next run resets it
+        return _RunStoppedError(WORKER_DIED)
+
+    # -- the pool ---------------------------------------------------------------------------
+
+    def _restartable(self) -> bool:
+        from concurrent.futures import ProcessPoolExecutor
+
+        return isinstance(self.executor, ProcessPoolExecutor)
+
+    def _restart(self) -> None:
+        """End the current process pool's workers and start one with the same settings."""
+        old = self.executor
+        _end_pool(old)
+        new = _same_pool(old)
+        self.owned.append(new)
+        self.executor = new
+
+    def close(self) -> None:
+        for fut in self.pending.values():
             cancel = getattr(fut, "cancel", None)
             if cancel is not None:
                 cancel()
-        if own and db:
-            db.close()  # type: ignore[union-attr]
-    return out
+        for pool in self.owned:
+            if _pool_broken(pool):
+                _end_pool(pool)
+            else:
+                pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _finished(fut: Any) -> bool:
+    """Done, with a result or the computation's own error (a broken pool is not finished)."""
+    if not fut.done():
+        return False
+    if fut.cancelled():
+        return True
+    return not _is_broken_pool(fut.exception())
+
+
+def _is_broken_pool(exc: BaseException | None) -> bool:
+    from concurrent.futures.process import BrokenProcessPool
+
+    return isinstance(exc, BrokenProcessPool)
+
+
+def _worker_lost(exc: BaseException) -> str | None:
+    """Why a Dask worker lost under the run (KilledWorker) or a cancelled future failed it."""
+    from concurrent.futures import CancelledError
+
+    if isinstance(exc, CancelledError):
+        return "cancelled on the executor (its worker or the scheduler was lost)"
+    distributed = sys.modules.get("distributed")
+    killed = getattr(distributed, "KilledWorker", None)
+    if killed is not None and isinstance(exc, killed):
+        tries = getattr(exc, "allowed_failures", None)
+        return (f"{WORKER_DIED}, on {tries + 1} Dask workers in turn" if isinstance(tries, int)
+                else f"{WORKER_DIED}, on Dask")
+    return None
+
+
+def _pool_broken(executor: Any) -> bool:
+    """A process pool that broke, or one of whose workers has exited (not yet noticed)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    if not isinstance(executor, ProcessPoolExecutor):
+        return False
+    if getattr(executor, "_broken", False):
+        return True
+    processes = getattr(executor, "_processes", None) or {}
+    return any(p.exitcode is not None for p in list(processes.values()))
+
+
+def _end_pool(pool: Any) -> None:
+    """Kill a process pool's workers and shut it down without waiting on them.
+
+    A worker killed while it wrote its result leaves half a message in the result pipe; the
+    pool's manager thread then reads forever (this process holds the pipe's write end too), and
+    the interpreter hangs at exit joining it (CPython 3.11). With every worker dead nothing
+    writes there any more: closing our write end turns the wait into end-of-file, and the
+    manager thread ends as for any broken pool.
+    """
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)  # gone on shutdown
+    for p in processes:
+        if p.exitcode is None:
+            p.kill()
+    for p in processes:
+        p.join(timeout=5)
+    pool.shutdown(wait=False, cancel_futures=True)
+    if writer is not None and all(p.exitcode is not None for p in processes):
+        writer.close()
+
+
+def _same_pool(old: Any) -> Any:
+    """A new process pool with ``old``'s size, start method and initializer."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=old._max_workers, mp_context=old._mp_context,
+                               initializer=old._initializer, initargs=old._initargs)
 
 
 def _slots(executor: Any) -> int:
@@ -709,5 +964,8 @@ class _Immediate:
     def __init__(self, fn: Any, *args: Any) -> None:
         self._fn, self._args = fn, args
 
-    def result(self) -> Any:
+    def result(self, timeout: float | None = None) -> Any:
         return self._fn(*self._args)
+
+    def cancel(self) -> bool:
+        return False

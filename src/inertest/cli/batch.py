@@ -24,6 +24,10 @@ from inertest.runner import BatchItem, RunOutcome, read_manifest, run_batch
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the fits on a Dask cluster instead (scheduler address, e.g. "
                    "tcp://10.0.0.5:8786; needs dask[distributed]).")
+@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="SECONDS",
+              help="Fail a run whose fit takes longer than this, counted from when every "
+                   "earlier run is filed; its worker is stopped (default: no limit).")
 @click.option("--no-store", is_flag=True, help="Do not store the runs in the history database.")
 @click.option("--db", default=None, help="History database URL or SQLite path (default: "
               "$INERTEST_DB or ~/.local/share/inertest/history.db).")
@@ -34,22 +38,24 @@ from inertest.runner import BatchItem, RunOutcome, read_manifest, run_batch
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar (as --no-progress).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: the result envelope of every run, or its error.")
-def batch(manifest: Path, workers: int, scheduler: str | None, no_store: bool, db: str | None,
-          allow_duplicate: bool, progress: bool | None, quiet: bool, as_json: bool) -> None:
+def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | None,
+          no_store: bool, db: str | None, allow_duplicate: bool, progress: bool | None,
+          quiet: bool, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
 
     A run (or the manifest's [defaults] table) may name spec (an instrument specification) and
     equipment (the lab equipment file): its budget and verdicts are filed with it, and a line
     per run gives its overall verdict and worst quantity. Each run is its own transaction: a
-    run that fails stores nothing and does not stop the others. The exit status is 1 when any
-    run failed (not for a failed verdict: read "conformance" in the JSON).
+    run that fails stores nothing and does not stop the others, even one that kills its worker
+    process (out of memory): the pool is restarted and that run reported as failed. The exit
+    status is 1 when any run failed (not for a failed verdict: read "conformance" in the JSON).
     """
     store: bool | str = False if no_store else (db or True)
     tasks = read_manifest(manifest)
     show = False if quiet else progress
     with _progress_bar(len(tasks), show) as advance, _dask_client(scheduler) as client:
         items = run_batch(tasks, executor=client, workers=workers, store=store,
-                          allow_duplicate=allow_duplicate, progress=advance)
+                          allow_duplicate=allow_duplicate, progress=advance, timeout=timeout)
     failed = [i for i in items if i.error is not None]
     if as_json:
         echo_json({"kind": "batch", "runs": [_run_json(i) for i in items]})
