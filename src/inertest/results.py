@@ -492,11 +492,6 @@ def envelope(
                        conformance=conformance)
 
 
-def with_test(doc: Mapping[str, object], test: Mapping[str, object] | None) -> dict[str, object]:
-    """``doc`` (an envelope) with its ``test`` block set, placed right after ``instrument``."""
-    return with_blocks(doc, test=test)
-
-
 def with_blocks(
     doc: Mapping[str, object],
     *,

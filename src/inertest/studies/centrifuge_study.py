@@ -287,16 +287,25 @@ def gyro_output(runs: Runs, truth: NDArray[np.float64]) -> NDArray[np.float64]:
     return runs.omega_true[:, 0] + drift(runs.f_true / G0, truth)
 
 
+def _quiet(fit: FitFunction, *args: Any, **kwargs: Any) -> Any:
+    """``fit(*args, **kwargs)`` without the model check's warning.
+
+    The study fits noise-free outputs of an imperfect machine with models that leave errors out
+    on purpose (the ideal and closed-form fits), to measure the bias they cause, and repeats
+    fits many times in its Monte Carlo, where a few fail the check by chance (its false-alarm
+    rate): the misfit is the result there, not a warning to the user.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InertestWarning)
+        lin, _ = fit(*args, **kwargs)
+    return lin
+
+
 def _fit(fit: FitFunction, runs: Runs, output: NDArray[np.float64], which: str,
          sigma: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     f = getattr(runs, f"f_{which}")
     w = getattr(runs, f"omega_{which}")
-    with warnings.catch_warnings():
-        # The study fits noise-free outputs of an imperfect machine with a model that leaves
-        # errors out on purpose, to measure the bias they cause; the fit's model check rightly
-        # finds the misfit, which here is the result, not a warning to the user.
-        warnings.simplefilter("ignore", InertestWarning)
-        lin, _ = fit(runs.position, runs.omega, runs.t, output, f, w, sigma_rad_s=sigma)
+    lin = _quiet(fit, runs.position, runs.omega, runs.t, output, f, w, sigma_rad_s=sigma)
     return np.asarray(lin.x, dtype=float), np.sqrt(np.diag(np.asarray(lin.covariance)))
 
 
@@ -403,11 +412,7 @@ def _monte_carlo_chunk(fit: FitFunction, inputs: tuple[NDArray[Any], ...], sigma
     est = np.empty((len(seeds), len(COEFFICIENTS)))
     for i, s in enumerate(seeds):
         noisy = clean + np.random.default_rng(s).normal(0.0, sigma, clean.size)
-        with warnings.catch_warnings():
-            # A few of many repetitions fail the model check by chance (its false-alarm rate):
-            # the scatter of the estimates is what is measured here.
-            warnings.simplefilter("ignore", InertestWarning)
-            lin, _ = fit(position, omega, t, noisy, f, w, sigma_rad_s=sigma)
+        lin = _quiet(fit, position, omega, t, noisy, f, w, sigma_rad_s=sigma)
         est[i] = np.asarray(lin.x, dtype=float)
     return est
 
@@ -430,10 +435,8 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
     base = simulate_runs(plan)
     x0, std = _fit(fit, base, gyro_output(base, plan.truth), "true", sigma)
     f_cf, w_cf = closed_form_inputs(plan, base)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", InertestWarning)  # the closed form's misfit is measured
-        lin_cf, _ = fit(base.position, base.omega, base.t, gyro_output(base, plan.truth), f_cf,
-                        w_cf, sigma_rad_s=None)
+    lin_cf = _quiet(fit, base.position, base.omega, base.t, gyro_output(base, plan.truth), f_cf,
+                    w_cf, sigma_rad_s=None)
     closed_form_error = np.asarray(lin_cf.x) - plan.truth
     mc_n = plan.monte_carlo_runs if monte_carlo_runs is None else monte_carlo_runs
     mc = (monte_carlo_std(plan, fit, base, mc_n, plan.seed, executor=executor)
