@@ -167,10 +167,10 @@ class _MemoryPhase(_Phase):
         self.tau0 = tau0
         self.chunk = max(1, x.size)
         # Taken while the phase was built (phase_source(fuse=...)): noise-type rows 0-1 by m,
-        # Hadamard sums by m, and x[::2] (scratch the HDEV sums may overwrite).
+        # Hadamard sums by m, and x[::4] (scratch the HDEV sums may overwrite).
         self.rows: dict[int, NDArray] = {}
         self.hdev: dict[int, float] = {}
-        self.half: NDArray | None = None
+        self.quarter: NDArray | None = None
 
     def read(self, start: int, stop: int) -> NDArray:
         return self.x[start:stop]
@@ -278,7 +278,7 @@ def phase_source(
 
     ``fuse`` (rate records in memory): ``"rows"`` also takes the noise-type rows at m = 1
     while integrating, ``"hadamard"`` those at m = 1 and 2 with the Hadamard sums there and
-    ``x[::2]`` (see ``kernels.integrate_fused``); the phase is the same either way.
+    ``x[::4]`` (see ``kernels.integrate_fused``); the phase is the same either way.
     """
     if data_type not in DATA_TYPES:
         raise InputError(f"data_type {data_type!r} is not known; use 'rate' or 'angle'")
@@ -320,15 +320,15 @@ def phase_source(
             kernels.integrate(yc, mean, 0.0, tau0, x)
             return _MemoryPhase(x, tau0)
         two = fuse == "hadamard" and n >= 6
-        half = np.empty(n // 2 + 1 if two else 0)
+        quarter = np.empty(n // 4 + 1 if two else 0)
         rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
-        h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, half, rows, two)
+        h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, two)
         mp = _MemoryPhase(x, tau0)
         mp.rows[1] = rows[0]
         if two:
             mp.rows[2] = rows[1]
             mp.hdev.update({1: h1, 2: h2})
-            mp.half = half
+            mp.quarter = quarter
         return mp
     _check_finite_angle(data)
     src = _AnglePhase(data, tau0)
@@ -914,16 +914,16 @@ def deviations(
         ms = np.asarray(grids[s], dtype=np.int64)
         ns = np.array([_terms(s, int(m), nx) for m in ms], dtype=np.int64)
         ssq = np.empty(ms.size)
-        if (isinstance(src, _MemoryPhase) and s == "hdev" and src.half is not None
+        if (isinstance(src, _MemoryPhase) and s == "hdev" and src.quarter is not None
                 and ms.size >= 2 and ms[0] == 1 and ms[1] == 2):
-            # m = 1, 2 summed while the phase was built; the rest from x[::2], in place
+            # m = 1, 2 summed while the phase was built; the rest from x[::4], in place
             from inertest.noise import kernels  # numba: loaded on first use
 
             ssq[0], ssq[1] = src.hdev[1], src.hdev[2]
             if ms.size > 2:
-                ssq[2:], r = kernels.hadamard_from(src.x, ms[2:], ns[2:], src.half, 2)
+                ssq[2:], r = kernels.hadamard_from(src.x, ms[2:], ns[2:], src.quarter, 4)
                 states.update({int(m): r[k] for k, m in enumerate(ms[2:])})
-            src.half = None
+            src.quarter = None
             tick(sum(_work(s, int(m), nx) for m in ms))
         elif isinstance(src, _MemoryPhase):
             # Taus in groups of about _GROUP_WORK samples: one kernel call per group, a

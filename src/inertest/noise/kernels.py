@@ -242,6 +242,31 @@ def _modified_window(x: NDArray, m: int, j: int) -> float:
 
 
 @numba.njit(cache=True, nogil=True)
+def _modified_windows4(x: NDArray, m: int, j: int, gap: int
+                       ) -> tuple[float, float, float, float]:
+    """:func:`_modified_window` at ``j, j + gap, j + 2 gap, j + 3 gap`` (the same digits).
+
+    The four sums run interleaved over slices (no index arithmetic in the loop), so their
+    additions overlap in the pipeline.
+    """
+    m2, m3 = 2 * m, 3 * m
+    a0, a1, a2 = x[j : j + m], x[j + m : j + m2], x[j + m2 : j + m3]
+    k = j + gap
+    b0, b1, b2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
+    k += gap
+    c0, c1, c2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
+    k += gap
+    d0, d1, d2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
+    s0 = s1 = s2 = s3 = 0.0
+    for i in range(m):
+        s0 += a2[i] - 2.0 * a1[i] + a0[i]
+        s1 += b2[i] - 2.0 * b1[i] + b0[i]
+        s2 += c2[i] - 2.0 * c1[i] + c0[i]
+        s3 += d2[i] - 2.0 * d1[i] + d0[i]
+    return s0, s1, s2, s3
+
+
+@numba.njit(cache=True, nogil=True)
 def _modified_steps(x: NDArray, m: int, j: int, count: int, out: NDArray) -> None:
     """``out[k] = d[j+k+m] - d[j+k]`` for ``k < count``: steps of the window sum (SIMD)."""
     x0 = x[j : j + count]
@@ -252,42 +277,60 @@ def _modified_steps(x: NDArray, m: int, j: int, count: int, out: NDArray) -> Non
         out[k] = (x3[k] - 2.0 * x2[k] + x1[k]) - (x2[k] - 2.0 * x1[k] + x0[k])
 
 
+@numba.njit(cache=True, nogil=True)
+def _modified_steps_pair(x: NDArray, m: int, j: int, count: int, out: NDArray,
+                         dl: NDArray) -> None:
+    """:func:`_modified_steps`, keeping the second differences ``d[j+k]`` in ``dl``."""
+    x0 = x[j : j + count]
+    x1 = x[j + m : j + m + count]
+    x2 = x[j + 2 * m : j + 2 * m + count]
+    x3 = x[j + 3 * m : j + 3 * m + count]
+    for k in range(count):
+        lo = x2[k] - 2.0 * x1[k] + x0[k]
+        hi = x3[k] - 2.0 * x2[k] + x1[k]
+        out[k] = hi - lo
+        dl[k] = lo
+
+
 #: Terms per tile of :func:`_modified_one` (four lanes of steps stay in L1).
 _MOD_TILE = 1024
 
 
 @numba.njit(cache=True, nogil=True)
-def _modified_one(x: NDArray, m: int, n: int) -> float:
-    """Sum of ``s_j**2`` for ``j < n`` (modified Allan, SP 1065 eq. 14) in four lanes.
+def _modified_group(x: NDArray, m: int, j: int, gap: int, last: int, bufs: NDArray,
+                    pair: bool) -> tuple[float, float]:
+    """Four interleaved runs of the modified-Allan recursion, and their second differences.
 
-    The terms are cut into four runs; each starts from its window sum ``s_j`` summed directly
-    and follows ``s_{j+1} = s_j + (d[j+m] - d[j])`` (``d`` the second differences, the same
-    expression as :func:`sum_modified`). The steps of a tile are formed in SIMD lanes; the four
-    recursions then run interleaved, so their additions overlap in the pipeline. Restarting
-    every quarter bounds the round-off the recursion carries.
+    Runs start at ``j + r gap`` (r = 0..3); runs 0-2 have ``gap`` terms, run 3 ``last >= gap``.
+    Each starts from its window sum ``s`` summed directly (:func:`_modified_windows4`) and
+    follows ``s_{i+1} = s_i + (d[i+m] - d[i])`` (``d`` the second differences, the expression of
+    :func:`sum_modified`). The steps of a tile are formed in SIMD lanes; the four recursions then
+    run interleaved, so their additions overlap in the pipeline. Returns the sum of ``s_i**2``
+    over the ``3 gap + last`` terms and, with ``pair``, the sum of ``d[i]**2`` over the same
+    indices (overlapping Allan, for R(n)); ``bufs`` is scratch of shape (5, _MOD_TILE).
     """
-    if n < 64:  # too short for four runs
-        acc, s = sum_modified(x[: n - 1], x[m : m + n - 1], x[2 * m : 2 * m + n - 1],
-                              x[3 * m : 3 * m + n - 1], _modified_window(x, m, 0), n - 1)
-        return acc + s * s
-    q = n // 4
-    j0, j1, j2, j3 = 0, q, 2 * q, 3 * q
-    s0 = _modified_window(x, m, j0)
-    s1 = _modified_window(x, m, j1)
-    s2 = _modified_window(x, m, j2)
-    s3 = _modified_window(x, m, j3)
+    j0, j1, j2, j3 = j, j + gap, j + 2 * gap, j + 3 * gap
+    s0, s1, s2, s3 = _modified_windows4(x, m, j, gap)
     a0 = a1 = a2 = a3 = 0.0
-    tile = _MOD_TILE
-    b0 = np.empty(tile)
-    b1 = np.empty(tile)
-    b2 = np.empty(tile)
-    b3 = np.empty(tile)
-    for k0 in range(0, q - 1, tile):
-        cnt = min(tile, q - 1 - k0)
-        _modified_steps(x, m, j0 + k0, cnt, b0)
-        _modified_steps(x, m, j1 + k0, cnt, b1)
-        _modified_steps(x, m, j2 + k0, cnt, b2)
-        _modified_steps(x, m, j3 + k0, cnt, b3)
+    oa = 0.0
+    tile = bufs.shape[1]
+    b0, b1, b2, b3, dl = bufs[0], bufs[1], bufs[2], bufs[3], bufs[4]
+    for k0 in range(0, gap - 1, tile):
+        cnt = min(tile, gap - 1 - k0)
+        if pair:
+            _modified_steps_pair(x, m, j0 + k0, cnt, b0, dl)
+            oa += _sumsq(dl, cnt)
+            _modified_steps_pair(x, m, j1 + k0, cnt, b1, dl)
+            oa += _sumsq(dl, cnt)
+            _modified_steps_pair(x, m, j2 + k0, cnt, b2, dl)
+            oa += _sumsq(dl, cnt)
+            _modified_steps_pair(x, m, j3 + k0, cnt, b3, dl)
+            oa += _sumsq(dl, cnt)
+        else:
+            _modified_steps(x, m, j0 + k0, cnt, b0)
+            _modified_steps(x, m, j1 + k0, cnt, b1)
+            _modified_steps(x, m, j2 + k0, cnt, b2)
+            _modified_steps(x, m, j3 + k0, cnt, b3)
         for k in range(cnt):
             a0 += s0 * s0
             a1 += s1 * s1
@@ -301,12 +344,35 @@ def _modified_one(x: NDArray, m: int, n: int) -> float:
     a1 += s1 * s1
     a2 += s2 * s2
     m2, m3 = 2 * m, 3 * m
-    for i in range(j3 + q - 1, n):  # the last run takes the remainder
+    end = j3 + last
+    for i in range(j3 + gap - 1, end):  # run 3 takes the remainder
         a3 += s3 * s3
-        if i < n - 1:
+        if i < end - 1:
             s3 += ((x[i + m3] - 2.0 * x[i + m2] + x[i + m])
                    - (x[i + m2] - 2.0 * x[i + m] + x[i]))
-    return (a0 + a1) + (a2 + a3)
+    if pair:  # second differences the steps did not visit: each run's last, run 3's rest
+        for i in (j1 - 1, j2 - 1, j3 - 1):
+            d = x[i + m2] - 2.0 * x[i + m] + x[i]
+            oa += d * d
+        for i in range(j3 + gap - 1, end):
+            d = x[i + m2] - 2.0 * x[i + m] + x[i]
+            oa += d * d
+    return (a0 + a1) + (a2 + a3), oa
+
+
+@numba.njit(cache=True, nogil=True)
+def _modified_one(x: NDArray, m: int, n: int) -> float:
+    """Sum of ``s_j**2`` for ``j < n`` (modified Allan, SP 1065 eq. 14) in four runs.
+
+    The terms are cut into four runs (:func:`_modified_group`); restarting every quarter
+    bounds the round-off the recursion carries. Fewer than 64 terms: the sequential recursion.
+    """
+    if n < 64:  # too short for four runs
+        acc, s = sum_modified(x[: n - 1], x[m : m + n - 1], x[2 * m : 2 * m + n - 1],
+                              x[3 * m : 3 * m + n - 1], _modified_window(x, m, 0), n - 1)
+        return acc + s * s
+    q = n // 4
+    return _modified_group(x, m, 0, q, n - 3 * q, np.empty((5, _MOD_TILE)), False)[0]
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
@@ -330,6 +396,8 @@ def _decimate_into(x: NDArray, m: int, count: int, scratch: NDArray, have: int) 
         return False
     if have > 0 and m % have == 0:
         r = m // have
+        if r == 1:  # already there
+            return True
         for k in range(count + 1):
             scratch[k] = scratch[k * r]
     else:
@@ -1100,34 +1168,43 @@ def _rows_store(a: NDArray, npts: int, sh0: float, sh1: float, acc: NDArray,
 
 
 @numba.njit(cache=True, nogil=True)
-def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, half: NDArray,
+def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter: NDArray,
                     rows: NDArray, third: bool) -> tuple[float, float]:
     """:func:`integrate` from 0, with the m = 1 noise-type rows (and HDEV sums) on the way.
 
     ``out`` (``len(y) + 1``) receives the phase with the digits of :func:`integrate`. While each
     tile is in cache: ``rows[0]`` gets rows 0-1 of :func:`lag1_first_two` at m = 1; with
     ``third``, the sum of squared third differences of ``x`` (non-overlapping Hadamard at m = 1)
-    is returned first. A non-empty ``half`` (``(len(y)) // 2 + 1`` points) receives ``x[::2]``,
-    and ``rows[1]`` with the second value returned are the same quantities for that series
-    (Hadamard at m = 2); the sums differ from the separate kernels by round-off only.
+    is returned first. With a non-empty ``quarter`` (``len(y) // 4 + 1`` points), ``rows[1]``
+    and the second value returned are the same quantities for ``x[::2]`` (Hadamard at m = 2),
+    and ``quarter`` receives ``x[::4]`` (where the decimations for m = 4, 8, ... start). The
+    sums differ from the separate kernels by round-off only.
     """
     nx = y.shape[0] + 1
     acc1 = np.zeros(7)
     acc2 = np.zeros(7)
-    nh = half.shape[0]
+    nq = quarter.shape[0]
+    nh = (nx + 1) // 2 if nq > 0 else 0  # points of x[::2]
+    tile = _FUSE_TILE
+    # x[::2] a tile at a time: hb[k] = x[2 (hbase + k)] for k < hlen (a copy of half the
+    # record would cost its page faults and its writes)
+    hb = np.empty(tile // 2 + 8)
+    hbase = 0
+    hlen = 0
     c = 0.0
     out[0] = tau0 * c
     sh0 = out[0]
     sh1 = 0.0
     sh1h = 0.0
     done1 = 0  # indices of x already summed
-    done2 = 0  # indices of half already summed
-    tile = _FUSE_TILE
+    done2 = 0  # indices of x[::2] already summed
     for t0 in range(0, nx - 1, tile):
         t1 = min(nx - 1, t0 + tile)
-        for k in range(t0, t1):
-            c += y[k] - mean
-            out[k + 1] = tau0 * c
+        yt = y[t0:t1]  # slices: the loops index from 0, with no wraparound checks
+        ot = out[t0 + 1 : t1 + 1]
+        for k in range(t1 - t0):
+            c += yt[k] - mean
+            ot[k] = tau0 * c
         if t0 == 0:
             sh1 = out[1] - out[0]
         avail = t1 + 1  # x[0 : avail] is known
@@ -1135,20 +1212,38 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, half: ND
         if k1 > done1:
             _rows_range(out, done1, k1, nx, sh0, sh1, acc1, third)
             done1 = k1
-        if nh > 0:
-            hav = min(nh, (avail + 1) // 2)  # half[0 : hav] = x[0 : 2 hav : 2]
-            for k in range((t0 + 1) // 2, hav):
-                half[k] = out[2 * k]
-            if hav >= 2:
-                if done2 == 0:
-                    sh1h = half[1] - half[0]
-                k2 = hav - 3 if avail < nx else nh
-                if k2 > done2:
-                    _rows_range(half, done2, k2, nh, sh0, sh1h, acc2, third)
-                    done2 = k2
+        if nq == 0:
+            continue
+        hav = min(nh, (avail + 1) // 2)  # x[0 : 2 hav : 2] is known
+        lo = hbase + hlen
+        if hav > lo:
+            dst = hb[hlen : hlen + hav - lo]
+            src = out[2 * lo : 2 * hav : 2]
+            for k in range(hav - lo):
+                dst[k] = src[k]
+            hlen = hav - hbase
+        if hav >= 2:
+            if done2 == 0:
+                sh1h = out[2] - out[0]
+            k2 = hav - 3 if avail < nx else nh
+            if k2 > done2:
+                _rows_range(hb, done2 - hbase, k2 - hbase, nh - hbase, sh0, sh1h, acc2, third)
+                done2 = k2
+                keep = hav - done2  # the points the next terms still read
+                for k in range(keep):
+                    hb[k] = hb[done2 - hbase + k]
+                hbase = done2
+                hlen = keep
+        qav = min(nq, (avail + 3) // 4)  # quarter[0 : qav] = x[0 : 4 qav : 4]
+        lo = (t0 + 3) // 4
+        if qav > lo:
+            qs = quarter[lo:qav]
+            xs = out[4 * lo : 4 * qav : 4]
+            for k in range(qav - lo):
+                qs[k] = xs[k]
     _rows_store(out, nx, sh0, sh1, acc1, rows[0])
     if nh >= 3:
-        _rows_store(half, nh, half[0], sh1h, acc2, rows[1])
+        _rows_store(out[::2], nh, sh0, sh1h, acc2, rows[1])
     return acc1[6], acc2[6]
 
 
@@ -1175,21 +1270,6 @@ def hadamard_from(x: NDArray, ms: NDArray, terms: NDArray, scratch: NDArray,
 
 
 @numba.njit(cache=True, nogil=True)
-def _modified_steps_pair(x: NDArray, m: int, j: int, count: int, out: NDArray,
-                         dl: NDArray) -> None:
-    """:func:`_modified_steps`, keeping the second differences ``d[j+k]`` in ``dl``."""
-    x0 = x[j : j + count]
-    x1 = x[j + m : j + m + count]
-    x2 = x[j + 2 * m : j + 2 * m + count]
-    x3 = x[j + 3 * m : j + 3 * m + count]
-    for k in range(count):
-        lo = x2[k] - 2.0 * x1[k] + x0[k]
-        hi = x3[k] - 2.0 * x2[k] + x1[k]
-        out[k] = hi - lo
-        dl[k] = lo
-
-
-@numba.njit(cache=True, nogil=True)
 def modified_allan_pair(x: NDArray, m: int, n_mod: int, n_oa: int) -> tuple[float, float]:
     """MDEV and OADEV sums of squares at one ``m`` in one pass (the R(n) ratio, SP 1065 5.6.3).
 
@@ -1203,51 +1283,7 @@ def modified_allan_pair(x: NDArray, m: int, n_mod: int, n_oa: int) -> tuple[floa
         return (modified_sums(x, one, np.array([n]))[0],
                 allan_sums(x, one, np.array([n_oa]), False)[0])
     q = n // 4
-    j0, j1, j2, j3 = 0, q, 2 * q, 3 * q
-    s0 = _modified_window(x, m, j0)
-    s1 = _modified_window(x, m, j1)
-    s2 = _modified_window(x, m, j2)
-    s3 = _modified_window(x, m, j3)
-    a0 = a1 = a2 = a3 = 0.0
-    oa = 0.0
-    tile = _MOD_TILE
-    b0 = np.empty(tile)
-    b1 = np.empty(tile)
-    b2 = np.empty(tile)
-    b3 = np.empty(tile)
-    dl = np.empty(tile)
-    for k0 in range(0, q - 1, tile):
-        cnt = min(tile, q - 1 - k0)
-        _modified_steps_pair(x, m, j0 + k0, cnt, b0, dl)
-        oa += _sumsq(dl, cnt)
-        _modified_steps_pair(x, m, j1 + k0, cnt, b1, dl)
-        oa += _sumsq(dl, cnt)
-        _modified_steps_pair(x, m, j2 + k0, cnt, b2, dl)
-        oa += _sumsq(dl, cnt)
-        _modified_steps_pair(x, m, j3 + k0, cnt, b3, dl)
-        oa += _sumsq(dl, cnt)
-        for k in range(cnt):
-            a0 += s0 * s0
-            a1 += s1 * s1
-            a2 += s2 * s2
-            a3 += s3 * s3
-            s0 += b0[k]
-            s1 += b1[k]
-            s2 += b2[k]
-            s3 += b3[k]
-    a0 += s0 * s0
-    a1 += s1 * s1
-    a2 += s2 * s2
-    m2, m3 = 2 * m, 3 * m
-    for i in range(j3 + q - 1, n):  # the last run takes the remainder
-        a3 += s3 * s3
-        if i < n - 1:
-            s3 += ((x[i + m3] - 2.0 * x[i + m2] + x[i + m])
-                   - (x[i + m2] - 2.0 * x[i + m] + x[i]))
-    for j in (j1 - 1, j2 - 1, j3 - 1):  # second differences the runs did not visit
-        d = x[j + m2] - 2.0 * x[j + m] + x[j]
-        oa += d * d
-    t = j3 + q - 1
-    if n_oa > t:
-        oa += _ssq2(x[t:n_oa], x[t + m : n_oa + m], x[t + m2 : n_oa + m2])
-    return (a0 + a1) + (a2 + a3), oa
+    mod, oa = _modified_group(x, m, 0, q, n - 3 * q, np.empty((5, _MOD_TILE)), True)
+    if n_oa > n:
+        oa += _ssq2(x[n:n_oa], x[n + m : n_oa + m], x[n + 2 * m : n_oa + 2 * m])
+    return mod, oa
