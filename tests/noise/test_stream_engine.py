@@ -103,7 +103,7 @@ def test_decimated_series_taken_from_each_other_equal_direct():
     ms = np.array([1, 2, 4, 8, 12, 24, 100, 1000])
     count = (x.size - 1) // ms
     h, rows = kernels.hadamard_decimated(x, ms, count - 2)
-    many = kernels.lag1_rows_many(x, ms)
+    many = kernels.lag1_rows_many(x, ms, np.empty(0), 0)
     for k, m in enumerate(ms):
         span = (count[k] - 3) * m + 1
         ref = kernels.sum_third_diff(x[:span], x[m : m + span], x[2 * m : 2 * m + span],

@@ -65,8 +65,9 @@ CHUNK = 1 << 20
 #: In memory, taus are summed in groups of about this many samples (one progress tick each).
 _GROUP_WORK = 1 << 24
 
-#: In memory, samples from which the m = 1 noise-type rows are taken while integrating.
-_FUSE_ROWS = 1 << 22
+#: In memory, samples from which the m = 1, 2 noise-type rows and x[::4] are taken while
+#: integrating (below, the record stays in cache between the passes anyway).
+_FUSE_ROWS = 1 << 16
 
 Progress = Callable[[int, int], None]
 
@@ -276,9 +277,10 @@ def phase_source(
 ) -> _Phase:
     """Validate the input and build the phase points (SP 1065: N rates -> N + 1 phases).
 
-    ``fuse`` (rate records in memory): ``"rows"`` also takes the noise-type rows at m = 1
-    while integrating, ``"hadamard"`` those at m = 1 and 2 with the Hadamard sums there and
-    ``x[::4]`` (see ``kernels.integrate_fused``); the phase is the same either way.
+    ``fuse`` (rate records in memory): ``"octave"`` also takes the noise-type rows at m = 1
+    and 2 while integrating, and ``x[::4]`` (where the octave decimations start);
+    ``"hadamard"`` also the Hadamard sums at m = 1 and 2 (see ``kernels.integrate_fused``).
+    The phase is the same either way.
     """
     if data_type not in DATA_TYPES:
         raise InputError(f"data_type {data_type!r} is not known; use 'rate' or 'angle'")
@@ -316,19 +318,21 @@ def phase_source(
             return _RatePhase(data, tau0, mean)
         x = np.empty(n + 1)
         yc = np.ascontiguousarray(data, dtype=np.float64)
-        if not fuse:
+        if fuse not in ("octave", "hadamard"):
             kernels.integrate(yc, mean, 0.0, tau0, x)
             return _MemoryPhase(x, tau0)
-        two = fuse == "hadamard" and n >= 6
+        two = n >= 6
+        third = two and fuse == "hadamard"
         quarter = np.empty(n // 4 + 1 if two else 0)
         rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
-        h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, two)
+        h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, third)
         mp = _MemoryPhase(x, tau0)
         mp.rows[1] = rows[0]
         if two:
             mp.rows[2] = rows[1]
-            mp.hdev.update({1: h1, 2: h2})
             mp.quarter = quarter
+        if third:
+            mp.hdev.update({1: h1, 2: h2})
         return mp
     _check_finite_angle(data)
     src = _AnglePhase(data, tau0)
@@ -875,10 +879,9 @@ def deviations(
         )
     if not (0.0 < confidence < 1.0):
         raise InputError(f"confidence must be between 0 and 1, got {confidence}")
-    # Rows at m = 1 taken while integrating pay only once the record outgrows the cache.
     big = hasattr(data, "__len__") and len(data) >= _FUSE_ROWS  # type: ignore[arg-type]
     src = phase_source(data, rate, data_type, stream=stream,
-                       fuse="hadamard" if "hdev" in stats else "rows" if big else "")
+                       fuse="hadamard" if "hdev" in stats else "octave" if big else "")
     nx = src.size
     grids = {s: averaging_factors(taus, 1.0 / src.tau0, s, nx) for s in stats}
     work = sum(_work(s, int(m), nx) for s in stats for m in grids[s])
@@ -954,7 +957,14 @@ def deviations(
             if new.size:
                 from inertest.noise import kernels  # numba: loaded on first use
 
-                rows = kernels.lag1_rows_many(src.x, new)
+                # x[::4] from the phase build (when no HDEV sums still need it) starts the
+                # decimations; it is scratch, used once
+                fresh = src.quarter is None or bool(src.hdev)
+                rows = kernels.lag1_rows_many(src.x, new,
+                                              np.empty(0) if fresh else src.quarter,
+                                              0 if fresh else 4)
+                if not fresh:
+                    src.quarter = None
                 states.update({int(m): rows[k] for k, m in enumerate(new)})
         if isinstance(src, _MemoryPhase):  # lag-1 decisions at orders 0-1: all taus at once
             fam = _family(s)

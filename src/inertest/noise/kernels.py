@@ -398,27 +398,27 @@ def _decimate_into(x: NDArray, m: int, count: int, scratch: NDArray, have: int) 
         r = m // have
         if r == 1:  # already there
             return True
-        for k in range(count + 1):
-            scratch[k] = scratch[k * r]
+        src = scratch[: count * r + 1 : r]  # views: no wraparound checks in the loops
     else:
-        for k in range(count + 1):
-            scratch[k] = x[k * m]
+        src = x[: count * m + 1 : m]
+    dst = scratch[: count + 1]
+    for k in range(count + 1):
+        dst[k] = src[k]
     return True
 
 
 @numba.njit(cache=True, nogil=True)
-def lag1_rows_many(x: NDArray, ms: NDArray) -> NDArray:
+def lag1_rows_many(x: NDArray, ms: NDArray, scratch: NDArray, have: int) -> NDArray:
     """:func:`lag1_first_two` at every ``ms[k]`` (ascending), shape (ms.size, 2, LAG1_FIELDS).
 
     Each decimated series from m = 4 on is taken from the previous one where the factors
-    allow (see :func:`_decimate_into`); m = 2, 3 are read strided from ``x`` (a fresh copy of
-    half the record costs more in page faults than it saves); the same numbers as
-    :func:`lag1_first_two`.
+    allow (see :func:`_decimate_into`), starting from ``scratch`` (``x`` decimated by
+    ``have``, overwritten; empty and 0: nothing yet); m = 2, 3 are read strided from ``x`` (a
+    fresh copy of half the record costs more in page faults than it saves); the same numbers
+    as :func:`lag1_first_two`.
     """
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
     nx = x.shape[0]
-    scratch = np.empty(0)
-    have = 0
     for k in range(ms.size):
         m = ms[k]
         count = (nx - 1) // m
