@@ -241,29 +241,51 @@ def _modified_window(x: NDArray, m: int, j: int) -> float:
     return s
 
 
+@numba.njit(cache=True, nogil=True, fastmath=True)
+def _second_diff_total(x: NDArray, m: int, a: int, b: int) -> float:
+    """``sum_{i=a}^{b-1} (x[i+2m] - 2 x[i+m] + x[i])`` in SIMD lanes."""
+    x0 = x[a:b]
+    x1 = x[a + m : b + m]
+    x2 = x[a + 2 * m : b + 2 * m]
+    s = 0.0
+    for i in range(b - a):
+        s += x2[i] - 2.0 * x1[i] + x0[i]
+    return s
+
+
 @numba.njit(cache=True, nogil=True)
 def _modified_windows4(x: NDArray, m: int, j: int, gap: int
                        ) -> tuple[float, float, float, float]:
-    """:func:`_modified_window` at ``j, j + gap, j + 2 gap, j + 3 gap`` (the same digits).
+    """Window sums ``s_i = sum_{k=i}^{i+m-1} d[k]`` at ``i = j + r gap`` (r = 0..3).
 
-    The four sums run interleaved over slices (no index arithmetic in the loop), so their
-    additions overlap in the pipeline.
+    The windows overlap when ``gap < m``: the second differences are summed once per
+    segment between window edges (in SIMD lanes), and each window adds its segments in order,
+    so no difference is formed twice (at m = N/5 the windows would otherwise read the record
+    nearly twice).
     """
-    m2, m3 = 2 * m, 3 * m
-    a0, a1, a2 = x[j : j + m], x[j + m : j + m2], x[j + m2 : j + m3]
-    k = j + gap
-    b0, b1, b2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
-    k += gap
-    c0, c1, c2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
-    k += gap
-    d0, d1, d2 = x[k : k + m], x[k + m : k + m2], x[k + m2 : k + m3]
-    s0 = s1 = s2 = s3 = 0.0
-    for i in range(m):
-        s0 += a2[i] - 2.0 * a1[i] + a0[i]
-        s1 += b2[i] - 2.0 * b1[i] + b0[i]
-        s2 += c2[i] - 2.0 * c1[i] + c0[i]
-        s3 += d2[i] - 2.0 * d1[i] + d0[i]
-    return s0, s1, s2, s3
+    if gap >= m:  # disjoint windows
+        return (_second_diff_total(x, m, j, j + m),
+                _second_diff_total(x, m, j + gap, j + gap + m),
+                _second_diff_total(x, m, j + 2 * gap, j + 2 * gap + m),
+                _second_diff_total(x, m, j + 3 * gap, j + 3 * gap + m))
+    edges = np.empty(8, dtype=np.int64)
+    for r in range(4):
+        edges[2 * r] = j + r * gap
+        edges[2 * r + 1] = j + r * gap + m
+    edges = np.unique(edges)
+    out = np.zeros(4)
+    for e in range(edges.size - 1):
+        a, b = edges[e], edges[e + 1]
+        seg = 0.0
+        used = False
+        for r in range(4):
+            lo = j + r * gap
+            if lo <= a and b <= lo + m:
+                if not used:
+                    seg = _second_diff_total(x, m, a, b)
+                    used = True
+                out[r] += seg
+    return out[0], out[1], out[2], out[3]
 
 
 @numba.njit(cache=True, nogil=True)
