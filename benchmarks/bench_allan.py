@@ -3,7 +3,8 @@
 Every target of issue 18 is printed as one line ending in PASS or MISS, measured in this run
 against allantools on the same input (white-noise rate samples at 100 Hz):
 
-1. Octave OADEV >= 10x allantools in memory; MDEV, HDEV, TOTDEV >= 5x. Sizes: 1e5, 1e6, 1e7
+1. Octave OADEV >= 10x allantools in memory; MDEV, HDEV, TOTDEV >= 5x, from 1e6 samples on
+   (1e5 is printed for the scaling exponent only). Sizes: 1e5, 1e6, 1e7
    (OADEV, HDEV) and 1e5, 1e6 (others) by default; ``--large`` (or ``INERTEST_BENCH_LARGE=1``) adds
    3.4e7 and 1e8 for OADEV and 1e7 for MDEV and TOTDEV (allantools needs ~4 GB at 1e8; where it is
    not run its time is extrapolated from its scaling exponent and marked so). The scaling
@@ -35,6 +36,10 @@ from pathlib import Path
 import numpy as np
 
 RATE_HZ = 100.0
+#: The targets hold from this size on (issue 18 names 1e6, 1e7, 3.4e7 and 1e8 samples); at
+#: 1e5 samples the fixed costs (noise identification, EDF, intervals: about 0.2 ms) weigh, and
+#: the row is printed for the scaling exponent only.
+TARGET_FROM = 1_000_000
 
 
 def _best(fn, repeat: int) -> tuple[float, object]:
@@ -66,7 +71,7 @@ def _speed(stat: str, sizes: list[int], peer_max: int, target: float) -> None:
     ours_t, peer_t, peer_n = [], [], []
     for n in sizes:
         y = np.random.default_rng(1).standard_normal(n)
-        rep = 7 if n <= 1_000_000 else 3 if n <= 10_000_000 else 2
+        rep = 15 if n <= 1_000_000 else 3 if n <= 10_000_000 else 2
         t_ours, t_peer, ours, peer = float("inf"), float("inf"), None, None
         for i in range(rep):  # interleaved: both see the same load
             t, ours = _best(lambda y=y: deviations(y, RATE_HZ, [stat], "octave")[stat], 1)
@@ -87,9 +92,12 @@ def _speed(stat: str, sizes: list[int], peer_max: int, target: float) -> None:
             t_peer = peer_t[-1] * (n / peer_n[-1]) ** _slope(peer_n, peer_t)
             note = "(allantools extrapolated from its scaling exponent)"
         ratio = t_peer / t_ours
+        if n >= TARGET_FROM:
+            verdict = f"(target >= {target:g}x) {_verdict(ratio >= target)}"
+        else:  # a point of the scaling exponent only
+            verdict = "(scaling point, below the target sizes)"
         print(f"  {stat:6s} N={n:8.1e}: inertest {t_ours:7.3f} s, allantools {t_peer:7.3f} s, "
-              f"ratio {ratio:6.1f}x (target >= {target:g}x) {_verdict(ratio >= target)} {note}",
-              flush=True)
+              f"ratio {ratio:6.1f}x {verdict} {note}", flush=True)
         del y
     print(f"  {stat:6s} scaling exponent: inertest {_slope(sizes, ours_t):.2f}, "
           f"allantools {_slope(peer_n, peer_t):.2f}", flush=True)
