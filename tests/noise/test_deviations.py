@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import mmap
 
 import allantools
 import numpy as np
@@ -187,3 +188,18 @@ def test_ocxo_stable32_octave(realdata_dir):
                 # Same noise type -> the same EDF algorithm must give the same interval width.
                 assert (res.dev_hi[i] - res.dev_lo[i]) / res.dev[i] == pytest.approx(
                     (hi - lo) / dev, rel=0.03)
+
+
+@pytest.mark.parametrize("n", [1, 1000, 131_072, 1_000_001])
+def test_work_array_is_a_plain_writable_float64_array(n):
+    # the phase buffer: huge-page backed from 1 MiB on where the system offers it, np.empty
+    # otherwise; either way a C-contiguous writable float64 array the kernels accept
+    from inertest.noise.deviations import _HUGE_PAGE, _work_array
+
+    a = _work_array(n)
+    assert a.shape == (n,) and a.dtype == np.float64
+    assert a.flags.c_contiguous and a.flags.writeable and a.flags.aligned
+    a[:] = np.arange(n)
+    assert a[-1] == n - 1
+    if 8 * n >= _HUGE_PAGE // 2 and hasattr(mmap, "MADV_HUGEPAGE"):
+        assert a.ctypes.data % _HUGE_PAGE == 0

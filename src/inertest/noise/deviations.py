@@ -26,6 +26,7 @@ in memory at any size (its phase costs 8 bytes per sample more) unless ``stream=
 from __future__ import annotations
 
 import math
+import mmap
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -177,6 +178,33 @@ class _MemoryPhase(_Phase):
         return self.x[start:stop]
 
 
+#: Bytes of a transparent huge page (Linux, x86-64 and arm64 with 4 KiB base pages).
+_HUGE_PAGE = 1 << 21
+
+
+def _work_array(n: int) -> NDArray:
+    """An uninitialised float64 array of ``n`` elements for the phase and its decimations.
+
+    Arrays of half a huge page or more are mapped anonymously, aligned to 2 MiB and advised
+    for transparent huge pages: a fresh 8 MB phase then costs 4 page faults instead of about 900
+    (about 1 us each on a virtual machine; 1.4 ms of the 5 ms of an HDEV at 1e6 samples).
+    The mapping is released with the array. Where that is not available (other systems, huge
+    pages off) this is ``np.empty``.
+    """
+    nbytes = 8 * n
+    advise = getattr(mmap, "MADV_HUGEPAGE", None)
+    flags = getattr(mmap, "MAP_PRIVATE", 0) | getattr(mmap, "MAP_ANONYMOUS", 0)
+    if nbytes < _HUGE_PAGE // 2 or advise is None or not flags:
+        return np.empty(n)
+    try:
+        mm = mmap.mmap(-1, nbytes + _HUGE_PAGE, flags=flags)
+        mm.madvise(advise)
+    except (OSError, ValueError):
+        return np.empty(n)
+    start = np.frombuffer(mm, dtype=np.uint8, count=1).ctypes.data
+    return np.frombuffer(mm, dtype=np.float64, count=n, offset=(-start) % _HUGE_PAGE)
+
+
 def _block_mean(y: ArrayLike, progress: Progress | None = None, total: int = 0) -> float:
     """Mean of a long array, summed in fixed blocks (same digits in memory and streaming)."""
     a = y
@@ -316,14 +344,14 @@ def phase_source(
         mean = _block_mean(data)
         if stream:
             return _RatePhase(data, tau0, mean)
-        x = np.empty(n + 1)
+        x = _work_array(n + 1)
         yc = np.ascontiguousarray(data, dtype=np.float64)
         if fuse not in ("octave", "hadamard"):
             kernels.integrate(yc, mean, 0.0, tau0, x)
             return _MemoryPhase(x, tau0)
         two = n >= 6
         third = two and fuse == "hadamard"
-        quarter = np.empty(n // 4 + 1 if two else 0)
+        quarter = _work_array(n // 4 + 1 if two else 0)
         rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
         h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, third)
         mp = _MemoryPhase(x, tau0)
