@@ -203,3 +203,35 @@ def test_work_array_is_a_plain_writable_float64_array(n):
     assert a[-1] == n - 1
     if 8 * n >= _HUGE_PAGE // 2 and hasattr(mmap, "MADV_HUGEPAGE"):
         assert a.ctypes.data % _HUGE_PAGE == 0
+
+
+def test_angle_record_at_a_large_constant_rate_keeps_its_digits():
+    # Reviewer's case (issue 18 review): a 5 rad/s angle record at 100 Hz. Removing the
+    # straight line in plain float64 rounded every point by eps |x| (ADEV at m = 4096 off by
+    # 6.6e-10); allantools, differencing the raw floats, is exact. Reference: the SP 1065
+    # sums in extended precision on the same floats.
+    n = 1_000_000
+    x = np.cumsum(5.0 + 1e-3 * np.random.default_rng(n).standard_normal(n)) * 0.01
+    xl = x.astype(np.longdouble)
+    for stat, m in (("adev", 4096), ("oadev", 4096), ("oadev", 64)):
+        i = np.arange(0, n - 2 * m, m if stat == "adev" else 1)
+        d = xl[i + 2 * m] - 2 * xl[i + m] + xl[i]
+        ref = float(np.sqrt(np.sum(d * d) / (2 * len(d))) / m / np.longdouble(0.01))
+        for stream in (False, True):
+            got = deviations(x, 100.0, [stat], [m / 100], "angle", stream=stream)[stat].dev[0]
+            assert got == pytest.approx(ref, rel=1e-12, abs=0), (stat, m, stream)
+
+
+def test_line_removal_is_exact_to_the_residual():
+    from fractions import Fraction
+
+    rng = np.random.default_rng(4)
+    k = np.sort(rng.choice(3_000_000, 3000, replace=False)).astype(np.float64)
+    first, slope = 12345.678901, 0.0498765432109
+    raw = first + slope * k + 1e-6 * rng.standard_normal(k.size)
+    got = dv._minus_line(raw, first, slope, k)
+    # exact rational arithmetic on the same floats
+    want = np.array([float(Fraction(r) - (Fraction(first) + Fraction(slope) * Fraction(kk)))
+                     for r, kk in zip(raw, k, strict=True)])
+    # the plain expression is off by ~eps |raw| (1e-12 here); this one within an ulp
+    assert np.all(np.abs(got - want) <= 2.3e-16 * np.abs(want))
