@@ -120,14 +120,21 @@ def edf_totdev(alpha: int, m: int, n_phase: int) -> float:
 class Lag1:
     """Running sums for the lag-1 autocorrelation of a long series fed in blocks.
 
-    ``r1 = sum_{i<n-1} (z_i - zbar)(z_{i+1} - zbar) / sum_i (z_i - zbar)^2`` (Riley & Greenhall
-    2004 eq. 2), for the series (``d = 0``) and its differences up to order ``dmax`` at once,
-    formed on the fly in one pass (a numba kernel: no differenced copies, no threaded BLAS).
-    Values are shifted by the first one before summing, so a large offset does not cost digits.
+    ``r1 = sum_{i<n-1} e_i e_{i+1} / sum_i e_i^2`` (Riley & Greenhall 2004 eq. 2), ``e`` the
+    series less its least-squares polynomial trend (:func:`r1_of_state`), for the series
+    (``d = 0``) and its differences up to order ``dmax`` at once, formed on the fly in one pass
+    (a numba kernel: no differenced copies, no threaded BLAS). Values are shifted by the first
+    one before summing, so a large offset does not cost digits.
+
+    ``detrend``: degree of the trend removed from the series itself (1 for frequency data: a
+    frequency drift; 2 for phase data); each difference lowers it by one.
     """
 
-    def __init__(self, dmax: int = 0) -> None:
-        self.state = np.zeros((dmax + 1, 8))
+    def __init__(self, dmax: int = 0, detrend: int = 0) -> None:
+        from inertest.noise import kernels  # numba: loaded on first use
+
+        self.state = np.zeros((dmax + 1, kernels.LAG1_FIELDS))
+        self.detrend = detrend
 
     def add(self, block: NDArray) -> None:
         """Append the next values of the series."""
@@ -137,21 +144,69 @@ class Lag1:
 
     def r1(self, d: int = 0) -> float:
         """Lag-1 autocorrelation of the d-th difference (0 for a constant series)."""
-        return r1_of_state(self.state[d])
+        return r1_of_state(self.state[d], max(0, self.detrend - d))
 
 
-def r1_of_state(row: NDArray) -> float:
-    """Lag-1 autocorrelation from one row of running sums (see ``kernels.lag1_update``)."""
-    n = row[0]
-    if n < 1:
-        return 0.0
-    s1, s2, s11, first, last = (float(v) for v in row[2:7])
-    mean = s1 / n
-    den = s2 - n * mean * mean
-    if not den > 0:
-        return 0.0
-    num = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
-    return num / den
+def r1_of_state(row: NDArray, degree: int = 0) -> float:
+    """Lag-1 autocorrelation from one row of running sums (see ``kernels.lag1_update``).
+
+    ``degree``: the least-squares polynomial of that degree in the index (0: the mean) is
+    removed first (:func:`r1_detrended`).
+    """
+    return float(r1_detrended(np.asarray(row, dtype=np.float64)[None, :],
+                              np.array([degree]))[0])
+
+
+def r1_detrended(rows: NDArray, degree: NDArray) -> NDArray:
+    """Lag-1 autocorrelations of many series, each less its polynomial trend, from their sums.
+
+    ``rows`` (K, LAG1_FIELDS) as ``kernels.lag1_update`` leaves them: count n, shift, sum v,
+    sum v^2, sum v_i v_{i+1}, first v, last v, last raw value, sum i v_i, sum i^2 v_i.
+    ``degree[k]`` (0, 1 or 2) is the degree of the least-squares trend removed: with
+    ``e_i = v_i - f(i)``, ``r1 = sum_{i<n-1} e_i e_{i+1} / sum_i e_i^2``. Riley & Greenhall
+    (2004) and allantools remove a quadratic from the decimated phase (frequency offset and
+    drift; a linear trend from frequency data) before the lag-1 autocorrelation: without it a
+    rate ramp makes the identified noise type jump between taus and the EDF wrong by an order
+    of magnitude. The trend is fitted in the orthogonal basis 1, u, u^2 - U2/n (``u = i -
+    (n-1)/2``, ``U2 = sum u^2``), all from the running sums, so the record is read once.
+    Degree 0 is the mean, by the same expressions as before. 0 where the series is constant
+    or empty.
+    """
+    rows = np.asarray(rows, dtype=np.float64)
+    deg = np.broadcast_to(np.asarray(degree), rows.shape[:1])
+    n = rows[:, 0]
+    s1, s2, s11, first, last, t1, t2 = (rows[:, k] for k in (2, 3, 4, 5, 6, 8, 9))
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        mean = s1 / n
+        den0 = s2 - n * mean * mean
+        num0 = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
+        c = (n - 1.0) / 2.0
+        m1 = t1 - c * s1  # sum u v
+        m2 = t2 - 2.0 * c * t1 + c * c * s1  # sum u^2 v
+        u2 = n * (n * n - 1.0) / 12.0
+        u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0
+        b1 = np.where((deg >= 1) & (u2 > 0), m1 / u2, 0.0)
+        q = u4 - u2 * u2 / n
+        p2 = m2 - (u2 / n) * s1  # sum (u^2 - U2/n) v
+        b2 = np.where((deg >= 2) & (q > 0), p2 / q, 0.0)
+        b0 = mean - b2 * u2 / n
+        den = s2 - s1 * mean - b1 * m1 - b2 * p2
+
+        def f(u: NDArray) -> NDArray:
+            return b0 + b1 * u + b2 * u * u
+
+        g0, g1, g2 = b0 + b1 + b2, b1 + 2.0 * b2, b2  # f(u + 1)
+        h0, h1 = b0 - b1 + b2, b1 - 2.0 * b2  # f(u - 1) (u^2 coefficient b2)
+        a = g0 * s1 + g1 * m1 + g2 * m2 - last * f(c + 1.0)
+        b = h0 * s1 + h1 * m1 + b2 * m2 - first * f(-c - 1.0)
+        cc = (b0 * g0 * n + (b0 * g2 + b1 * g1 + b2 * g0) * u2 + b2 * g2 * u4
+              - f(c) * f(c + 1.0))
+        num = s11 - a - b + cc
+        plain = deg <= 0
+        num = np.where(plain, num0, num)
+        den = np.where(plain, den0, den)
+        r1 = np.where((n >= 1) & (den > 0), num / den, 0.0)
+    return r1
 
 
 def alpha_from_lag1(r1_by_d: list[float], *, phase: bool, alpha_min: int) -> int:
@@ -180,7 +235,7 @@ def lag1_alpha(y: NDArray, *, dmax: int = 2, alpha_min: int = -2) -> int | None:
     z = np.asarray(y, dtype=float)
     if z.size < MIN_ACF_AVERAGES:
         return None
-    acc = Lag1(dmax)
+    acc = Lag1(dmax, detrend=1)
     acc.add(z)
     r1s = [acc.r1(d) for d in range(dmax + 1)]
     return alpha_from_lag1(r1s, phase=False, alpha_min=alpha_min)

@@ -44,6 +44,7 @@ from inertest.noise.confidence import (
     b1_decide,
     chi2_interval,
     edf_greenhall_many,
+    r1_detrended,
     r1_of_state,
 )
 
@@ -716,6 +717,11 @@ def _family(statistic: str) -> str:
     return "hadamard" if statistic in ("hdev", "ohdev") else "allan"
 
 
+#: Degree of the trend removed from the decimated phase before its lag-1 autocorrelation
+#: (a frequency offset and drift; one less for each difference): Riley & Greenhall (2004),
+#: as allantools' autocorr_noise_id does.
+_DETREND = 2
+
 #: Marks a tau whose noise type cannot be identified (fewer than 3 averages).
 _NO_TYPE = 99
 
@@ -742,7 +748,7 @@ def _noise_type(src: _Phase, m: int, family: str,
         if mem:
             # orders 0 and 1 first: for most noise types the decision falls there
             rows = kernels.lag1_first_two(src.x, m, count) if state is None else state
-            r1 = [r1_of_state(row) for row in rows]
+            r1 = [r1_of_state(row, _DETREND - d) for d, row in enumerate(rows[:2])]
             if all(_delta(r) >= 0.25 for r in r1):
                 state = kernels.lag1_sums(src.x, m, count, dmax + 1)
                 r1 += [r1_of_state(row) for row in state[2:]]
@@ -751,11 +757,12 @@ def _noise_type(src: _Phase, m: int, family: str,
         if state is not None:
             state = state[: dmax + 1]
         else:
-            acc = Lag1(dmax)
+            acc = Lag1(dmax, detrend=_DETREND)
             for blk in _decimated(src, m, count):
                 acc.add(blk)
             state = acc.state
-        return alpha_from_lag1([r1_of_state(row) for row in state], phase=True,
+        return alpha_from_lag1([r1_of_state(row, max(0, _DETREND - d))
+                                for d, row in enumerate(state)], phase=True,
                                alpha_min=alpha_min)
     if count < 3:
         return None
@@ -800,16 +807,14 @@ def _lag1_decide_many(rows: NDArray, alpha_min: int) -> NDArray:
     """:func:`alpha_from_lag1` (phase data) at many taus from their lag-1 rows 0-1.
 
     ``rows`` has shape ``(K, 2, LAG1_FIELDS)``; the arithmetic is that of :func:`r1_of_state`
-    and :func:`alpha_from_lag1`, element by element. Where neither order decides (both
+    (the decimated phase less a quadratic, its difference less a line) and
+    :func:`alpha_from_lag1`, element by element. Where neither order decides (both
     ``delta >= 0.25``: higher orders are needed) the result is ``_NO_TYPE``.
     """
-    n = rows[:, :, 0]
-    s1, s2, s11, first, last = (rows[:, :, k] for k in range(2, 7))
+    k = rows.shape[0]
+    r1 = r1_detrended(rows.reshape(2 * k, -1),
+                      np.tile([_DETREND, _DETREND - 1], k)).reshape(k, 2)
     with np.errstate(divide="ignore", invalid="ignore"):
-        mean = s1 / n
-        den = s2 - n * mean * mean
-        num = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
-        r1 = np.where((n >= 1) & (den > 0), num / den, 0.0)
         delta = np.where(r1 > -1.0, r1 / (1.0 + r1), -1.0)
     a0 = np.round(-2.0 * delta[:, 0]) + 2.0
     a1 = np.round(-2.0 * delta[:, 1])

@@ -565,10 +565,12 @@ def total_sums(x: NDArray, ms: NDArray) -> NDArray:
 
 
 # --------------------------------------------------------------------------- lag-1 noise type
-# State of one differenced series, per difference order d (row d of a (dmax + 1, 8) array):
-# count, shift (its first value), sum v, sum v^2, sum v_i v_{i+1}, first v, last v, last raw value
-# (v = value - shift). The differences are formed on the fly, so no differenced copy is made.
-LAG1_FIELDS = 8
+# State of one differenced series, per difference order d (row d of a (dmax + 1, 10) array):
+# count, shift (its first value), sum v, sum v^2, sum v_i v_{i+1}, first v, last v, last raw value,
+# sum i v_i, sum i^2 v_i (v = value - shift, i = 0, 1, ... the index in that series: the index
+# moments let the noise identification remove a polynomial trend, confidence.r1_of_state).
+# The differences are formed on the fly, so no differenced copy is made.
+LAG1_FIELDS = 10
 
 
 @numba.njit(cache=True, nogil=True)
@@ -585,6 +587,9 @@ def _lag1_step(val: float, state: NDArray) -> None:
             row[4] += row[6] * v
         row[2] += v
         row[3] += v * v
+        i = row[0]
+        row[8] += i * v
+        row[9] += i * i * v
         row[6] = v
         prev = row[7]
         had = row[0] > 0.0
@@ -631,18 +636,33 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
         lv[d] = state[d, 6]
         raw[d] = state[d, 7]
     sh0, sh1, sh2, sh3 = sh[0], sh[1], sh[2], sh[3]
+    # index moments: order d's next value has index state[d, 0] (+ the values fed since)
+    base = np.zeros(4)
+    t1 = np.zeros(4)
+    t2 = np.zeros(4)
+    for d in range(orders):
+        base[d] = state[d, 0] - i
+        t1[d] = state[d, 8]
+        t2[d] = state[d, 9]
+    i0, i1, i2, i3 = base[0], base[1], base[2], base[3]
+    e1, e2, e3, e4 = t1[0], t1[1], t1[2], t1[3]
+    f1, f2, f3, f4 = t2[0], t2[1], t2[2], t2[3]
     a1, a2, a3, a4 = s1[0], s1[1], s1[2], s1[3]
     b1, b2, b3, b4 = s2[0], s2[1], s2[2], s2[3]
     c1, c2, c3, c4 = s11[0], s11[1], s11[2], s11[3]
     l1, l2, l3, l4 = lv[0], lv[1], lv[2], lv[3]
     r0, r1, r2, r3 = raw[0], raw[1], raw[2], raw[3]
     for k in range(i, nz):
+        fk = float(k)
         z0 = z[k]
         v = z0 - sh0
         c1 += l1 * v
         a1 += v
         b1 += v * v
         l1 = v
+        j = i0 + fk
+        e1 += j * v
+        f1 += j * j * v
         if orders > 1:
             z1 = z0 - r0
             v = z1 - sh1
@@ -650,6 +670,9 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
             a2 += v
             b2 += v * v
             l2 = v
+            j = i1 + fk
+            e2 += j * v
+            f2 += j * j * v
             if orders > 2:
                 z2 = z1 - r1
                 v = z2 - sh2
@@ -657,6 +680,9 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
                 a3 += v
                 b3 += v * v
                 l3 = v
+                j = i2 + fk
+                e3 += j * v
+                f3 += j * j * v
                 if orders > 3:
                     z3 = z2 - r2
                     v = z3 - sh3
@@ -664,13 +690,16 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
                     a4 += v
                     b4 += v * v
                     l4 = v
+                    j = i3 + fk
+                    e4 += j * v
+                    f4 += j * j * v
                     r3 = z3
                 r2 = z2
             r1 = z1
         r0 = z0
     cnt = float(nz - i)
-    vals = ((a1, b1, c1, l1, r0), (a2, b2, c2, l2, r1), (a3, b3, c3, l3, r2),
-            (a4, b4, c4, l4, r3))
+    vals = ((a1, b1, c1, l1, r0, e1, f1), (a2, b2, c2, l2, r1, e2, f2),
+            (a3, b3, c3, l3, r2, e3, f3), (a4, b4, c4, l4, r3, e4, f4))
     for d in range(orders):
         state[d, 0] += cnt
         state[d, 2] = vals[d][0]
@@ -678,6 +707,8 @@ def lag1_update(z: NDArray, state: NDArray) -> None:
         state[d, 4] = vals[d][2]
         state[d, 6] = vals[d][3]
         state[d, 7] = vals[d][4]
+        state[d, 8] = vals[d][5]
+        state[d, 9] = vals[d][6]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -708,11 +739,13 @@ def lag1_extend(z: NDArray, state: NDArray) -> None:
         for d in range(orders):
             row = state[d]
             sh = row[1]
-            s1, s2, s11 = _moments(buf[d], cnt, sh)
+            s1, s2, s11, t1, t2 = _moments(buf[d], cnt, sh, row[0])
             row[0] += cnt
             row[2] += s1
             row[3] += s2
             row[4] += s11 + row[6] * (buf[d, 0] - sh)
+            row[8] += t1
+            row[9] += t2
             row[6] = buf[d, cnt - 1] - sh
             row[7] = buf[d, cnt - 1]
 
@@ -726,21 +759,33 @@ def lag1_state_of(x: NDArray, m: int, count: int, orders: int) -> NDArray:
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
-def _moments(b: NDArray, n: int, shift: float) -> tuple[float, float, float]:
-    """Sums of ``v``, ``v**2`` over ``k < n`` and of ``v_k v_{k+1}`` over ``k < n - 1``."""
+def _moments(b: NDArray, n: int, shift: float, base: float
+             ) -> tuple[float, float, float, float, float]:
+    """Sums of ``v``, ``v**2``, ``v_k v_{k+1}`` (pairs: ``k < n - 1``), ``i v_k``, ``i**2 v_k``.
+
+    ``v = b[k] - shift`` for ``k < n``; ``i = base + k`` is the index in the whole series.
+    """
     s1 = 0.0
     s2 = 0.0
     s11 = 0.0
+    t1 = 0.0
+    t2 = 0.0
     for k in range(n - 1):
         v = b[k] - shift
         s1 += v
         s2 += v * v
         s11 += v * (b[k + 1] - shift)
+        j = base + k
+        t1 += j * v
+        t2 += j * j * v
     if n > 0:
         v = b[n - 1] - shift
         s1 += v
         s2 += v * v
-    return s1, s2, s11
+        j = base + (n - 1)
+        t1 += j * v
+        t2 += j * j * v
+    return s1, s2, s11, t1, t2
 
 
 #: Decimated points per tile of :func:`lag1_sums` (the tile and its differences stay in L1).
@@ -753,7 +798,7 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
     npts = a.shape[0]
     sh0 = a[0]
     sh1 = a[1] - a[0]
-    p1 = p2 = p11 = q1 = q2 = q11 = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = qk = qkk = 0.0
     for k in range(npts - 2):
         u0 = a[k]
         u1 = a[k + 1]
@@ -766,18 +811,34 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
         q1 += w
         q2 += w * w
         q11 += w * ((u2 - u1) - sh1)
+        j = float(k)
+        pk += j * v
+        pkk += j * j * v
+        qk += j * w
+        qkk += j * j * w
     u0 = a[npts - 2]
     u1 = a[npts - 1]
+    j = float(npts - 2)
     v = u0 - sh0
     p1 += v
     p2 += v * v
+    pk += j * v
+    pkk += j * j * v
     v1 = u1 - sh0
     p11 += v * v1
     p1 += v1
     p2 += v1 * v1
+    pk += (j + 1.0) * v1
+    pkk += (j + 1.0) * (j + 1.0) * v1
     w = (u1 - u0) - sh1
     q1 += w
     q2 += w * w
+    qk += j * w
+    qkk += j * j * w
+    state[0, 8] = pk
+    state[0, 9] = pkk
+    state[1, 8] = qk
+    state[1, 9] = qkk
     state[0, 0] = npts
     state[0, 1] = sh0
     state[0, 2] = p1
@@ -796,23 +857,30 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, sh1: float,
-                 acc: NDArray) -> None:
-    """Add rows 0-1 sums of the points ``a`` to ``acc`` (p1, p2, p11, q1, q2, q11).
+                 base: float, acc: NDArray) -> None:
+    """Add rows 0-1 sums of the points ``a`` to ``acc``, with their index moments.
 
-    Row 0: ``v = a[k] - sh0`` for ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] -
+    ``acc``: p1, p2, p11, q1, q2, q11, sum i v, sum i^2 v, sum i w, sum i^2 w (``i = base +
+    k``). Row 0: ``v = a[k] - sh0`` for ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] -
     a[k]) - sh1`` for ``k < n1``, pairs for ``k < n1p`` (the subtractions of :func:`_lag1_two`).
     """
-    p1 = p2 = p11 = q1 = q2 = q11 = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = qk = qkk = 0.0
     for k in range(n0):
         v = a[k] - sh0
         p1 += v
         p2 += v * v
+        j = base + k
+        pk += j * v
+        pkk += j * j * v
     for k in range(n0p):
         p11 += (a[k] - sh0) * (a[k + 1] - sh0)
     for k in range(n1):
         w = (a[k + 1] - a[k]) - sh1
         q1 += w
         q2 += w * w
+        j = base + k
+        qk += j * w
+        qkk += j * j * w
     for k in range(n1p):
         q11 += ((a[k + 1] - a[k]) - sh1) * ((a[k + 2] - a[k + 1]) - sh1)
     acc[0] += p1
@@ -821,6 +889,10 @@ def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, s
     acc[3] += q1
     acc[4] += q2
     acc[5] += q11
+    acc[6] += pk
+    acc[7] += pkk
+    acc[8] += qk
+    acc[9] += qkk
 
 
 @numba.njit(cache=True, nogil=True)
@@ -836,7 +908,7 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
     tile = _LAG1_TILE
     buf = np.empty(tile + 3)
     d3 = np.empty(tile)
-    acc = np.zeros(6)
+    acc = np.zeros(10)
     sh0 = x[0]
     sh1 = x[m] - x[0]
     h = 0.0
@@ -846,7 +918,7 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
             buf[k] = x[(t0 + k) * m]
         cnt = min(tile, npts - t0)
         _two_moments(buf, cnt, min(cnt, npts - 1 - t0), min(cnt, npts - 1 - t0),
-                     min(cnt, npts - 2 - t0), sh0, sh1, acc)
+                     min(cnt, npts - 2 - t0), sh0, sh1, float(t0), acc)
         if ssq3:
             c3 = min(tile, npts - 3 - t0)
             if c3 > 0:
@@ -855,6 +927,10 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
                 h += _sumsq(d3, c3)
     last = x[count * m]
     prev = x[(count - 1) * m]
+    state[0, 8] = acc[6]
+    state[0, 9] = acc[7]
+    state[1, 8] = acc[8]
+    state[1, 9] = acc[9]
     state[0, 0] = npts
     state[0, 1] = sh0
     state[0, 2] = acc[0]
@@ -915,13 +991,15 @@ def lag1_sums(x: NDArray, m: int, count: int, orders: int) -> NDArray:
                 shift[d] = buf[d, 0]
             hi = min(t0 + tile, length)  # this tile's points: t0 .. hi - 1
             pair_hi = min(t0 + tile, length - 1)  # pairs (i, i + 1) for i < pair_hi
-            s1, s2, s11 = _moments(buf[d], hi - t0, shift[d])
+            s1, s2, s11, t1, t2 = _moments(buf[d], hi - t0, shift[d], float(t0))
             if pair_hi == hi:  # the pair across the tile edge
                 s11 += (buf[d, hi - t0 - 1] - shift[d]) * (buf[d, hi - t0] - shift[d])
             row = state[d]
             row[2] += s1
             row[3] += s2
             row[4] += s11
+            row[8] += t1
+            row[9] += t2
             if hi == length:
                 row[6] = buf[d, hi - 1 - t0] - shift[d]
                 row[7] = buf[d, hi - 1 - t0]
@@ -1117,19 +1195,22 @@ _FUSE_TILE = 4096
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
-                acc: NDArray, third: bool) -> None:
+                acc: NDArray, third: bool, base: int) -> None:
     """Add the terms of indices ``k0 <= k < k1`` of the series ``a[:npts]`` to ``acc``.
 
     Index ``k`` owns: row 0 ``v_k = a[k] - sh0`` and the pair ``v_k v_{k+1}``; row 1
     ``w_k = (a[k+1] - a[k]) - sh1`` and ``w_k w_{k+1}``; with ``third`` the squared third
     difference starting at ``k`` (the expressions of :func:`_lag1_two` and :func:`_ssq3`),
-    each only where its points exist. ``acc``: p1, p2, p11, q1, q2, q11, h.
+    each only where its points exist. ``acc``: p1, p2, p11, q1, q2, q11, h, and the index
+    moments sum i v, sum i^2 v, sum i w, sum i^2 w (``i = base + k``, the index in the series
+    when ``a`` holds it from ``base`` on).
     """
-    p1 = p2 = p11 = q1 = q2 = q11 = h = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = h = pk = pkk = qk = qkk = 0.0
     full = max(k0, min(k1, npts - 3))  # indices whose every term exists
     c0 = a[k0:full]
     c1 = a[k0 + 1 : full + 1]
     c2 = a[k0 + 2 : full + 2]
+    j0 = float(base + k0)
     for k in range(full - k0):  # no branch: SIMD lanes
         u0 = c0[k]
         u1 = c1[k]
@@ -1142,17 +1223,27 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
         q1 += w
         q2 += w * w
         q11 += w * ((u2 - u1) - sh1)
+        j = j0 + k
+        pk += j * v
+        pkk += j * j * v
+        qk += j * w
+        qkk += j * j * w
     if third and full > k0:
         h += _ssq3(c0, c1, c2, a[k0 + 3 : full + 3])
     for k in range(full, k1):
         v = a[k] - sh0
         p1 += v
         p2 += v * v
+        j = float(base + k)
+        pk += j * v
+        pkk += j * j * v
         if k + 1 < npts:
             p11 += v * (a[k + 1] - sh0)
             w = (a[k + 1] - a[k]) - sh1
             q1 += w
             q2 += w * w
+            qk += j * w
+            qkk += j * j * w
             if k + 2 < npts:
                 q11 += w * ((a[k + 2] - a[k + 1]) - sh1)
                 if third and k + 3 < npts:
@@ -1165,6 +1256,10 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
     acc[4] += q2
     acc[5] += q11
     acc[6] += h
+    acc[7] += pk
+    acc[8] += pkk
+    acc[9] += qk
+    acc[10] += qkk
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1187,6 +1282,10 @@ def _rows_store(a: NDArray, npts: int, sh0: float, sh1: float, acc: NDArray,
     state[1, 4] = acc[5]
     state[1, 6] = (last - prev) - sh1
     state[1, 7] = last - prev
+    state[0, 8] = acc[7]
+    state[0, 9] = acc[8]
+    state[1, 8] = acc[9]
+    state[1, 9] = acc[10]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1203,8 +1302,8 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
     sums differ from the separate kernels by round-off only.
     """
     nx = y.shape[0] + 1
-    acc1 = np.zeros(7)
-    acc2 = np.zeros(7)
+    acc1 = np.zeros(11)
+    acc2 = np.zeros(11)
     nq = quarter.shape[0]
     nh = (nx + 1) // 2 if nq > 0 else 0  # points of x[::2]
     tile = _FUSE_TILE
@@ -1232,7 +1331,7 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
         avail = t1 + 1  # x[0 : avail] is known
         k1 = avail - 3 if avail < nx else nx
         if k1 > done1:
-            _rows_range(out, done1, k1, nx, sh0, sh1, acc1, third)
+            _rows_range(out, done1, k1, nx, sh0, sh1, acc1, third, 0)
             done1 = k1
         if nq == 0:
             continue
@@ -1249,7 +1348,8 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
                 sh1h = out[2] - out[0]
             k2 = hav - 3 if avail < nx else nh
             if k2 > done2:
-                _rows_range(hb, done2 - hbase, k2 - hbase, nh - hbase, sh0, sh1h, acc2, third)
+                _rows_range(hb, done2 - hbase, k2 - hbase, nh - hbase, sh0, sh1h, acc2, third,
+                            hbase)
                 done2 = k2
                 keep = hav - done2  # the points the next terms still read
                 for k in range(keep):
