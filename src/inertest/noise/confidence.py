@@ -172,41 +172,12 @@ def r1_detrended(rows: NDArray, degree: NDArray) -> NDArray:
     Degree 0 is the mean, by the same expressions as before. 0 where the series is constant
     or empty.
     """
-    rows = np.asarray(rows, dtype=np.float64)
-    deg = np.broadcast_to(np.asarray(degree), rows.shape[:1])
-    n = rows[:, 0]
-    s1, s2, s11, first, last, t1, t2 = (rows[:, k] for k in (2, 3, 4, 5, 6, 8, 9))
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        mean = s1 / n
-        den0 = s2 - n * mean * mean
-        num0 = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
-        c = (n - 1.0) / 2.0
-        m1 = t1 - c * s1  # sum u v
-        m2 = t2 - 2.0 * c * t1 + c * c * s1  # sum u^2 v
-        u2 = n * (n * n - 1.0) / 12.0
-        u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0
-        b1 = np.where((deg >= 1) & (u2 > 0), m1 / u2, 0.0)
-        q = u4 - u2 * u2 / n
-        p2 = m2 - (u2 / n) * s1  # sum (u^2 - U2/n) v
-        b2 = np.where((deg >= 2) & (q > 0), p2 / q, 0.0)
-        b0 = mean - b2 * u2 / n
-        den = s2 - s1 * mean - b1 * m1 - b2 * p2
+    from inertest.noise import kernels  # numba: loaded on first use
 
-        def f(u: NDArray) -> NDArray:
-            return b0 + b1 * u + b2 * u * u
-
-        g0, g1, g2 = b0 + b1 + b2, b1 + 2.0 * b2, b2  # f(u + 1)
-        h0, h1 = b0 - b1 + b2, b1 - 2.0 * b2  # f(u - 1) (u^2 coefficient b2)
-        a = g0 * s1 + g1 * m1 + g2 * m2 - last * f(c + 1.0)
-        b = h0 * s1 + h1 * m1 + b2 * m2 - first * f(-c - 1.0)
-        cc = (b0 * g0 * n + (b0 * g2 + b1 * g1 + b2 * g0) * u2 + b2 * g2 * u4
-              - f(c) * f(c + 1.0))
-        num = s11 - a - b + cc
-        plain = deg <= 0
-        num = np.where(plain, num0, num)
-        den = np.where(plain, den0, den)
-        r1 = np.where((n >= 1) & (den > 0), num / den, 0.0)
-    return r1
+    rows = np.ascontiguousarray(rows, dtype=np.float64)
+    deg = np.ascontiguousarray(np.broadcast_to(np.asarray(degree, dtype=np.int64),
+                                               rows.shape[:1]))
+    return kernels.r1_detrended(rows, deg)
 
 
 def alpha_from_lag1(r1_by_d: list[float], *, phase: bool, alpha_min: int) -> int:

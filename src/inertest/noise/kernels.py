@@ -751,6 +751,50 @@ def lag1_extend(z: NDArray, state: NDArray) -> None:
 
 
 @numba.njit(cache=True, nogil=True)
+def r1_detrended(rows: NDArray, degree: NDArray) -> NDArray:
+    """Lag-1 autocorrelation of each row's series less its polynomial trend.
+
+    ``confidence.r1_detrended`` documents the arithmetic; one loop, no temporaries.
+    """
+    out = np.zeros(rows.shape[0])
+    for r in range(rows.shape[0]):
+        row = rows[r]
+        n = row[0]
+        if n < 1:
+            continue
+        s1, s2, s11, first, last, t1, t2 = row[2], row[3], row[4], row[5], row[6], row[8], row[9]
+        mean = s1 / n
+        if degree[r] <= 0:  # the mean: the expressions used before the index moments
+            den = s2 - n * mean * mean
+            num = s11 - mean * (2.0 * s1 - first - last) + (n - 1) * mean * mean
+        else:
+            c = (n - 1.0) / 2.0
+            m1 = t1 - c * s1  # sum u v, u = i - c
+            m2 = t2 - 2.0 * c * t1 + c * c * s1  # sum u^2 v
+            u2 = n * (n * n - 1.0) / 12.0  # sum u^2
+            u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0  # sum u^4
+            b1 = m1 / u2 if u2 > 0 else 0.0
+            q = u4 - u2 * u2 / n
+            p2 = m2 - (u2 / n) * s1  # sum (u^2 - U2/n) v
+            b2 = p2 / q if (degree[r] >= 2 and q > 0) else 0.0
+            b0 = mean - b2 * u2 / n  # trend f(u) = b0 + b1 u + b2 u^2
+            den = s2 - s1 * mean - b1 * m1 - b2 * p2
+            g0, g1 = b0 + b1 + b2, b1 + 2.0 * b2  # f(u + 1)
+            h0, h1 = b0 - b1 + b2, b1 - 2.0 * b2  # f(u - 1)
+            fc = b0 + b1 * c + b2 * c * c
+            fc1 = b0 + b1 * (c + 1.0) + b2 * (c + 1.0) * (c + 1.0)
+            fm = b0 - b1 * (c + 1.0) + b2 * (c + 1.0) * (c + 1.0)  # f(-c - 1)
+            a = g0 * s1 + g1 * m1 + b2 * m2 - last * fc1  # sum_{i<n-1} v_i f(u_i + 1)
+            b = h0 * s1 + h1 * m1 + b2 * m2 - first * fm  # sum_{i<n-1} f(u_i) v_{i+1}
+            cc = (b0 * g0 * n + (b0 * b2 + b1 * g1 + b2 * g0) * u2 + b2 * b2 * u4
+                  - fc * fc1)  # sum_{i<n-1} f(u_i) f(u_i + 1)
+            num = s11 - a - b + cc
+        if den > 0:
+            out[r] = num / den
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
 def lag1_state_of(x: NDArray, m: int, count: int, orders: int) -> NDArray:
     """Lag-1 sums of ``x[0], x[m], ..., x[count m]`` and its differences (whole record)."""
     state = np.zeros((orders, LAG1_FIELDS))
