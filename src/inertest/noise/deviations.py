@@ -44,7 +44,6 @@ from inertest.noise.confidence import (
     b1_decide,
     chi2_interval,
     edf_greenhall_many,
-    r1_detrended,
     r1_of_state,
 )
 
@@ -808,20 +807,13 @@ def _lag1_decide_many(rows: NDArray, alpha_min: int) -> NDArray:
 
     ``rows`` has shape ``(K, 2, LAG1_FIELDS)``; the arithmetic is that of :func:`r1_of_state`
     (the decimated phase less a quadratic, its difference less a line) and
-    :func:`alpha_from_lag1`, element by element. Where neither order decides (both
-    ``delta >= 0.25``: higher orders are needed) the result is ``_NO_TYPE``.
+    :func:`alpha_from_lag1`, element by element (one numba loop). Where neither order decides
+    (both ``delta >= 0.25``: higher orders are needed) the result is ``_NO_TYPE``.
     """
-    k = rows.shape[0]
-    r1 = r1_detrended(rows.reshape(2 * k, -1),
-                      np.tile([_DETREND, _DETREND - 1], k)).reshape(k, 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        delta = np.where(r1 > -1.0, r1 / (1.0 + r1), -1.0)
-    a0 = np.round(-2.0 * delta[:, 0]) + 2.0
-    a1 = np.round(-2.0 * delta[:, 1])
-    alpha = np.where(delta[:, 0] < 0.25, a0, np.where(delta[:, 1] < 0.25, a1, np.nan))
-    out = np.clip(np.nan_to_num(alpha, nan=0.0), alpha_min, 2).astype(np.int64)
-    out[np.isnan(alpha)] = _NO_TYPE
-    return out
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    return kernels.lag1_decide_two(np.ascontiguousarray(rows, dtype=np.float64), _DETREND,
+                                   alpha_min, _NO_TYPE)
 
 
 def _delta(r1: float) -> float:

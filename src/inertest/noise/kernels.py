@@ -795,6 +795,35 @@ def r1_detrended(rows: NDArray, degree: NDArray) -> NDArray:
 
 
 @numba.njit(cache=True, nogil=True)
+def lag1_decide_two(rows: NDArray, detrend: int, alpha_min: int, undecided: int) -> NDArray:
+    """Riley & Greenhall's decision at orders 0-1 for many taus (phase data).
+
+    ``rows`` (K, 2, LAG1_FIELDS): the decimated phase less a trend of degree ``detrend`` and
+    its first difference less one of ``detrend - 1`` (:func:`r1_detrended`); the first order
+    with ``delta = r1/(1 + r1) < 0.25`` gives ``alpha = round(-2 delta) + 2 - 2 d`` clipped to
+    ``alpha_min .. 2`` (``confidence.alpha_from_lag1``); ``undecided`` where neither does.
+    """
+    k = rows.shape[0]
+    flat = rows.reshape(2 * k, rows.shape[2])
+    deg = np.empty(2 * k, dtype=np.int64)
+    for i in range(k):
+        deg[2 * i] = detrend
+        deg[2 * i + 1] = max(0, detrend - 1)
+    r1 = r1_detrended(flat, deg)
+    out = np.empty(k, dtype=np.int64)
+    for i in range(k):
+        out[i] = undecided
+        for d in range(2):
+            r = r1[2 * i + d]
+            delta = r / (1.0 + r) if r > -1.0 else -1.0
+            if delta < 0.25:
+                a = int(np.round(-2.0 * delta)) + 2 - 2 * d
+                out[i] = min(2, max(alpha_min, a))
+                break
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
 def lag1_state_of(x: NDArray, m: int, count: int, orders: int) -> NDArray:
     """Lag-1 sums of ``x[0], x[m], ..., x[count m]`` and its differences (whole record)."""
     state = np.zeros((orders, LAG1_FIELDS))
@@ -836,13 +865,31 @@ def _moments(b: NDArray, n: int, shift: float, base: float
 _LAG1_TILE = 2048
 
 
+@numba.njit(cache=True, nogil=True)
+def _first_difference_moments(state: NDArray) -> None:
+    """Index moments of row 1 (first differences) from those of row 0, by summation by parts.
+
+    With ``v_k`` the series (row 0, ``N + 1`` points) and ``w_k = (v_{k+1} - v_k) - sh1``:
+    ``sum k w_k = N v_N - sum v + v_0 - sh1 N(N-1)/2`` and ``sum k^2 w_k = sum v - v_0 -
+    2 sum k v + N^2 v_N - sh1 (N-1) N (2N-1)/6`` (exact for exact differences; the rounded
+    ones differ by eps |v| per point, far below what a noise-type decision reads), so the
+    SIMD loops need not carry them.
+    """
+    big_n = state[0, 0] - 1.0
+    s0, v0, vn, t1 = state[0, 2], state[0, 5], state[0, 6], state[0, 8]
+    sh1 = state[1, 1]
+    state[1, 8] = big_n * vn - s0 + v0 - sh1 * big_n * (big_n - 1.0) / 2.0
+    state[1, 9] = (s0 - v0 - 2.0 * t1 + big_n * big_n * vn
+                   - sh1 * (big_n - 1.0) * big_n * (2.0 * big_n - 1.0) / 6.0)
+
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _lag1_two(a: NDArray, state: NDArray) -> None:
     """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass."""
     npts = a.shape[0]
     sh0 = a[0]
     sh1 = a[1] - a[0]
-    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = qk = qkk = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = 0.0
     for k in range(npts - 2):
         u0 = a[k]
         u1 = a[k + 1]
@@ -858,8 +905,6 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
         j = float(k)
         pk += j * v
         pkk += j * j * v
-        qk += j * w
-        qkk += j * j * w
     u0 = a[npts - 2]
     u1 = a[npts - 1]
     j = float(npts - 2)
@@ -877,12 +922,8 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
     w = (u1 - u0) - sh1
     q1 += w
     q2 += w * w
-    qk += j * w
-    qkk += j * j * w
     state[0, 8] = pk
     state[0, 9] = pkk
-    state[1, 8] = qk
-    state[1, 9] = qkk
     state[0, 0] = npts
     state[0, 1] = sh0
     state[0, 2] = p1
@@ -897,6 +938,7 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
     state[1, 4] = q11
     state[1, 6] = w
     state[1, 7] = u1 - u0
+    _first_difference_moments(state)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
@@ -904,11 +946,12 @@ def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, s
                  base: float, acc: NDArray) -> None:
     """Add rows 0-1 sums of the points ``a`` to ``acc``, with their index moments.
 
-    ``acc``: p1, p2, p11, q1, q2, q11, sum i v, sum i^2 v, sum i w, sum i^2 w (``i = base +
-    k``). Row 0: ``v = a[k] - sh0`` for ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] -
-    a[k]) - sh1`` for ``k < n1``, pairs for ``k < n1p`` (the subtractions of :func:`_lag1_two`).
+    ``acc``: p1, p2, p11, q1, q2, q11, sum i v, sum i^2 v (``i = base + k``; row 1's moments
+    follow from row 0's, :func:`_first_difference_moments`). Row 0: ``v = a[k] - sh0`` for
+    ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] - a[k]) - sh1`` for ``k < n1``,
+    pairs for ``k < n1p`` (the subtractions of :func:`_lag1_two`).
     """
-    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = qk = qkk = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = 0.0
     for k in range(n0):
         v = a[k] - sh0
         p1 += v
@@ -922,9 +965,6 @@ def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, s
         w = (a[k + 1] - a[k]) - sh1
         q1 += w
         q2 += w * w
-        j = base + k
-        qk += j * w
-        qkk += j * j * w
     for k in range(n1p):
         q11 += ((a[k + 1] - a[k]) - sh1) * ((a[k + 2] - a[k + 1]) - sh1)
     acc[0] += p1
@@ -935,8 +975,6 @@ def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, s
     acc[5] += q11
     acc[6] += pk
     acc[7] += pkk
-    acc[8] += qk
-    acc[9] += qkk
 
 
 @numba.njit(cache=True, nogil=True)
@@ -952,7 +990,7 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
     tile = _LAG1_TILE
     buf = np.empty(tile + 3)
     d3 = np.empty(tile)
-    acc = np.zeros(10)
+    acc = np.zeros(8)
     sh0 = x[0]
     sh1 = x[m] - x[0]
     h = 0.0
@@ -973,8 +1011,6 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
     prev = x[(count - 1) * m]
     state[0, 8] = acc[6]
     state[0, 9] = acc[7]
-    state[1, 8] = acc[8]
-    state[1, 9] = acc[9]
     state[0, 0] = npts
     state[0, 1] = sh0
     state[0, 2] = acc[0]
@@ -989,6 +1025,7 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
     state[1, 4] = acc[5]
     state[1, 6] = (last - prev) - sh1
     state[1, 7] = last - prev
+    _first_difference_moments(state)
     return h
 
 
@@ -1246,10 +1283,10 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
     ``w_k = (a[k+1] - a[k]) - sh1`` and ``w_k w_{k+1}``; with ``third`` the squared third
     difference starting at ``k`` (the expressions of :func:`_lag1_two` and :func:`_ssq3`),
     each only where its points exist. ``acc``: p1, p2, p11, q1, q2, q11, h, and the index
-    moments sum i v, sum i^2 v, sum i w, sum i^2 w (``i = base + k``, the index in the series
-    when ``a`` holds it from ``base`` on).
+    moments sum i v, sum i^2 v (``i = base + k``, the index in the series when ``a`` holds it
+    from ``base`` on; row 1's follow from them, :func:`_first_difference_moments`).
     """
-    p1 = p2 = p11 = q1 = q2 = q11 = h = pk = pkk = qk = qkk = 0.0
+    p1 = p2 = p11 = q1 = q2 = q11 = h = pk = pkk = 0.0
     full = max(k0, min(k1, npts - 3))  # indices whose every term exists
     c0 = a[k0:full]
     c1 = a[k0 + 1 : full + 1]
@@ -1270,8 +1307,6 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
         j = j0 + k
         pk += j * v
         pkk += j * j * v
-        qk += j * w
-        qkk += j * j * w
     if third and full > k0:
         h += _ssq3(c0, c1, c2, a[k0 + 3 : full + 3])
     for k in range(full, k1):
@@ -1286,8 +1321,6 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
             w = (a[k + 1] - a[k]) - sh1
             q1 += w
             q2 += w * w
-            qk += j * w
-            qkk += j * j * w
             if k + 2 < npts:
                 q11 += w * ((a[k + 2] - a[k + 1]) - sh1)
                 if third and k + 3 < npts:
@@ -1302,8 +1335,6 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
     acc[6] += h
     acc[7] += pk
     acc[8] += pkk
-    acc[9] += qk
-    acc[10] += qkk
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1328,8 +1359,7 @@ def _rows_store(a: NDArray, npts: int, sh0: float, sh1: float, acc: NDArray,
     state[1, 7] = last - prev
     state[0, 8] = acc[7]
     state[0, 9] = acc[8]
-    state[1, 8] = acc[9]
-    state[1, 9] = acc[10]
+    _first_difference_moments(state)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1346,8 +1376,8 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
     sums differ from the separate kernels by round-off only.
     """
     nx = y.shape[0] + 1
-    acc1 = np.zeros(11)
-    acc2 = np.zeros(11)
+    acc1 = np.zeros(9)
+    acc2 = np.zeros(9)
     nq = quarter.shape[0]
     nh = (nx + 1) // 2 if nq > 0 else 0  # points of x[::2]
     tile = _FUSE_TILE
