@@ -1291,8 +1291,9 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
     c0 = a[k0:full]
     c1 = a[k0 + 1 : full + 1]
     c2 = a[k0 + 2 : full + 2]
+    c3 = a[k0 + 3 : full + 3]
     j0 = float(base + k0)
-    for k in range(full - k0):  # no branch: SIMD lanes
+    for k in range(full - k0):  # SIMD lanes (the loop is unswitched on ``third``)
         u0 = c0[k]
         u1 = c1[k]
         u2 = c2[k]
@@ -1307,8 +1308,9 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
         j = j0 + k
         pk += j * v
         pkk += j * j * v
-    if third and full > k0:
-        h += _ssq3(c0, c1, c2, a[k0 + 3 : full + 3])
+        if third:
+            d = c3[k] - 3.0 * u2 + 3.0 * u1 - u0
+            h += d * d
     for k in range(full, k1):
         v = a[k] - sh0
         p1 += v
