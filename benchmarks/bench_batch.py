@@ -81,7 +81,7 @@ def _filing_only(manifest: Path, db: Path) -> float:
     when = datetime.now(UTC)
     t0 = time.perf_counter()
     try:
-        for result, plan, text, digest, msgs, summary in computed:
+        for result, plan, text, digest, msgs, summary, *_ in computed:  # (lab, budget...)
             file_run(result, plan, plan_text=text, data_sha256=digest, data_summary=summary,
                      tested_at=when, store=store, warnings_=msgs)
     finally:
