@@ -36,6 +36,20 @@ def test_help_of_every_command_loads_no_heavy_module(command):
     assert _loaded_after(code) == []
 
 
+@pytest.mark.parametrize("command", ["fit", "simulate", "batch", "plan-check"])
+def test_help_of_the_fit_commands_leaves_the_fit_machinery_unloaded(command):
+    # `fit --help` loaded the runner, the API and the report tables (2.2x `import numpy`);
+    # the commands import them when they run.
+    code = ("from inertest.cli import main\n"
+            f"with contextlib.redirect_stdout(io.StringIO()): main([{command!r}, '--help'])\n"
+            "print(','.join(m for m in ('inertest.runner', 'inertest.api', "
+            "'inertest.report.identification') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", "import sys, contextlib, io\n" + code],
+                         capture_output=True, text=True, check=True).stdout.strip()
+    loaded = out.splitlines()[-1] if out else ""
+    assert loaded == ""
+
+
 def test_fit_no_store_loads_neither_the_database_nor_scipy_stats(tmp_path):
     data = tmp_path / "data.csv"
     code = ("from inertest.cli import main\n"

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -13,7 +13,9 @@ from inertest.cli import safe_line
 from inertest.cli._common import echo_json, print_table
 from inertest.cli._verdicts import verdict_summary
 from inertest.errors import InputError
-from inertest.runner import BatchItem, RunOutcome, read_manifest, run_batch
+
+if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (issue 18)
+    from inertest.runner import BatchItem, RunOutcome
 
 
 @click.command()
@@ -50,6 +52,8 @@ def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | 
     process (out of memory): the pool is restarted and that run reported as failed. The exit
     status is 1 when any run failed (not for a failed verdict: read "conformance" in the JSON).
     """
+    from inertest.runner import read_manifest, run_batch
+
     store: bool | str = False if no_store else (db or True)
     tasks = read_manifest(manifest)
     show = False if quiet else progress

@@ -8,8 +8,6 @@ from pathlib import Path
 
 import click
 
-from inertest.api import load_plan
-from inertest.api import simulate as api_simulate
 from inertest.cli import safe_line
 from inertest.cli._common import (
     check_paths,
@@ -18,11 +16,9 @@ from inertest.cli._common import (
     print_identity,
     print_table,
 )
-from inertest.io.data_file import write_table
-from inertest.io.plan_file import load_truth
-from inertest.report.identification import coefficient_rows, noise_model_text
-from inertest.runner import run
 
+# The fit machinery is imported inside the commands: `inertest fit --help` stays within 2x of
+# `python -c "import numpy"` (issue 18).
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
 
@@ -37,6 +33,11 @@ _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | None) -> None:
     """Simulate the test in PLAN on a virtual instrument with coefficients TRUTH."""
+    from inertest.api import load_plan
+    from inertest.api import simulate as api_simulate
+    from inertest.io.data_file import write_table
+    from inertest.io.plan_file import load_truth
+
     check_paths([output], [plan, truth])
     p = load_plan(plan)
     data = api_simulate(p, load_truth(truth), noise=noise, rng=seed)
@@ -92,6 +93,8 @@ def fit(
         raise click.UsageError("--pdf needs --report DIR")
     if report_dir is not None:
         plain_text_figures()
+    from inertest.runner import run
+
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
               allow_duplicate=allow_duplicate, equipment=equipment, spec=spec,
@@ -137,6 +140,8 @@ def print_conformance(doc: Mapping[str, object]) -> None:
 def print_result(result, truth: Mapping[str, float] | None = None) -> None:
     """Terminal table of a procedure's result, then what the test could not determine."""
     ident = result.identification
+    from inertest.report.identification import coefficient_rows, noise_model_text
+
     header, rows = coefficient_rows(ident, truth)
     print_table(f"{result.procedure}: what the data determine", header, rows)
     click.echo(safe_line(noise_model_text(ident)))
