@@ -124,11 +124,16 @@ def _read_csv_blocks(p: Path) -> dict[str, NDArray] | None:
         # "22.5" then fits the column.
         ints = {n: pa.float64() for n, t in zip(names, reader.schema.types, strict=True)
                 if pa.types.is_integer(t)}
-        if ints:
+        # A file within one block is all in the first block: its integer columns are cast
+        # (int64 -> float64 rounds to nearest, as parsing the digits as float64 does) instead
+        # of parsing the file again (half the read time of a small file).
+        one_block = p.stat().st_size <= _CSV_BLOCK_BYTES
+        if ints and not one_block:
             reader.close()
             reader = open_csv(ints)
     except (pa.ArrowException, UnicodeDecodeError, OSError):
         return None
+    cast = {j for j, n in enumerate(names) if n in ints} if one_block else set()
     kinds = []
     for t in reader.schema.types:
         numeric = pa.types.is_integer(t) or pa.types.is_floating(t)
@@ -140,6 +145,8 @@ def _read_csv_blocks(p: Path) -> dict[str, NDArray] | None:
         for batch in reader:
             for j, kind in enumerate(kinds):
                 col = batch.column(j)
+                if j in cast:
+                    col = col.cast(pa.float64(), safe=False)
                 if kind == "num":
                     parts[j].append(_numeric_column(pa.chunked_array([col])))
                 elif kind == "text":
