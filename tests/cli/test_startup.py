@@ -100,3 +100,11 @@ def test_tail_probabilities_from_scipy_special_equal_scipy_stats():
                                    atol=1e-300)
         assert float(scipy.special.fdtrc(dof, dof2, f)) == float(scipy.stats.f.sf(f, dof, dof2))
         assert -float(scipy.special.ndtri(q)) == float(scipy.stats.norm.isf(q))
+
+
+def test_thermal_quantity_choices_are_the_procedures():
+    # the CLI names them so that `thermal --help` need not import the procedure
+    from inertest.cli.thermal import QUANTITY_NAMES
+    from inertest.procedures.thermal_compensation import QUANTITIES
+
+    assert list(QUANTITY_NAMES) == list(QUANTITIES)

@@ -17,10 +17,12 @@ from inertest.cli._common import (
 )
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
-from inertest.procedures.thermal_compensation import QUANTITIES, fit_thermal, simulate_thermal
 from inertest.report.rounding import format_with_std
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
+#: thermal_compensation.QUANTITIES, named here so that --help need not import the procedure
+#: (issue 18: every --help within 2x of `import numpy`); tests/cli check they agree.
+QUANTITY_NAMES = ("scale_factor", "bias")
 
 
 @click.group()
@@ -44,6 +46,8 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
              lag_s: float, noise_ppm: float, noise_deg_h: float, seed: int | None) -> None:
     """Simulate temperature cycles of a FOG whose coil lags its temperature sensor."""
     check_paths([output], [])
+    from inertest.procedures.thermal_compensation import simulate_thermal
+
     data = simulate_thermal(cycles=cycles, t_min_c=t_min_c, t_max_c=t_max_c,
                             ramp_c_per_min=ramp_c_per_min, lag_s=lag_s, noise_ppm=noise_ppm,
                             noise_deg_h=noise_deg_h, rng=seed)
@@ -54,7 +58,7 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
 
 @thermal.command()
 @click.argument("data", type=_FILE)
-@click.option("--quantity", type=click.Choice(list(QUANTITIES)), default="scale_factor",
+@click.option("--quantity", type=click.Choice(QUANTITY_NAMES), default="scale_factor",
               show_default=True, help="scale_factor (column scale_factor) or bias (bias_deg_h).")
 @click.option("--validation-cycles", type=int, default=1, show_default=True,
               help="Last cycles held out for validation.")
@@ -98,6 +102,8 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
     check_paths([plot, report_dir, model_out], [data])
     if store and not serial:
         raise click.UsageError("--store needs --serial (the instrument's serial number)")
+    from inertest.procedures.thermal_compensation import fit_thermal
+
     result = fit_thermal(read_table(data), quantity=quantity,
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
