@@ -883,6 +883,34 @@ def _first_difference_moments(state: NDArray) -> None:
                    - sh1 * (big_n - 1.0) * big_n * (2.0 * big_n - 1.0) / 6.0)
 
 
+@numba.njit(cache=True, nogil=True)
+def _store_rows(state: NDArray, npts: int, sh0: float, sh1: float, last: float, prev: float,
+                p1: float, p2: float, p11: float, q1: float, q2: float, q11: float,
+                pk: float, pkk: float) -> None:
+    """Rows 0-1 (``LAG1_FIELDS`` each) of a series of ``npts`` points ending ``prev, last``.
+
+    ``p*``: sums of row 0 (v = value - sh0; v_0 = 0, so field 5 stays 0), ``q*`` of row 1, the
+    index moments of row 0; row 1's follow (:func:`_first_difference_moments`).
+    """
+    state[0, 0] = npts
+    state[0, 1] = sh0
+    state[0, 2] = p1
+    state[0, 3] = p2
+    state[0, 4] = p11
+    state[0, 6] = last - sh0
+    state[0, 7] = last
+    state[0, 8] = pk
+    state[0, 9] = pkk
+    state[1, 0] = npts - 1
+    state[1, 1] = sh1
+    state[1, 2] = q1
+    state[1, 3] = q2
+    state[1, 4] = q11
+    state[1, 6] = (last - prev) - sh1
+    state[1, 7] = last - prev
+    _first_difference_moments(state)
+
+
 @numba.njit(cache=True, nogil=True, fastmath=True)
 def _lag1_two(a: NDArray, state: NDArray) -> None:
     """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass."""
@@ -922,23 +950,7 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
     w = (u1 - u0) - sh1
     q1 += w
     q2 += w * w
-    state[0, 8] = pk
-    state[0, 9] = pkk
-    state[0, 0] = npts
-    state[0, 1] = sh0
-    state[0, 2] = p1
-    state[0, 3] = p2
-    state[0, 4] = p11
-    state[0, 6] = v1
-    state[0, 7] = u1
-    state[1, 0] = npts - 1
-    state[1, 1] = sh1
-    state[1, 2] = q1
-    state[1, 3] = q2
-    state[1, 4] = q11
-    state[1, 6] = w
-    state[1, 7] = u1 - u0
-    _first_difference_moments(state)
+    _store_rows(state, npts, sh0, sh1, u1, u0, p1, p2, p11, q1, q2, q11, pk, pkk)
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
@@ -1007,25 +1019,8 @@ def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
                 for k in range(c3):
                     d3[k] = buf[k + 3] - 3.0 * buf[k + 2] + 3.0 * buf[k + 1] - buf[k]
                 h += _sumsq(d3, c3)
-    last = x[count * m]
-    prev = x[(count - 1) * m]
-    state[0, 8] = acc[6]
-    state[0, 9] = acc[7]
-    state[0, 0] = npts
-    state[0, 1] = sh0
-    state[0, 2] = acc[0]
-    state[0, 3] = acc[1]
-    state[0, 4] = acc[2]
-    state[0, 6] = last - sh0
-    state[0, 7] = last
-    state[1, 0] = npts - 1
-    state[1, 1] = sh1
-    state[1, 2] = acc[3]
-    state[1, 3] = acc[4]
-    state[1, 4] = acc[5]
-    state[1, 6] = (last - prev) - sh1
-    state[1, 7] = last - prev
-    _first_difference_moments(state)
+    _store_rows(state, npts, sh0, sh1, x[count * m], x[(count - 1) * m], acc[0], acc[1],
+                acc[2], acc[3], acc[4], acc[5], acc[6], acc[7])
     return h
 
 
@@ -1343,25 +1338,8 @@ def _rows_range(a: NDArray, k0: int, k1: int, npts: int, sh0: float, sh1: float,
 def _rows_store(a: NDArray, npts: int, sh0: float, sh1: float, acc: NDArray,
                 state: NDArray) -> None:
     """Rows 0-1 (``LAG1_FIELDS`` each) of ``a[:npts]`` from the sums of :func:`_rows_range`."""
-    last = a[npts - 1]
-    prev = a[npts - 2]
-    state[0, 0] = npts
-    state[0, 1] = sh0
-    state[0, 2] = acc[0]
-    state[0, 3] = acc[1]
-    state[0, 4] = acc[2]
-    state[0, 6] = last - sh0
-    state[0, 7] = last
-    state[1, 0] = npts - 1
-    state[1, 1] = sh1
-    state[1, 2] = acc[3]
-    state[1, 3] = acc[4]
-    state[1, 4] = acc[5]
-    state[1, 6] = (last - prev) - sh1
-    state[1, 7] = last - prev
-    state[0, 8] = acc[7]
-    state[0, 9] = acc[8]
-    _first_difference_moments(state)
+    _store_rows(state, npts, sh0, sh1, a[npts - 1], a[npts - 2], acc[0], acc[1], acc[2],
+                acc[3], acc[4], acc[5], acc[7], acc[8])
 
 
 @numba.njit(cache=True, nogil=True)
