@@ -953,75 +953,30 @@ def _lag1_two(a: NDArray, state: NDArray) -> None:
     _store_rows(state, npts, sh0, sh1, u1, u0, p1, p2, p11, q1, q2, q11, pk, pkk)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True)
-def _two_moments(a: NDArray, n0: int, n0p: int, n1: int, n1p: int, sh0: float, sh1: float,
-                 base: float, acc: NDArray) -> None:
-    """Add rows 0-1 sums of the points ``a`` to ``acc``, with their index moments.
-
-    ``acc``: p1, p2, p11, q1, q2, q11, sum i v, sum i^2 v (``i = base + k``; row 1's moments
-    follow from row 0's, :func:`_first_difference_moments`). Row 0: ``v = a[k] - sh0`` for
-    ``k < n0``, pairs for ``k < n0p``; row 1: ``w = (a[k+1] - a[k]) - sh1`` for ``k < n1``,
-    pairs for ``k < n1p`` (the subtractions of :func:`_lag1_two`).
-    """
-    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = 0.0
-    for k in range(n0):
-        v = a[k] - sh0
-        p1 += v
-        p2 += v * v
-        j = base + k
-        pk += j * v
-        pkk += j * j * v
-    for k in range(n0p):
-        p11 += (a[k] - sh0) * (a[k + 1] - sh0)
-    for k in range(n1):
-        w = (a[k + 1] - a[k]) - sh1
-        q1 += w
-        q2 += w * w
-    for k in range(n1p):
-        q11 += ((a[k + 1] - a[k]) - sh1) * ((a[k + 2] - a[k + 1]) - sh1)
-    acc[0] += p1
-    acc[1] += p2
-    acc[2] += p11
-    acc[3] += q1
-    acc[4] += q2
-    acc[5] += q11
-    acc[6] += pk
-    acc[7] += pkk
-
-
 @numba.njit(cache=True, nogil=True)
 def _lag1_two_strided(x: NDArray, m: int, count: int, state: NDArray,
                       ssq3: bool) -> float:
     """Rows 0-1 of ``x[0], x[m], ..., x[count m]`` by tiles gathered into a small buffer.
 
     No copy of the decimated series is made (a fresh array of N/2 points costs more in page
-    faults than the sums). With ``ssq3``, also returns the sum of its squared third
-    differences (non-overlapping Hadamard, the expression of :func:`sum_third_diff`).
+    faults than the sums). Each tile's sums are :func:`_rows_range`'s on the buffer (three
+    points of look-ahead); with ``ssq3``, also returns the sum of the squared third
+    differences (non-overlapping Hadamard).
     """
     npts = count + 1
     tile = _LAG1_TILE
     buf = np.empty(tile + 3)
-    d3 = np.empty(tile)
-    acc = np.zeros(8)
+    acc = np.zeros(9)
     sh0 = x[0]
     sh1 = x[m] - x[0]
-    h = 0.0
     for t0 in range(0, npts, tile):
         w = min(tile + 3, npts - t0)
         for k in range(w):
             buf[k] = x[(t0 + k) * m]
-        cnt = min(tile, npts - t0)
-        _two_moments(buf, cnt, min(cnt, npts - 1 - t0), min(cnt, npts - 1 - t0),
-                     min(cnt, npts - 2 - t0), sh0, sh1, float(t0), acc)
-        if ssq3:
-            c3 = min(tile, npts - 3 - t0)
-            if c3 > 0:
-                for k in range(c3):
-                    d3[k] = buf[k + 3] - 3.0 * buf[k + 2] + 3.0 * buf[k + 1] - buf[k]
-                h += _sumsq(d3, c3)
+        _rows_range(buf, 0, min(tile, npts - t0), npts - t0, sh0, sh1, acc, ssq3, t0)
     _store_rows(state, npts, sh0, sh1, x[count * m], x[(count - 1) * m], acc[0], acc[1],
-                acc[2], acc[3], acc[4], acc[5], acc[6], acc[7])
-    return h
+                acc[2], acc[3], acc[4], acc[5], acc[7], acc[8])
+    return acc[6]
 
 
 @numba.njit(cache=True, nogil=True)
