@@ -496,23 +496,14 @@ def hadamard_decimated(x: NDArray, ms: NDArray, terms: NDArray) -> tuple[NDArray
     """
     out = np.empty(ms.size)
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
-    scratch = np.empty(0)
-    have = 0
-    for k in range(ms.size):
-        m = ms[k]
-        n = terms[k]
-        if m == 1:
-            out[k] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
-            _lag1_two(x[: n + 3], rows[k])
-            continue
-        if scratch.shape[0] == 0:
-            scratch = np.empty(n + 3)
-        if _decimate_into(x, m, n + 2, scratch, have):
-            out[k] = _ssq3_ordered(scratch, n)
-            _lag1_two(scratch[: n + 3], rows[k])
-            have = m
-        else:
-            out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
+    first = 1 if ms.size > 0 and ms[0] == 1 else 0
+    if first:  # the record itself: no copy
+        n = terms[0]
+        out[0] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
+        _lag1_two(x[: n + 3], rows[0])
+    if ms.size > first:
+        out[first:], rows[first:] = hadamard_from(x, ms[first:], terms[first:],
+                                                  np.empty(terms[first] + 3), 0)
     return out, rows
 
 
@@ -1384,7 +1375,8 @@ def hadamard_from(x: NDArray, ms: NDArray, terms: NDArray, scratch: NDArray,
     """:func:`hadamard_decimated` starting from ``scratch``, ``x`` decimated by ``have``.
 
     ``scratch`` (its full length in use) is overwritten in place by the decimations of
-    ``ms`` (multiples of ``have``, ascending, counts no larger than the one it holds).
+    ``ms`` (ascending; from ``scratch`` where ``m`` is a multiple of ``have``, else from ``x``
+    while they fit; ``have = 0``: nothing there yet).
     """
     out = np.empty(ms.size)
     rows = np.zeros((ms.size, 2, LAG1_FIELDS))
