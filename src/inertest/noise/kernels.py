@@ -902,46 +902,16 @@ def _store_rows(state: NDArray, npts: int, sh0: float, sh1: float, last: float, 
     _first_difference_moments(state)
 
 
-@numba.njit(cache=True, nogil=True, fastmath=True)
+@numba.njit(cache=True, nogil=True)
 def _lag1_two(a: NDArray, state: NDArray) -> None:
     """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass."""
     npts = a.shape[0]
     sh0 = a[0]
     sh1 = a[1] - a[0]
-    p1 = p2 = p11 = q1 = q2 = q11 = pk = pkk = 0.0
-    for k in range(npts - 2):
-        u0 = a[k]
-        u1 = a[k + 1]
-        u2 = a[k + 2]
-        v = u0 - sh0
-        p1 += v
-        p2 += v * v
-        p11 += v * (u1 - sh0)
-        w = (u1 - u0) - sh1
-        q1 += w
-        q2 += w * w
-        q11 += w * ((u2 - u1) - sh1)
-        j = float(k)
-        pk += j * v
-        pkk += j * j * v
-    u0 = a[npts - 2]
-    u1 = a[npts - 1]
-    j = float(npts - 2)
-    v = u0 - sh0
-    p1 += v
-    p2 += v * v
-    pk += j * v
-    pkk += j * j * v
-    v1 = u1 - sh0
-    p11 += v * v1
-    p1 += v1
-    p2 += v1 * v1
-    pk += (j + 1.0) * v1
-    pkk += (j + 1.0) * (j + 1.0) * v1
-    w = (u1 - u0) - sh1
-    q1 += w
-    q2 += w * w
-    _store_rows(state, npts, sh0, sh1, u1, u0, p1, p2, p11, q1, q2, q11, pk, pkk)
+    acc = np.zeros(9)
+    _rows_range(a, 0, npts, npts, sh0, sh1, acc, False, 0)
+    _store_rows(state, npts, sh0, sh1, a[npts - 1], a[npts - 2], acc[0], acc[1], acc[2],
+                acc[3], acc[4], acc[5], acc[7], acc[8])
 
 
 @numba.njit(cache=True, nogil=True)
