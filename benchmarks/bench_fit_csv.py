@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> None:
         net_times = []
         for n in sizes:
             plan, data = _write(folder, n)
-            wall, cpu, peak = _run(plan, data, 3 if n <= 1_000_000 else 1)
+            wall, cpu, peak = _run(plan, data, 3 if n <= 1_000_000 else 2)
             data.unlink()
             net_times.append(cpu - base_cpu)
             net = max(peak - base, 0) / n

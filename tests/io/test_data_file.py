@@ -112,6 +112,12 @@ def test_columns_from_arrow_buffers_equal_to_numpy_and_load_no_pandas(tmp_path):
     'a,b\n' + '"x,1",2\n' * 40 + '"y\nz",\n',
     "a,b\ntrue,2024-01-01\n" * 40,
     "a,b\n",
+    # Long rows first, then short: the columns sized from the first block must grow (often).
+    "a,b\n" + "".join(f"{0.1 * i!r}12345678901,L{i % 2}\n" for i in range(3))
+    + "".join(f"{i},M{i % 5}\n" for i in range(400)),
+    # Short rows first, then long: sized too large, the unused tail never read.
+    "a,b\n" + "".join(f"{i},x\n" for i in range(40))
+    + "".join(f"{i * 0.1!r}9876543210123,y{i % 7}\n" for i in range(100)),
 ])
 def test_csv_read_in_blocks_equals_the_whole_file(tmp_path, monkeypatch, text):
     # The streaming read (blocks of 64 bytes here) gives the columns of the whole-file read,

@@ -61,6 +61,13 @@ _COMMANDS: dict[str, tuple[str, str, str]] = {
                    "Can PLAN verify a specification? Predicted U per limit, before testing."),
 }
 
+#: Commands that read one table and fit it: numpy's transparent-huge-page advice is turned off
+#: for them (``NUMPY_MADVISE_HUGEPAGE=0`` unless the user set it). Their large arrays are
+#: allocated once and written once, so the advice buys no TLB reuse, and zeroing fresh 2 MiB
+#: pages cost 37 % of the CPU time of a 1e7-row fit on a virtual machine (5.2 -> 4.0 s,
+#: benchmarks/bench_fit_csv.py). The Allan commands keep it: their windows reuse freed pages.
+_ONE_PASS_COMMANDS = frozenset({"fit", "batch"})
+
 #: Exit status for errors in the user's input (as click uses for usage errors).
 EXIT_INPUT_ERROR = 2
 #: Exit status for a failure of the machine (full disk, I/O error) rather than of the input.
@@ -153,6 +160,8 @@ class _LazyGroup(click.Group):
         if entry is None:
             return None
         module, attr, _ = entry
+        if cmd_name in _ONE_PASS_COMMANDS:  # read by numpy when it is first imported
+            os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
         command = getattr(importlib.import_module(module), attr)
         from inertest.cli._common import add_overwrite_option  # after this package is ready
 

@@ -25,7 +25,14 @@ from inertest.estimation.least_squares import (
     identifiable_combinations,
     weighted_least_squares,
 )
-from inertest.results import Combination, Estimate, Identification, ModelChecks, Outlier
+from inertest.results import (
+    Combination,
+    Estimate,
+    Identification,
+    ModelChecks,
+    Outlier,
+    sum_of_squares,
+)
 
 #: Explains the null space of a fit in words: (fit, design) -> statements.
 Explainer = Callable[[LinearFit, NDArray[np.float64]], Sequence[str]]
@@ -401,6 +408,11 @@ class PositionDesign:
         """``A @ x`` for every reading, from the ``G`` positions' values."""
         return np.asarray(self.rows @ np.asarray(x, dtype=float))[self.index]
 
+    def residuals(self, x: ArrayLike, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``y - A @ x`` in one new array (no second record-length temporary)."""
+        out = self @ x
+        return np.subtract(y, out, out=out)
+
 
 @dataclass(frozen=True)
 class _Units:
@@ -470,7 +482,7 @@ def _position_row_fit(
         ymean = np.bincount(u.index, y * inv, minlength=u.size) / W
     sq = np.sqrt(W)
     red = weighted_least_squares(P.rows * sq[:, None], ymean * sq, sigma=1.0)
-    residuals = y - P @ red.x
+    residuals = P.residuals(red.x, y)
     dof = n - red.rank
     if sigma_si is not None:
         return replace(red, residuals=residuals, dof=dof)
@@ -479,7 +491,7 @@ def _position_row_fit(
             f"{n} observations leave no degree of freedom to estimate the noise "
             f"({red.rank} independent unknowns); add positions or samples, or give the noise "
             "level")
-    sigma0 = float(np.sqrt(np.sum(residuals**2) / dof))
+    sigma0 = float(np.sqrt(sum_of_squares(residuals) / dof))
     return replace(red, covariance=red.covariance * sigma0**2, residuals=residuals,
                    sigma=sigma0, sigma_from_residuals=True, dof=dof)
 
@@ -934,7 +946,7 @@ def solve(
         sw2 = float(np.mean(s2_rows))
     else:
         dof_w = n - G
-        sw2 = float(np.sum((y - u.y[u.index]) ** 2) / dof_w) if dof_w > 0 else np.nan
+        sw2 = sum_of_squares(y, u.y, u.index) / dof_w if dof_w > 0 else np.nan
         white_diag = (sw2 if dof_w > 0 else 1.0) / u.counts
     scale_known = given or n > G
     r = row_fit.rank
@@ -993,7 +1005,8 @@ def solve(
         yw = scipy.linalg.solve_triangular(L, u.y, lower=True)
         gls = weighted_least_squares(Aw, yw, sigma=1.0)
         wsig2 = sw2 if scale_known else s2
-        fm = replace(gls, residuals=y - A @ gls.x, sigma=float(np.sqrt(wsig2)),
+        fm = replace(gls, residuals=(A.residuals(gls.x, y) if isinstance(A, PositionDesign)
+                                     else y - A @ gls.x), sigma=float(np.sqrt(wsig2)),
                      sigma_from_residuals=not given, dof=G - gls.rank)
         label = {"position-offsets": "position offset", "random-walk": "random walk",
                  "flicker": "flicker"}[m]
