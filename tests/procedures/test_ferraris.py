@@ -182,6 +182,22 @@ def real():
 
 
 @needs_real
+def test_part_labels_normalised_and_split_give_the_same_calibration(real):
+    # Every 7th row relabelled " X_P" style (blank, upper case): each part is then hundreds of
+    # runs and the label matching, row grouping and sums go through the non-contiguous path;
+    # the rows of each part are the same, so the calibration must be too.
+    plan, data, ref = real
+    messy = dict(data)
+    labels = np.asarray(data["part"]).astype(object)
+    labels[::7] = [" " + str(v).upper() + " " for v in labels[::7]]
+    messy["part"] = labels.astype(str)
+    got = ferraris.fit(plan, messy)
+    assert got.calibration.accelerometer.to_dict() == ref.calibration.accelerometer.to_dict()
+    assert got.calibration.gyroscope.to_dict() == ref.calibration.gyroscope.to_dict()
+    np.testing.assert_array_equal(got.identification.covariance, ref.identification.covariance)
+
+
+@needs_real
 def test_imucal_agrees_on_the_real_session(real):
     """imucal's FerrarisCalibration on the same input (its own test recording).
 

@@ -381,22 +381,37 @@ class FerrarisResult(TriadResult):
 def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
     """Means, spreads and turn integrals of each part; errors name missing or empty parts."""
     cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, ("part",), procedure=KIND)
-    # Rows labelled exactly are matched directly; only the others are normalised (case,
-    # blanks), once per distinct label: row-wise string operations were most of the time.
+    # The labels are read per run of equal labels (a part is recorded in one go): one string
+    # comparison over the rows, then each distinct label matched once, exactly or normalised
+    # (case, blanks). Row-wise string operations were most of the time.
     label = np.asarray(cols["part"])
-    code = np.full(label.shape, -1, dtype=np.intp)
-    for k, name in enumerate(session.PARTS):
-        code[label == name] = k
-    rest = np.flatnonzero(code < 0)
-    if rest.size:
-        uniq, inv = np.unique(label[rest], return_inverse=True)
-        names = np.char.lower(np.char.strip(uniq.astype(str)))
-        code_of = np.array([session.PARTS.index(n) if n in session.PARTS else -1
-                            for n in names], dtype=np.intp)
-        code[rest] = code_of[inv.ravel()]
-    _check_parts_present({session.PARTS[k] for k in np.unique(code) if k >= 0}, spec)
+    n_rows = label.size
+    change = np.ones(n_rows, dtype=bool)
+    change[1:] = label[1:] != label[:-1]
+    starts = np.flatnonzero(change)
+    stops = np.append(starts[1:], n_rows)
+    run_label = label[starts].tolist()
+    code_of: dict[object, int] = {}
+    for name in set(run_label):
+        text = str(name)
+        code_of[name] = (session.PARTS.index(text) if text in session.PARTS else
+                         session.PARTS.index(text.strip().lower())
+                         if text.strip().lower() in session.PARTS else -1)
+    run_code = [code_of[name] for name in run_label]
+    _check_parts_present({session.PARTS[k] for k in set(run_code) if k >= 0}, spec)
+    runs_of: list[list[int]] = [[] for _ in session.PARTS]
+    for r, k in enumerate(run_code):
+        if k >= 0:
+            runs_of[k].append(r)
+    rows = tuple(np.concatenate([np.arange(starts[r], stops[r]) for r in runs])
+                 if runs else np.empty(0, dtype=np.intp) for runs in runs_of)
     raw = np.column_stack([cols[c] for c in ACC_COLUMNS + GYR_COLUMNS])  # acc, then gyro
-    rows = tuple(np.flatnonzero(code == k) for k in range(len(session.PARTS)))
+
+    def part(k: int) -> NDArray[np.float64]:
+        """The raw rows of part k: a view when they are one run (no copy)."""
+        runs = runs_of[k]
+        return raw[starts[runs[0]]:stops[runs[0]]] if len(runs) == 1 else raw[rows[k]]
+
     fs = spec.sample_rate_hz
     mean, sd, nf = [], [], []
     for f, face in enumerate(session.FACE_LABELS):
@@ -405,11 +420,11 @@ def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
             raise IdentifiabilityError(
                 f"face {face} has {n} sample(s); record at least 2 (a few seconds) at rest"
             )
-        v = raw[rows[f]]
+        v = part(f)
         mean.append(v.mean(axis=0))
         sd.append(v.std(axis=0, ddof=1))
         nf.append(n)
-    turn = np.array([raw[r].sum(axis=0) / fs for r in rows[6:]])
+    turn = np.array([part(k).sum(axis=0) / fs for k in range(6, len(session.PARTS))])
     m, d = np.array(mean), np.array(sd)
     return FaceStats(m[:, :3], m[:, 3:], d[:, :3], d[:, 3:], np.array(nf, float),
                      turn[:, 3:], turn[:, :3], np.array([r.size for r in rows[6:]], float), rows)
