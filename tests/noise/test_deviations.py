@@ -205,6 +205,31 @@ def test_work_array_is_a_plain_writable_float64_array(n):
         assert a.ctypes.data % _HUGE_PAGE == 0
 
 
+def test_reused_work_arrays_leave_earlier_results_alone():
+    # deviations() hands its phase and x[::4] back for the next record of the same length
+    # (_release_work): no result may refer to them, and a reused array must give the numbers
+    # of a fresh one. Records A and B of one length, every statistic, fused and plain paths.
+    dev_mod = dv
+    n = 200_001  # phase 1.6 MB: kept as a spare
+    a, b = (np.random.default_rng(s).standard_normal(n) for s in (1, 2))
+    stats = list(STATISTICS)
+    dev_mod._spare.clear()
+    first = deviations(a, 10.0, stats)
+    assert dev_mod._spare, "the work arrays were not kept"
+    kept = {s: (r.dev.copy(), r.edf.copy(), r.alpha.copy(), r.dev_lo.copy()) for s, r in
+            first.items()}
+    deviations(b, 10.0, stats)  # reuses A's arrays, overwrites them with B's phase
+    again = deviations(a, 10.0, stats)
+    dev_mod._spare.clear()
+    fresh = deviations(a, 10.0, stats)
+    for s in stats:
+        for got, want in zip((first[s].dev, first[s].edf, first[s].alpha, first[s].dev_lo),
+                             kept[s], strict=True):
+            np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(again[s].dev, fresh[s].dev)
+        np.testing.assert_array_equal(again[s].edf, fresh[s].edf)
+
+
 def test_angle_record_at_a_large_constant_rate_keeps_its_digits():
     # Reviewer's case (issue 18 review): a 5 rad/s angle record at 100 Hz. Removing the
     # straight line in plain float64 rounded every point by eps |x| (ADEV at m = 4096 off by

