@@ -127,6 +127,7 @@ def test_csv_read_in_blocks_equals_the_whole_file(tmp_path, monkeypatch, text):
     p = tmp_path / "d.csv"
     p.write_text(text)
     monkeypatch.setattr(data_file, "_CSV_BLOCK_BYTES", 64)
+    monkeypatch.setattr(data_file, "_CSV_WHOLE_BYTES", 0)  # small files are read whole
     blocks = read_table(p)
     monkeypatch.setattr(data_file, "_read_csv_blocks", lambda path: None)
     whole = read_table(p)
@@ -141,17 +142,18 @@ def test_csv_read_in_blocks_equals_the_whole_file(tmp_path, monkeypatch, text):
     "a,b\n" + "".join(f"{-(2**63) + 1 + i},L{i % 3}\n" for i in range(50)),
     "a,b\n" + "0,x\n" * 50 + "22.5,y\n",
 ])
-def test_small_csv_integer_columns_read_in_one_pass_equal_the_reparsed_ones(
+def test_small_csv_integer_columns_read_whole_equal_the_reparsed_ones(
         tmp_path, monkeypatch, text):
-    # A file within one block casts its integer columns to float64 instead of parsing the file
-    # again with float64 types (Ferraris end to end: 9.8 -> 6.9 ms); the numbers must be those
-    # of the re-parse (each integer rounded to the nearest double) and of Python's float().
+    # A small file is read whole and its integer columns cast to float64; the block reader
+    # parses integers as float64 from the start. The numbers must agree with each other (each
+    # integer rounded to the nearest double) and with Python's float().
     from inertest.io import data_file
 
     p = tmp_path / "d.csv"
     p.write_text(text)
     one = read_table(p)
     monkeypatch.setattr(data_file, "_CSV_BLOCK_BYTES", 64)  # several blocks: parsed again
+    monkeypatch.setattr(data_file, "_CSV_WHOLE_BYTES", 0)
     again = read_table(p)
     rows = [line.split(",") for line in text.strip().splitlines()[1:]]
     for j, name in enumerate(one):
