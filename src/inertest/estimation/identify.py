@@ -408,10 +408,13 @@ class PositionDesign:
         """``A @ x`` for every reading, from the ``G`` positions' values."""
         return np.asarray(self.rows @ np.asarray(x, dtype=float))[self.index]
 
-    def residuals(self, x: ArrayLike, y: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``y - A @ x`` in one new array (no second record-length temporary)."""
-        out = self @ x
-        return np.subtract(y, out, out=out)
+
+def _residuals(
+    A: NDArray[np.float64] | PositionDesign, x: NDArray[np.float64], y: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``y - A @ x`` in one new array (no second record-length temporary)."""
+    out = np.asarray(A @ x)
+    return np.subtract(y, out, out=out)
 
 
 @dataclass(frozen=True)
@@ -482,7 +485,7 @@ def _position_row_fit(
         ymean = np.bincount(u.index, y * inv, minlength=u.size) / W
     sq = np.sqrt(W)
     red = weighted_least_squares(P.rows * sq[:, None], ymean * sq, sigma=1.0)
-    residuals = P.residuals(red.x, y)
+    residuals = _residuals(P, red.x, y)
     dof = n - red.rank
     if sigma_si is not None:
         return replace(red, residuals=residuals, dof=dof)
@@ -1005,8 +1008,7 @@ def solve(
         yw = scipy.linalg.solve_triangular(L, u.y, lower=True)
         gls = weighted_least_squares(Aw, yw, sigma=1.0)
         wsig2 = sw2 if scale_known else s2
-        fm = replace(gls, residuals=(A.residuals(gls.x, y) if isinstance(A, PositionDesign)
-                                     else y - A @ gls.x), sigma=float(np.sqrt(wsig2)),
+        fm = replace(gls, residuals=_residuals(A, gls.x, y), sigma=float(np.sqrt(wsig2)),
                      sigma_from_residuals=not given, dof=G - gls.rank)
         label = {"position-offsets": "position offset", "random-walk": "random walk",
                  "flicker": "flicker"}[m]

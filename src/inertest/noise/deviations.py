@@ -165,7 +165,7 @@ class _Phase:
 
 
 class _MemoryPhase(_Phase):
-    def __init__(self, x: NDArray, tau0: float) -> None:
+    def __init__(self, x: NDArray, tau0: float, owned: Sequence[NDArray] = ()) -> None:
         self.x = x
         self.size = x.size
         self.tau0 = tau0
@@ -176,7 +176,7 @@ class _MemoryPhase(_Phase):
         self.hdev: dict[int, float] = {}
         self.quarter: NDArray | None = None
         # Work arrays of _work_array (phase, x[::4]) that deviations() hands back when done.
-        self.owned: list[NDArray] = []
+        self.owned = list(owned)
 
     def read(self, start: int, stop: int) -> NDArray:
         return self.x[start:stop]
@@ -406,16 +406,13 @@ def phase_source(
         yc = np.ascontiguousarray(data, dtype=np.float64)
         if fuse not in ("octave", "hadamard"):
             kernels.integrate(yc, mean, 0.0, tau0, x)
-            plain = _MemoryPhase(x, tau0)
-            plain.owned = [x]
-            return plain
+            return _MemoryPhase(x, tau0, owned=[x])
         two = n >= 6
         third = two and fuse == "hadamard"
         quarter = _work_array(n // 4 + 1 if two else 0)
         rows = np.zeros((2, 2, kernels.LAG1_FIELDS))
         h1, h2 = kernels.integrate_fused(yc, mean, tau0, x, quarter, rows, third)
-        mp = _MemoryPhase(x, tau0)
-        mp.owned = [x, quarter]
+        mp = _MemoryPhase(x, tau0, owned=[x, quarter])
         mp.rows[1] = rows[0]
         if two:
             mp.rows[2] = rows[1]

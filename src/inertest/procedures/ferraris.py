@@ -129,7 +129,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import OMEGA_IE, Site, earth_rate_enu
 from inertest.equipment import ferraris_session as session
-from inertest.equipment.motion import Inputs, StaticPositions
+from inertest.equipment.motion import Inputs, StaticPositions, run_starts
 from inertest.equipment.rate_table import Turns
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.identify import CHECK_ALPHA
@@ -385,11 +385,8 @@ def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
     # comparison over the rows, then each distinct label matched once, exactly or normalised
     # (case, blanks). Row-wise string operations were most of the time.
     label = np.asarray(cols["part"])
-    n_rows = label.size
-    change = np.ones(n_rows, dtype=bool)
-    change[1:] = label[1:] != label[:-1]
-    starts = np.flatnonzero(change)
-    stops = np.append(starts[1:], n_rows)
+    starts = run_starts(label)
+    stops = np.append(starts[1:], label.size)
     run_label = label[starts].tolist()
     code_of: dict[object, int] = {}
     for name in set(run_label):
