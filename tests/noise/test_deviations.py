@@ -153,6 +153,39 @@ def test_bad_input_clear_errors(kwargs, error, words):
         deviations(args["data"], args["rate"], args["stats"], args["taus"], args["data_type"])
 
 
+@pytest.mark.parametrize("stat", ["oadev", "hdev"])
+@pytest.mark.parametrize(("bad", "where"), [(np.nan, 123_457), (np.inf, 70_001), (-np.inf, 0)])
+def test_non_finite_sample_of_a_long_record_is_named(stat, bad, where):
+    # Above 65,536 samples the fused phase build has no mean pass of its own to find them
+    # (the level is estimated from every 32nd sample): the last phase point carries them.
+    y = np.random.default_rng(5).standard_normal(200_000)
+    y[where] = bad
+    with pytest.raises(DataError, match=f"first at sample {where}"):
+        deviations(y, 100.0, [stat], "octave")
+
+
+def test_long_record_with_offset_and_drift_to_rounding():
+    # The fused build removes an estimated level, not the exact mean; the phase then carries
+    # a straight line. Reference: the textbook sums in long double about the exact mean. The
+    # drift makes the phase a parabola some 300 times the third differences at m = 30,000: the
+    # exact-mean build (stream=True) is off by 1e-12 there as well.
+    n = 300_000
+    g = np.random.default_rng(8)
+    y = 3.0 + 1e-4 * g.standard_normal(n) + 1e-9 * np.arange(n)
+    ld = np.longdouble
+    yl = y.astype(ld)
+    x = np.concatenate([[ld(0)], np.cumsum(yl - yl.mean())]) / ld(100)
+    got = deviations(y, 100.0, ["oadev", "hdev"], [m / 100 for m in (1, 16, 1024, 30_000)])
+    for k, m in enumerate((1, 16, 1024, 30_000)):
+        d2 = x[2 * m :] - 2 * x[m:-m] + x[: -2 * m]
+        oadev = np.sqrt(np.sum(d2 * d2) / (2 * (ld(m) / 100) ** 2 * d2.size))
+        xs = x[::m]
+        d3 = xs[3:] - 3 * xs[2:-1] + 3 * xs[1:-2] - xs[:-3]
+        hdev = np.sqrt(np.sum(d3 * d3) / (6 * (ld(m) / 100) ** 2 * d3.size))
+        assert got["oadev"].dev[k] == pytest.approx(float(oadev), rel=1e-11, abs=0)
+        assert got["hdev"].dev[k] == pytest.approx(float(hdev), rel=1e-11, abs=0)
+
+
 @pytest.mark.slow
 def test_ocxo_stable32_octave(realdata_dir):
     """Real OCXO series against the Stable32 1.60 results published with allantools' tests."""

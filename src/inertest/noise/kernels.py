@@ -463,28 +463,6 @@ def lag1_rows_many(x: NDArray, ms: NDArray, scratch: NDArray, have: int) -> NDAr
 
 
 @numba.njit(cache=True, nogil=True)
-def _ssq3_ordered(a: NDArray, n: int) -> float:
-    """Sum of ``(a[i+3] - 3 a[i+2] + 3 a[i+1] - a[i])**2`` for ``i < n`` (contiguous ``a``).
-
-    Each difference is rounded as :func:`sum_third_diff` rounds it (no contraction); the
-    squares are summed in SIMD lanes.
-    """
-    tile = _LAG1_TILE
-    buf = np.empty(tile)
-    s = 0.0
-    for i0 in range(0, n, tile):
-        cnt = min(tile, n - i0)
-        a0 = a[i0 : i0 + cnt]
-        a1 = a[i0 + 1 : i0 + 1 + cnt]
-        a2 = a[i0 + 2 : i0 + 2 + cnt]
-        a3 = a[i0 + 3 : i0 + 3 + cnt]
-        for k in range(cnt):
-            buf[k] = a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]
-        s += _sumsq(buf, cnt)
-    return s
-
-
-@numba.njit(cache=True, nogil=True)
 def hadamard_decimated(x: NDArray, ms: NDArray, terms: NDArray) -> tuple[NDArray, NDArray]:
     """Non-overlapping Hadamard sums and the noise-type rows 0-1 of each ``m``, in one pass.
 
@@ -499,8 +477,7 @@ def hadamard_decimated(x: NDArray, ms: NDArray, terms: NDArray) -> tuple[NDArray
     first = 1 if ms.size > 0 and ms[0] == 1 else 0
     if first:  # the record itself: no copy
         n = terms[0]
-        out[0] = _ssq3(x[:n], x[1 : n + 1], x[2 : n + 2], x[3 : n + 3])
-        _lag1_two(x[: n + 3], rows[0])
+        out[0] = _lag1_two(x[: n + 3], rows[0], True)
     if ms.size > first:
         out[first:], rows[first:] = hadamard_from(x, ms[first:], terms[first:],
                                                   np.empty(terms[first] + 3), 0)
@@ -903,15 +880,20 @@ def _store_rows(state: NDArray, npts: int, sh0: float, sh1: float, last: float, 
 
 
 @numba.njit(cache=True, nogil=True)
-def _lag1_two(a: NDArray, state: NDArray) -> None:
-    """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass."""
+def _lag1_two(a: NDArray, state: NDArray, ssq3: bool = False) -> float:
+    """Rows 0 and 1 of :func:`lag1_sums` for the series ``a`` (``a.size >= 3``), one pass.
+
+    With ``ssq3``, also returns the sum of the squared third differences of ``a`` (the
+    non-overlapping Hadamard sum when ``a`` is the decimated phase), taken in the same pass.
+    """
     npts = a.shape[0]
     sh0 = a[0]
     sh1 = a[1] - a[0]
     acc = np.zeros(9)
-    _rows_range(a, 0, npts, npts, sh0, sh1, acc, False, 0)
+    _rows_range(a, 0, npts, npts, sh0, sh1, acc, ssq3, 0)
     _store_rows(state, npts, sh0, sh1, a[npts - 1], a[npts - 2], acc[0], acc[1], acc[2],
                 acc[3], acc[4], acc[5], acc[7], acc[8])
+    return acc[6]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1354,8 +1336,7 @@ def hadamard_from(x: NDArray, ms: NDArray, terms: NDArray, scratch: NDArray,
         m = ms[k]
         n = terms[k]
         if _decimate_into(x, m, n + 2, scratch, have):
-            out[k] = _ssq3_ordered(scratch, n)
-            _lag1_two(scratch[: n + 3], rows[k])
+            out[k] = _lag1_two(scratch[: n + 3], rows[k], True)  # one pass for both
             have = m
         else:
             out[k] = _lag1_two_strided(x, m, n + 2, rows[k], True)
