@@ -418,8 +418,10 @@ def part_stats(data: Mapping[str, object], spec: FerrarisSpec) -> FaceStats:
                 f"face {face} has {n} sample(s); record at least 2 (a few seconds) at rest"
             )
         v = part(f)
-        mean.append(v.mean(axis=0))
-        sd.append(v.std(axis=0, ddof=1))
+        mu = v.sum(axis=0) / n
+        dv = v - mu
+        mean.append(mu)
+        sd.append(np.sqrt(np.einsum("ij,ij->j", dv, dv) / (n - 1)))  # std(ddof=1), two-pass
         nf.append(n)
     turn = np.array([part(k).sum(axis=0) / fs for k in range(6, len(session.PARTS))])
     m, d = np.array(mean), np.array(sd)
@@ -503,11 +505,12 @@ def _solve(
     acc_mean: NDArray[np.float64], gyr_mean: NDArray[np.float64],
     turn_gyr: NDArray[np.float64], turn_acc: NDArray[np.float64], turn_s: NDArray[np.float64],
     span: NDArray[np.float64], theta: NDArray[np.float64], with_g: bool, omega_up: float,
-) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray]:
-    """``A_a, b_a, A_g, b_g, G, E`` from the part statistics (see the module docstring).
+) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray, NDArray, NDArray]:
+    """``A_a, b_a, A_g, b_g, G, E, a_turn`` from the part statistics (see the module docstring).
 
     ``E`` row j: vertical Earth-rate angle over turn j on the body axes [rad],
     ``omega_up T_j u_j`` with ``u_j`` the mean calibrated specific-force direction (up).
+    ``a_turn`` row j: the calibrated specific force integrated over turn j [m/s^2 s].
     The horizontal Earth rate turns with the body during a turn and only partly cancels; it is
     not modelled (the heading is unknown) and leaves a spurious gyro misalignment
     ``W_ie cos L T_eff / theta`` (module docstring: 28 urad for the example plan).
@@ -533,7 +536,7 @@ def _solve(
     E = omega_up * turn_s[:, None] * up
     # A_g Theta = W^T with Theta's column j the body angle of turn j: theta_j e_j + E_j.
     A_g = tr(np.linalg.solve(np.diag(theta) + E, W))
-    return A_a, b_a, A_g, b_g, G, E
+    return A_a, b_a, A_g, b_g, G, E, acc_int
 
 
 def _engineering(
@@ -549,10 +552,12 @@ def _engineering(
     r = scale.raw_si_per_raw
     d = np.diagonal(A, axis1=-2, axis2=-1)
     mis = np.stack([A[..., i, j] / d[..., i] for i, j in triad.OFF_DIAGONAL], axis=-1)
-    B = np.linalg.solve(A, b[..., None])[..., 0]
-    out = [d * r / scale.si_per_unit, mis / MICRORAD_TO_RAD, B / triad.bias_unit(sensor)[1]]
+    rhs = b[..., None] if G is None else np.concatenate([b[..., None], G], axis=-1)
+    sol = np.linalg.solve(A, rhs)  # A^-1 [b | G]: one factorisation
+    out = [d * r / scale.si_per_unit, mis / MICRORAD_TO_RAD,
+           sol[..., 0] / triad.bias_unit(sensor)[1]]
     if G is not None:
-        out.append(np.linalg.solve(A, G).reshape(*A.shape[:-2], 9)
+        out.append(sol[..., 1:].reshape(*A.shape[:-2], 9)
                    / DEG_PER_H_PER_G_TO_RAD_PER_S_PER_M_PER_S2)
     return np.concatenate(out, axis=-1)
 
@@ -631,7 +636,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
                       x[45:54].reshape(3, 3), turn_s, span, theta, with_g, omega_up)
 
     x0 = _pack(stats)
-    A_a, b_a, A_g, b_g, G, E = solve(x0)
+    A_a, b_a, A_g, b_g, G, E, _ = solve(x0)
     cal_a = np.linalg.inv(A_a)
 
     # Input covariance of the noise (face means, turn integrals) under the noise model.
@@ -674,7 +679,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
                         else (0.0, 0.0))
     span0 = span
     span = span0 * (1.0 - tilt2)  # read by solve() and outputs() below
-    A_a, b_a, A_g, b_g, G, E = solve(x0)
+    A_a, b_a, A_g, b_g, G, E, _ = solve(x0)
     cal_a = np.linalg.inv(A_a)
     fitted_offsets = int(model == "position-offsets") * sum(
         components[k].get("position offset", 0.0) > 0 for k in components)
@@ -685,17 +690,17 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     sa, sg = spec.acc_scale, spec.gyr_scale
     n_a = 12
 
-    def outputs(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Engineering values of both triads, then the turns' |a| - g [m/s^2] (batched)."""
+    def outputs(x: NDArray[np.float64], spans: NDArray[np.float64] | None = None
+                ) -> NDArray[np.float64]:
+        """Engineering values of both triads, then the turns' |a| - g [m/s^2] (batched).
+
+        ``spans`` (..., 3): the face-pair spans of each input (default ``span``).
+        """
         bx = x.shape[:-1]
-        A_a_, b_a_, A_g_, b_g_, G_, _ = _solve(
+        A_a_, b_a_, A_g_, b_g_, G_, _, acc_int = _solve(
             x[..., :18].reshape(*bx, 6, 3), x[..., 18:36].reshape(*bx, 6, 3),
             x[..., 36:45].reshape(*bx, 3, 3), x[..., 45:54].reshape(*bx, 3, 3),
-            turn_s, span, theta, with_g, omega_up)
-        acc_int = np.linalg.solve(
-            A_a_[..., None, :, :],
-            (x[..., 45:54].reshape(*bx, 3, 3) - turn_s[:, None] * b_a_[..., None, :])[..., None]
-        )[..., 0]
+            turn_s, span if spans is None else spans[..., None, :], theta, with_g, omega_up)
         return np.concatenate([
             _engineering(A_a_, b_a_, None, "accelerometer", sa),
             _engineering(A_g_, b_g_, G_ if with_g else None, "gyroscope", sg),
@@ -711,11 +716,9 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     cov_all = J @ cov @ J.T
     if var_tilt2 > 0:  # the uncertainty of the tilt correction (its six pair sums)
         h = 1e-3 * np.sqrt(var_tilt2)
-        span = span0 * (1.0 - tilt2 - h)
-        j_t = outputs(x0[None, :])[0]
-        span = span0 * (1.0 - tilt2 + h)
-        j_t = (j_t - outputs(x0[None, :])[0]) / (2 * h)
-        span = span0 * (1.0 - tilt2)
+        lo, hi = outputs(np.stack([x0, x0]),
+                         np.stack([span0 * (1.0 - tilt2 - h), span0 * (1.0 - tilt2 + h)]))
+        j_t = (lo - hi) / (2 * h)
         cov_all += var_tilt2 * np.outer(j_t, j_t)
     n_v = values.size
     cov_out = cov_all[:n_v, :n_v]
