@@ -1245,8 +1245,11 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
                     rows: NDArray, third: bool) -> tuple[float, float]:
     """:func:`integrate` from 0, with the m = 1 noise-type rows (and HDEV sums) on the way.
 
-    ``out`` (``len(y) + 1``) receives the phase with the digits of :func:`integrate`. While each
-    tile is in cache: ``rows[0]`` gets rows 0-1 of :func:`lag1_first_two` at m = 1; with
+    ``out`` (``len(y) + 1``) receives the phase, summed tile by tile: the running sum of each
+    tile of :data:`_FUSE_TILE` samples starts from 0 and is added to the sum of the tiles
+    before, so its rounding does not pile up over the record (the level ``mean`` removed may
+    be an estimate, leaving a line of phase: see ``deviations._level``). While each tile is in
+    cache: ``rows[0]`` gets rows 0-1 of :func:`lag1_first_two` at m = 1; with
     ``third``, the sum of squared third differences of ``x`` (non-overlapping Hadamard at m = 1)
     is returned first. With a non-empty ``quarter`` (``len(y) // 4 + 1`` points), ``rows[1]``
     and the second value returned are the same quantities for ``x[::2]`` (Hadamard at m = 2),
@@ -1264,8 +1267,8 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
     hb = np.empty(tile // 2 + 8)
     hbase = 0
     hlen = 0
-    c = 0.0
-    out[0] = tau0 * c
+    base = 0.0  # the running sum before this tile
+    out[0] = 0.0
     sh0 = out[0]
     sh1 = 0.0
     sh1h = 0.0
@@ -1275,9 +1278,11 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
         t1 = min(nx - 1, t0 + tile)
         yt = y[t0:t1]  # slices: the loops index from 0, with no wraparound checks
         ot = out[t0 + 1 : t1 + 1]
+        c = 0.0  # the running sum within the tile: its rounding does not pile up over tiles
         for k in range(t1 - t0):
             c += yt[k] - mean
-            ot[k] = tau0 * c
+            ot[k] = tau0 * (base + c)
+        base += c
         if t0 == 0:
             sh1 = out[1] - out[0]
         avail = t1 + 1  # x[0 : avail] is known
