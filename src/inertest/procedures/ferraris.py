@@ -679,7 +679,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
                         else (0.0, 0.0))
     span0 = span
     span = span0 * (1.0 - tilt2)  # read by solve() and outputs() below
-    A_a, b_a, A_g, b_g, G, E, _ = solve(x0)
+    A_a, b_a, A_g, b_g, G, E, acc_int = solve(x0)
     cal_a = np.linalg.inv(A_a)
     fitted_offsets = int(model == "position-offsets") * sum(
         components[k].get("position offset", 0.0) > 0 for k in components)
@@ -763,16 +763,16 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
     if not checks.fits:
         warnings.warn(str(checks.message), InertestWarning, stacklevel=2)
 
+    cal_g = np.linalg.inv(A_g)
     calibration = ImuCalibration(
         accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
-        gyroscope=TriadCalibration(np.linalg.inv(A_g), b_g, unit="rad/s",
+        gyroscope=TriadCalibration(cal_g, b_g, unit="rad/s",
                                    raw_unit=spec.gyr_unit, g_sensitivity=G if with_g else None),
     )  # in the recorded raw units: the same as triad.calibration_from_parameters
     face_acc = (stats.acc_mean - b_a) @ cal_a.T
     face_err = np.linalg.norm(face_acc, axis=1) - g
-    acc_int = (stats.turn_acc_integral - turn_s[:, None] * b_a) @ cal_a.T
-    W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T
-    turn_angle = (W @ np.linalg.inv(A_g).T - E) / DEG_TO_RAD  # the turn without Earth rate
+    W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T  # acc_int: solve()
+    turn_angle = (W @ cal_g.T - E) / DEG_TO_RAD  # the turn without Earth rate
     messages = list(notes)
     for m, sensor, col in ((p0[:n_a], "accelerometer", "acc_{}"),
                            (p0[n_a:], "gyroscope", "gyr_{}")):
