@@ -8,7 +8,8 @@ import pytest
 from inertest.cli import main
 from inertest.io.data_file import read_table, write_table
 from inertest.io.hdf5_table import read_hdf5_table
-from inertest.models.triad import ImuCalibration, TriadCalibration
+from inertest.models.imu import ImuCalibration
+from inertest.models.triad import TriadCalibration
 
 
 @pytest.fixture

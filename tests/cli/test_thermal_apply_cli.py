@@ -19,7 +19,7 @@ import pytest
 from inertest.cli import main
 from inertest.io.data_file import read_table, write_table
 from inertest.io.thermal_model import load_thermal_model
-from inertest.procedures.thermal_model import model_from_dict
+from inertest.models.thermal import model_from_dict
 
 PERIOD_S = 12000.0  # 200 min per cycle
 SAMPLE_S = 60.0

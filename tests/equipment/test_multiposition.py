@@ -41,7 +41,7 @@ def test_24_positions_are_the_proper_cube_rotations():
 
 
 @pytest.mark.parametrize("label, message", [
-    ("UEX", "not of the form"), ("UUN", "three different axes"), ("UNE", "left-handed"),
+    ("UEX", "not of the form"), ("UUN", "must point along different axes"), ("UNE", "left-handed"),
     ("UEN/q+4", "not of the form")])
 def test_bad_labels(label, message):
     with pytest.raises(InputError, match=message):

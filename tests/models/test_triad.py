@@ -5,7 +5,8 @@ import pytest
 
 from inertest.errors import InputError
 from inertest.models import triad
-from inertest.models.triad import ImuCalibration, TriadCalibration
+from inertest.models.imu import ImuCalibration
+from inertest.models.triad import TriadCalibration
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 
 

@@ -57,8 +57,8 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
     from inertest.equipment.rate_table import axis_index, triad_attitude
     from inertest.io.data_file import write_table
     from inertest.io.plan_file import load_truth
+    from inertest.models.rate_gyro import raw_rate_per_si
     from inertest.procedures import navigation_calibration as nav
-    from inertest.procedures.gyro_rate_table import raw_rate_per_si
     from inertest.procedures.gyro_triad_rotation import truth_model
 
     check_paths([output], [plan, truth])
@@ -85,7 +85,7 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
 
 def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
     from inertest.io.calibration_file import load_calibration
-    from inertest.procedures.gyro_rate_table import raw_rate_unit
+    from inertest.models.rate_gyro import raw_rate_unit
     from inertest.procedures.gyro_triad_rotation import KIND as ROTATION_KIND
 
     gyro = load_calibration(path, what="initial calibration").gyroscope
@@ -120,9 +120,9 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
     from inertest.api import load_data
     from inertest.io.atomic import target_directory
     from inertest.models import triad
-    from inertest.models.triad import ImuCalibration
+    from inertest.models.imu import ImuCalibration
+    from inertest.models.rate_gyro import raw_rate_per_si, raw_rate_unit
     from inertest.procedures import navigation_calibration as nav
-    from inertest.procedures.gyro_rate_table import raw_rate_per_si, raw_rate_unit
     from inertest.report.gyro_triad import navigation_page
     from inertest.results import envelope, instrument_block, site_block
 

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
+from inertest.equipment.directions import letter_of, triad_axes
 from inertest.equipment.motion import StaticPositions
 from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
@@ -30,34 +31,8 @@ def axes_from_directions(i_dir: str, o_dir: str, s_dir: str) -> NDArray[np.float
         A letter is not one of E, W, N, S, U, D, two axes are not perpendicular, or the triad is
         left-handed (the gyro axes satisfy I x O = S).
     """
-    vecs = []
-    for axis, d in zip("IOS", (i_dir, o_dir, s_dir), strict=True):
-        key = str(d).strip().upper()
-        if key not in DIRECTIONS_ENU:
-            raise InputError(
-                f'{axis} axis direction "{d}" is not one of E, W, N, S, U, D (S = south)'
-            )
-        vecs.append(DIRECTIONS_ENU[key])
-    i, o, s = vecs
-    label = f"I={i_dir}, O={o_dir}, S={s_dir}"
-    if abs(i @ o) > 0.5 or abs(o @ s) > 0.5 or abs(s @ i) > 0.5:
-        raise InputError(
-            f"position ({label}) is not an orthogonal triad: each of I, O, S must point along a "
-            "different axis of E/W, N/S, U/D"
-        )
-    if np.cross(i, o) @ s < 0:
-        raise InputError(
-            f"position ({label}) is left-handed; the gyro axes satisfy I x O = S, so S must be "
-            f"{_direction_name(-s)} here"
-        )
-    return np.vstack([i, o, s])
-
-
-def _direction_name(v: NDArray[np.float64]) -> str:
-    for k, u in DIRECTIONS_ENU.items():
-        if u @ v > 0.5:
-            return k
-    raise AssertionError("not a local direction")  # pragma: no cover
+    what = f"position (I={i_dir}, O={o_dir}, S={s_dir})"
+    return triad_axes((i_dir, o_dir, s_dir), axes="IOS", what=what)
 
 
 def specific_force_ios(axes: NDArray[np.float64], gravity_m_s2: float) -> NDArray[np.float64]:
@@ -84,7 +59,7 @@ def all_positions() -> list[tuple[str, str, str]]:
             if abs(va @ vb) > 0.5:
                 continue
             c = np.cross(va, vb)
-            out.append((a, b, _direction_name(c)))
+            out.append((a, b, letter_of(c)))
     return out
 
 

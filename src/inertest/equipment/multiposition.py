@@ -29,7 +29,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import DIRECTIONS_ENU, Site
+from inertest.earth import Site
+from inertest.equipment.directions import triad_axes
 from inertest.equipment.level_fixture import all_positions
 from inertest.equipment.motion import StaticPositions
 from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
@@ -71,12 +72,7 @@ def attitude(label: str) -> NDArray[np.float64]:
             f'position "{label}" is not of the form "UEN" (directions of x, y, z among E, W, N, '
             'S, U, D) or "UEN/z+45" (then a tilt in degrees about a body axis)'
         )
-    cols = np.column_stack([DIRECTIONS_ENU[c] for c in m.group(1)])
-    if not np.allclose(cols.T @ cols, np.eye(3)):
-        raise InputError(f'position "{label}": x, y, z must point along three different axes of '
-                         "E/W, N/S, U/D")
-    if np.linalg.det(cols) < 0:
-        raise InputError(f'position "{label}" is left-handed (x cross y must equal z)')
+    cols = triad_axes(m.group(1), axes="xyz", what=f'position "{label}"').T
     if m.group(2):
         tilt = Rotation.from_rotvec(np.radians(float(m.group(3))) * np.eye(3)["xyz".index(
             m.group(2))])

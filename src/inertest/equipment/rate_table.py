@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
+from inertest.equipment.directions import triad_axes
 from inertest.equipment.motion import Inputs
 from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
 from inertest.errors import InputError
@@ -85,29 +86,7 @@ def triad_attitude(directions: str | Sequence[str]) -> NDArray[np.float64]:
         raise InputError(
             f"attitude {directions!r} must give three directions for x, y, z, e.g. \"ENU\""
         )
-    for axis, d in zip(AXES, letters, strict=True):
-        if d not in DIRECTIONS_ENU:
-            raise InputError(
-                f'{axis} axis direction "{d}" in attitude "{"".join(letters)}" is not one of '
-                "E, W, N, S, U, D (S = south)"
-            )
-    x, y, z = (DIRECTIONS_ENU[d] for d in letters)
-    label = "".join(letters)
-    if abs(x @ y) > 0.5 or abs(y @ z) > 0.5 or abs(z @ x) > 0.5:
-        raise InputError(
-            f'attitude "{label}" is not an orthogonal triad: x, y, z must point along different '
-            "axes of E/W, N/S, U/D"
-        )
-    if np.cross(x, y) @ z < 0:
-        raise InputError(
-            f'attitude "{label}" is left-handed; with x={letters[0]}, y={letters[1]} the z axis '
-            f"points {_letter(np.cross(x, y))}"
-        )
-    return np.column_stack([x, y, z])
-
-
-def _letter(v: NDArray[np.float64]) -> str:
-    return next(k for k, u in DIRECTIONS_ENU.items() if u @ v > 0.5)
+    return triad_axes(letters, axes="".join(AXES), what=f'attitude "{"".join(letters)}"').T
 
 
 def axis_index(axis: str) -> int:

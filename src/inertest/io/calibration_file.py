@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from inertest.errors import InputError
-from inertest.models.triad import ImuCalibration
+from inertest.models.imu import ImuCalibration
 
 
 def read_json_object(path: str | os.PathLike[str], what: str) -> dict:

@@ -1,9 +1,9 @@
 """Thermal model files: the JSON written by ``inertest thermal fit --model-out``.
 
-The document (format :data:`~inertest.procedures.thermal_model.FORMAT_VERSION`) holds plain
+The document (format :data:`~inertest.models.thermal.FORMAT_VERSION`) holds plain
 numbers only -- polynomial coefficients with covariance, or the network's weights, biases and
 scaling -- never a pickled object, so it is safe to load from anyone and readable by any
-program (see :mod:`inertest.procedures.thermal_model` for the equations).
+program (see :mod:`inertest.models.thermal` for the equations).
 
 ``inertest thermal triad --model-out`` writes a triad thermal model
 (``"kind": "thermal-triad-model"``, :class:`~inertest.procedures.thermal_triad.
@@ -21,7 +21,7 @@ from typing import TypeVar
 from inertest.errors import InputError
 from inertest.io.atomic import write_text
 from inertest.io.calibration_file import read_json_object
-from inertest.procedures.thermal_model import MODEL_KIND, ThermalModel, model_from_dict
+from inertest.models.thermal import MODEL_KIND, ThermalModel, model_from_dict
 from inertest.procedures.thermal_triad import MODEL_KIND as TRIAD_MODEL_KIND
 from inertest.procedures.thermal_triad import TriadThermalModel
 

@@ -135,11 +135,12 @@ from inertest.errors import DataError, IdentifiabilityError, InertestWarning, Pl
 from inertest.estimation.identify import CHECK_ALPHA
 from inertest.estimation.identify import solve as identify_solve
 from inertest.models import triad
-from inertest.models.triad import AXES, ImuCalibration, TriadCalibration
+from inertest.models.imu import ImuCalibration
+from inertest.models.triad import AXES, TriadCalibration
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import require_columns
-from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
 from inertest.results import Estimate, Identification, ModelChecks, Outlier
+from inertest.results.triad import TriadEstimates, TriadResult
 from inertest.units import (
     ACCEL_UNITS,
     COUNT_UNITS,
@@ -310,7 +311,7 @@ class FaceStats:
 
 @dataclass(frozen=True, kw_only=True)
 class FerrarisResult(TriadResult):
-    """Outcome of :func:`fit` for a Ferraris session (a :class:`~.triad_multiposition.TriadResult`).
+    """Outcome of a Ferraris session (a :class:`~inertest.results.triad.TriadResult`).
 
     Attributes
     ----------

@@ -50,51 +50,16 @@ from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.estimation.identify import NOISE_MODELS, check_noise_model, solve
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.models import triad
-from inertest.plan import Field, Instrument, Plan, read_fields
+from inertest.models import rate_gyro, triad
+from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, RATE_UNITS
 
 KIND = "gyro-rate-table"
-#: Instrument kinds a gyro rate-table test accepts.
-GYRO_KINDS = ("rate-gyro", "gyro-triad", "imu", "sdf-gyro")
 #: Names a truth file may give (engineering units: K unit, deg/h, ppm, ppm/(deg/s)).
 TRUTH_NAMES = ("K", "B", "asymmetry", "K2")
 PPM = 1e-6
-
-
-def raw_rate_per_si(output_unit: str) -> float:
-    """Raw output per SI rate unit: ``1/RATE_UNITS[u]`` for rate outputs, 1 otherwise.
-
-    A rate output is converted to rad/s (its scale factor is then dimensionless); pulse counts
-    (read as count/s) and electrical outputs stay in their own unit.
-    """
-    return 1.0 / RATE_UNITS[output_unit] if output_unit in RATE_UNITS else 1.0
-
-
-def raw_rate_unit(output_unit: str) -> str:
-    """Unit of a raw rate reading: ``count/s`` for pulse outputs, the output unit otherwise."""
-    return "count/s" if output_unit == "count" else output_unit
-
-
-def _scale_unit(output_unit: str) -> tuple[str, float]:
-    """Unit of K and its SI value [raw SI per rad/s]: the triad model's rule for one gyro.
-
-    ``("1", 1.0)`` for rate outputs, ``("count/deg", 180/pi)`` for pulses (count/s per deg/s),
-    ``("<u>/(deg/s)", 180/pi)`` otherwise (:func:`inertest.models.triad.scale_unit`).
-    """
-    su = triad.scale_unit(raw_rate_unit(output_unit), "gyroscope")
-    return su.unit, su.si_per_unit
-
-
-def check_gyro(instrument: Instrument, kind: str) -> None:
-    """Only gyros (single axis, triad, IMU) can be tested on a rate table."""
-    if instrument.kind not in GYRO_KINDS:
-        raise PlanError(
-            f'{kind} tests a gyro, but [instrument] kind is "{instrument.kind}"; use one of '
-            f"{', '.join(GYRO_KINDS)}"
-        )
 
 
 @dataclass(frozen=True)
@@ -236,17 +201,17 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         All rates have one sign ("add negative rates"), no non-zero rate, too few distinct rates
         for what was asked.
     """
-    check_gyro(plan.instrument, KIND)
+    rate_gyro.check_gyro(plan.instrument, KIND)
     spec: GyroRateTableSpec = plan.procedure
     cols = require_columns(data, ("rate_deg_s", "output"), (), procedure=KIND)
     inst = plan.instrument
     rate_t = cols["rate_deg_s"] * DEG_TO_RAD
-    per_si = raw_rate_per_si(inst.output_unit)
+    per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
     y = cols["output"] / per_si  # rad/s for rate outputs, raw otherwise
     sig = None if sigma is None else known_sigma(sigma, 1.0 / per_si)
     _check_rates(cols["rate_deg_s"])
     w_in, w_e = _input_rate(spec.motion(plan.site), rate_t)
-    k_unit, k_si = _scale_unit(inst.output_unit)
+    k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
     distinct = np.unique(cols["rate_deg_s"])
     messages: list[str] = []
     not_sep: list[str] = []
@@ -332,7 +297,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         covariance=cov,
         names=tuple(names),
         noise_sigma=float(noise.white_sigma * per_si),
-        noise_unit=raw_rate_unit(inst.output_unit),
+        noise_unit=rate_gyro.raw_rate_unit(inst.output_unit),
         sigma_from_residuals=sigma is None,
         dof=int(main.dof),
         rank=int(main.rank),
@@ -355,7 +320,7 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         line_deviation=line.residuals * per_si,
         earth_rate_deg_h=w_e / DEG_PER_H_TO_RAD_PER_S,
         residual_output=main.residuals * per_si,
-        output_unit=raw_rate_unit(inst.output_unit),
+        output_unit=rate_gyro.raw_rate_unit(inst.output_unit),
         messages=tuple(messages),
     )
 
@@ -435,7 +400,7 @@ def simulate(
 
     Returns columns ``rate_deg_s`` and ``output`` [output unit; count/s for pulses].
     """
-    check_gyro(plan.instrument, KIND)
+    rate_gyro.check_gyro(plan.instrument, KIND)
     unknown = sorted(set(truth) - set(TRUTH_NAMES))
     if unknown:
         raise PlanError(
@@ -444,7 +409,7 @@ def simulate(
         )
     spec: GyroRateTableSpec = plan.procedure
     inst = plan.instrument
-    k_unit, k_si = _scale_unit(inst.output_unit)
+    k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
     if "K" not in truth and inst.output_unit not in RATE_UNITS:
         raise PlanError(f"truth needs the scale factor K in {k_unit} for a {inst.output_unit} "
                         "output")
@@ -460,7 +425,7 @@ def simulate(
     w_tab = w_in - w_e
     k_dir = K * (1 + np.sign(w_t) * a / 2)
     out_si = k_dir * w_tab + K * (w_e + B + k2 * w_tab**2)
-    per_si = raw_rate_per_si(inst.output_unit)
+    per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
     output = out_si * per_si + noise_samples(rates.size, noise, rng)
     return {"rate_deg_s": rates, "output": output}
 

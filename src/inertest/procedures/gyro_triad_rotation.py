@@ -87,9 +87,10 @@ from inertest.estimation.identify import (
 )
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
-from inertest.models.triad import AXES, ImuCalibration
+from inertest.models.imu import ImuCalibration
+from inertest.models.rate_gyro import check_gyro, raw_rate_per_si, raw_rate_unit
+from inertest.models.triad import AXES
 from inertest.plan import Field, Plan, read_fields
-from inertest.procedures.gyro_rate_table import check_gyro, raw_rate_per_si, raw_rate_unit
 from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult, ModelChecks
 from inertest.units import DEG_TO_RAD

@@ -93,11 +93,12 @@ from scipy.spatial.transform import Rotation
 from inertest.errors import DataError, IdentifiabilityError, PlanError
 from inertest.estimation.static_detection import StaticDetection, detect_static_intervals
 from inertest.models import triad
-from inertest.models.triad import AXES, ImuCalibration
+from inertest.models.imu import ImuCalibration
+from inertest.models.triad import AXES
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.spec import check_sample_rate, check_time_gaps, require_columns
-from inertest.procedures.triad_multiposition import TriadEstimates, TriadResult
 from inertest.results import Estimate, Identification
+from inertest.results.triad import TriadEstimates, TriadResult
 from inertest.units import ACCEL_UNITS, COUNT_UNITS, MILLI_G_TO_M_PER_S2, RATE_UNITS
 
 KIND = "orientation-free"
@@ -279,7 +280,7 @@ class StaticInterval:
 
 @dataclass(frozen=True, kw_only=True)
 class OrientationFreeResult(TriadResult):
-    """Outcome of :func:`fit` (a :class:`~.triad_multiposition.TriadResult`).
+    """Outcome of :func:`fit` (a :class:`~inertest.results.triad.TriadResult`).
 
     Attributes
     ----------

@@ -37,8 +37,7 @@ from numpy.typing import NDArray
 
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.procedures.spec import require_columns
-from inertest.procedures.thermal_model import (
+from inertest.models.thermal import (
     NetworkThermalModel,
     PolynomialThermalModel,
     ThermalModel,
@@ -46,6 +45,7 @@ from inertest.procedures.thermal_model import (
     poly_design,
     poly_exponents,
 )
+from inertest.procedures.spec import require_columns
 from inertest.results import envelope
 
 if TYPE_CHECKING:
@@ -409,10 +409,10 @@ def fit_thermal(
     Notes
     -----
     The chosen polynomial is refitted by least squares in ``(T - T_ref)`` [degC] and ``dT/dt``
-    [degC/min] (:class:`~inertest.procedures.thermal_model.PolynomialThermalModel`; the same
+    [degC/min] (:class:`~inertest.models.thermal.PolynomialThermalModel`; the same
     function space as the cross-validated pipeline), its coefficient covariance from the
     training residuals taken as white. The network is exported as arrays
-    (:class:`~inertest.procedures.thermal_model.NetworkThermalModel`); its predictions here are
+    (:class:`~inertest.models.thermal.NetworkThermalModel`); its predictions here are
     the numpy forward pass of those arrays.
     """
     # scikit-learn (~1.5 s to import) loads only when a thermal model is fitted.

@@ -43,9 +43,9 @@ from scipy import stats
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
+from inertest.models.thermal import check_model_header
 from inertest.plan import Plan
 from inertest.procedures import triad_multiposition as tmp
-from inertest.procedures.thermal_model import check_model_header
 from inertest.results import envelope
 
 KIND = "thermal-triad"

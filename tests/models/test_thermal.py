@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 
 from inertest.errors import InputError
-from inertest.procedures import thermal_compensation as th
-from inertest.procedures.thermal_model import (
+from inertest.models.thermal import (
     PolynomialThermalModel,
     model_from_dict,
     poly_exponents,
 )
+from inertest.procedures import thermal_compensation as th
 
 
 def cycles(n, *, noise_ppm, rng, sample_s=120.0):
