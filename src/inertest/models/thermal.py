@@ -450,9 +450,9 @@ def model_from_dict(doc: Mapping[str, object]) -> ThermalModel:
         if kind == PolynomialThermalModel.model_type:
             terms = doc["terms"]
             exps = tuple((int(t["power_of_t_minus_t_ref"]), int(t["power_of_rate"]))
-                         for t in terms)  # type: ignore[attr-defined, index]
-            coef = np.array([float(t["value"]) for t in terms])  # type: ignore[attr-defined, index]
-            cov = np.array(doc["covariance"]["matrix"], dtype=float)  # type: ignore[index]
+                         for t in terms)  # type: ignore[attr-defined]
+            coef = np.array([float(t["value"]) for t in terms])  # type: ignore[attr-defined]
+            cov = np.asarray(doc["covariance"]["matrix"], dtype=np.float64)  # type: ignore[index]
             if cov.shape != (coef.size, coef.size):
                 raise InputError(f"thermal model covariance is {cov.shape}, expected "
                                  f"({coef.size}, {coef.size})")
