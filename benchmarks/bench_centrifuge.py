@@ -26,6 +26,7 @@ from scipy.spatial.transform import Rotation
 from inertest.earth import earth_rate_enu
 from inertest.equipment import centrifuge as cf
 from inertest.models.sdf_gyro import coefficients_from_deg_h, drift
+from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionSpec as Spec9
 from inertest.units import ARCMIN_TO_RAD, G0
 
 R, G, LAT = 2.5, 9.8066, np.radians(45.0)
@@ -170,7 +171,7 @@ def nine_position_pipeline() -> None:
     from inertest.plan import Instrument, Plan
     from inertest.procedures import centrifuge_nine_position as c9
 
-    spec = c9.SPEC.from_mapping({"radius_m": R, "omegas_rad_s": [float(w) for w in RATES],
+    spec = Spec9.from_mapping({"radius_m": R, "omegas_rad_s": [float(w) for w in RATES],
                                  "revolutions": 100, "sample_rate_hz": 1000.0})
     plan = Plan(Site.at(np.degrees(LAT), G), Instrument(kind="sdf-gyro", output_unit="rad/s"),
                 spec)

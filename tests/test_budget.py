@@ -14,9 +14,9 @@ import pytest
 import inertest
 from inertest.budget import Contribution, combine, uncertainty_budget
 from inertest.earth import Site
-from inertest.equipment.type_b import errors_applied
 from inertest.errors import InertestWarning
 from inertest.lab import Equipment, TypeB
+from inertest.procedures import procedure
 from inertest.units import ARCSEC_TO_RAD, PPM_TO_RATIO
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -109,9 +109,10 @@ def test_budget_combined_std_matches_monte_carlo_of_equipment_errors():
         e_g = rng.normal(0.0, u_g * PPM_TO_RATIO)
         site = Site(latitude_rad=plan.site.latitude_rad,
                     gravity_m_s2=plan.site.gravity_m_s2 * (1 + e_g))
-        with errors_applied({"angle": d_angle}):
-            data = inertest.simulate(dataclasses.replace(plan, site=site), TRUTH, noise=noise,
-                                     rng=rng)
+        perturbed = dataclasses.replace(plan, site=site)
+        proc = procedure(plan.kind)
+        data = proc.simulate(perturbed, TRUTH, noise=noise, rng=rng,
+                             motion=proc.motion(perturbed, type_b={"angle": d_angle}))
         with warnings.catch_warnings():     # the model checks' false alarms over 300 draws
             warnings.simplefilter("ignore", InertestWarning)
             fitted = inertest.fit(plan, data, sigma=noise)

@@ -11,8 +11,6 @@ Example
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
 import os
 from collections.abc import Mapping
 from typing import Any
@@ -20,13 +18,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from inertest.errors import PlanError
 from inertest.io.data_file import read_table
 from inertest.io.plan_file import load_plan as _load_plan
 from inertest.io.plan_file import load_truth
 from inertest.plan import Plan
-from inertest.procedures import procedure_module
-from inertest.procedures.spec import check_sample_rate
+from inertest.procedures import procedure
 
 PathLike = str | os.PathLike[str]
 
@@ -63,29 +59,13 @@ def fit(
     Returns
     -------
     The procedure's result object (e.g. ``PolarTumbleResult``) with ``coefficients``,
-    ``combinations``, ``to_dict()``.
+    ``combinations``, ``to_dict()`` (:meth:`inertest.procedures.base.Procedure.fit`).
     """
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     d = data if isinstance(data, Mapping) else load_data(data)
-    rate = getattr(p.procedure, "sample_rate_hz", None)
-    if isinstance(rate, int | float) and not isinstance(rate, bool):
-        # A plan's sample rate that the data's own clock contradicts scales every integral.
-        where = "(in memory)" if isinstance(data, Mapping) else str(data)
-        check_sample_rate(d, float(rate), source=f"data {where}")
-    module = procedure_module(p.kind)
-    if noise_model is None:
-        result = module.fit(p, d, sigma=sigma)
-    elif "noise_model" in inspect.signature(module.fit).parameters:
-        result = module.fit(p, d, sigma=sigma, noise_model=noise_model)
-    else:
-        raise PlanError(f"the {p.kind} procedure has no choice of noise model; got "
-                        f"noise_model={noise_model!r}: leave it out")
-    if dataclasses.is_dataclass(result) and "instrument" in {
-        f.name for f in dataclasses.fields(result)
-    }:
-        # The result envelope names the instrument under test (``to_dict()["instrument"]``).
-        result = dataclasses.replace(result, instrument=p.instrument)
-    return result
+    where = "(in memory)" if isinstance(data, Mapping) else str(data)
+    return procedure(p.kind).fit(p, d, sigma=sigma, noise_model=noise_model,
+                                 source=f"data {where}")
 
 
 def simulate(
@@ -107,4 +87,4 @@ def simulate(
     """
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     t = truth if isinstance(truth, Mapping) else load_truth(truth)
-    return procedure_module(p.kind).simulate(p, t, noise=noise, rng=rng)
+    return procedure(p.kind).simulate(p, t, noise=noise, rng=rng)

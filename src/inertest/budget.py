@@ -12,21 +12,22 @@ fit (``--sigma``) is a known standard deviation, not one estimated from the resi
 applies the t-distribution to an estimated one): the Type-A part then has ``nu = inf`` too, so
 ``nu_eff = inf`` and ``k = 2`` (GUM G.1.3, table G.1: p = 95.45 %).
 
-Propagation through the procedure's own model (GUM 5.1.3, sensitivity coefficient as a
-change of the output estimate per change of an input estimate, evaluated numerically as GUM
-5.1.3 note 2 allows): the test is simulated, noise-free, from the fitted coefficients on a machine
-carrying one standard uncertainty of one error source (its motion built inside
-:func:`inertest.equipment.type_b.errors_applied`; gravity by scaling the site's ``g``) and fitted
-with the nominal plan; the change of each estimate is that source's contribution ``c_i u_i``. The
-least-squares estimates are linear in the data and the data in a small error, so one evaluation
-per source is exact to first order.
+Propagation through the procedure's own model (GUM 5.1.3, sensitivity coefficient as a change
+of the output estimate per change of an input estimate, evaluated numerically as GUM 5.1.3 note
+2 allows): the test is simulated, noise-free, from the fitted coefficients on a machine carrying
+one standard uncertainty of one error source (the procedure's motion with that Type-B error,
+:meth:`inertest.procedures.base.Procedure.motion`; gravity by scaling the site's ``g``) and
+fitted with the nominal machine; the change of each estimate is that source's contribution
+``c_i u_i``. The least-squares estimates are linear in the data and the data in a small error,
+so one evaluation per source is exact to first order.
 
 Which sources apply to which procedure: each equipment module declares its ``TYPE_B`` sources
-(angle, tilt, rate, radius) and :data:`MACHINES` names the modules each procedure's motion is built
-from; a lab-file key no machine of the procedure accepts is listed as not applicable, never
-silently dropped; a source a machine accepts but no listed item states is named in the
-assumptions as not included. A source declared with components (the two directions of a table
-axis' tilt) gets the lab file's standard uncertainty in each component, as independent sources.
+(angle, tilt, rate, radius) and each procedure names the equipment its motion is built from
+(:attr:`inertest.procedures.base.Procedure.machines`); a lab-file key no machine of the
+procedure accepts is listed as not applicable, never silently dropped; a source a machine
+accepts but no listed item states is named in the assumptions as not included. A source
+declared with components (the two directions of a table axis' tilt) gets the lab file's
+standard uncertainty in each component, as independent sources.
 """
 
 from __future__ import annotations
@@ -36,34 +37,15 @@ import math
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from types import ModuleType
 from typing import Any
 
 from scipy import stats
 
 from inertest.earth import Site, normal_gravity
-from inertest.equipment import (
-    centrifuge,
-    dividing_head,
-    level_fixture,
-    multiposition,
-    polar_axis_table,
-    rate_table,
-)
-from inertest.equipment.type_b import TypeBSource, errors_applied
+from inertest.equipment.type_b import TypeBSource
 from inertest.lab import Equipment
 from inertest.plan import Plan
-from inertest.procedures import procedure_module
-
-#: Equipment modules whose motion each procedure's inputs come from (their ``TYPE_B`` apply).
-MACHINES: dict[str, tuple[ModuleType, ...]] = {
-    "polar-tumble": (polar_axis_table,),
-    "local-level-tumble": (level_fixture,),
-    "accelerometer-multipoint": (dividing_head,),
-    "triad-multiposition": (multiposition,),
-    "gyro-rate-table": (rate_table,),
-    "centrifuge-nine-position": (centrifuge,),
-}
+from inertest.procedures import procedure
 
 #: Coverage probability of the expanded uncertainty (k = 2 for a normal distribution, GUM G.6.6).
 COVERAGE_PROBABILITY = 0.9545
@@ -224,7 +206,7 @@ def accepted_sources(kind: str) -> dict[str, str]:
 def _declared(kind: str) -> dict[str, TypeBSource]:
     """``{source name: declaration}`` of the machines of procedure ``kind`` (first one wins)."""
     out: dict[str, TypeBSource] = {}
-    for module in MACHINES.get(kind, ()):
+    for module in procedure(kind).machines:
         for s in module.TYPE_B:
             out.setdefault(s.name, s)
     return out
@@ -372,15 +354,6 @@ def _sources(
     return sources, not_applicable, assumptions
 
 
-def _nominal_plan(plan: Plan) -> Plan:
-    """The plan with white noise (the budget's fits are of noise-free data)."""
-    spec = plan.procedure
-    if dataclasses.is_dataclass(spec) and "noise_model" in {
-            f.name for f in dataclasses.fields(spec)}:
-        spec = dataclasses.replace(spec, noise_model="white")  # type: ignore[type-var]
-    return dataclasses.replace(plan, procedure=spec)
-
-
 def _truth(result: Any) -> dict[str, float]:
     """The fitted model coefficients as a truth; a combination's value goes to its leading term.
 
@@ -396,38 +369,40 @@ def _truth(result: Any) -> dict[str, float]:
 
 
 def _deltas(plan: Plan, result: Any, sources: Sequence[_Source]) -> dict[str, dict[str, float]]:
-    """Per source, the change of each quantity when the test carries one std of that source."""
-    module = procedure_module(plan.kind)
-    nominal = _nominal_plan(plan)
-    truth = _truth(result)
-    derive = getattr(module, "truth_quantities", None)
-    if derive is not None:   # drop what the procedure derives from the rest (K_pos from K)
-        for k in list(truth):
-            rest = {n: v for n, v in truth.items() if n != k}
-            try:
-                if k in derive(rest):
-                    truth = rest
-            except Exception:   # noqa: BLE001 - a coefficient the derivation needs
-                pass
+    """Per source, the change of each quantity when the test carries one std of that source.
 
-    def run(p: Plan, errors: Mapping[str, float]) -> dict[str, float]:
+    The test is simulated, noise-free, on the machine with that source's error (the
+    procedure's motion with the Type-B error, or the site's gravity changed) and fitted with
+    the nominal machine under white noise of a known level (the fits are of noise-free data).
+    """
+    proc = procedure(plan.kind)
+    white = "white" if "white" in proc.noise_models else None
+    truth = _truth(result)
+    for k in list(truth):  # drop what the procedure derives from the rest (K_pos from K)
+        rest = {n: v for n, v in truth.items() if n != k}
+        try:
+            if k in proc.truth_quantities(rest):
+                truth = rest
+        except Exception:   # noqa: BLE001 - a coefficient the derivation needs
+            pass
+
+    def run(p: Plan, type_b: Mapping[str, float]) -> dict[str, float]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            with errors_applied(errors):
-                data = module.simulate(p, truth, noise=0.0, rng=0)
-            fitted = module.fit(nominal, data, sigma=1.0)
+            data = proc.simulate(p, truth, noise=0.0, rng=0, motion=proc.motion(p, type_b=type_b))
+            fitted = proc.fit(plan, data, sigma=1.0, noise_model=white)
         return {k: v[0] for k, v in quantities_of(fitted).items()}
 
-    base = run(nominal, {})
+    base = run(plan, {})
     out: dict[str, dict[str, float]] = {}
     for s in sources:
         if s.name == "gravity":
-            g = nominal.site.gravity_m_s2
+            g = plan.site.gravity_m_s2
             g1 = g * (1.0 + s.si) if s.relative else g + s.si
-            site = Site(latitude_rad=nominal.site.latitude_rad, gravity_m_s2=g1)
-            q = run(dataclasses.replace(nominal, site=site), {})
+            site = Site(latitude_rad=plan.site.latitude_rad, gravity_m_s2=g1)
+            q = run(dataclasses.replace(plan, site=site), {})
         else:
-            q = run(nominal, {s.name: s.si})
+            q = run(plan, {s.name: s.si})
         out[s.label] = {k: float(q[k] - base[k]) for k in base if k in q}
     return out
 
@@ -439,5 +414,5 @@ def expanded_of(budget: UncertaintyBudget | None, name: str) -> float | None:
     return budget.quantities[name].expanded
 
 
-__all__ = ["MACHINES", "Contribution", "QuantityBudget", "UncertaintyBudget", "accepted_sources",
+__all__ = ["Contribution", "QuantityBudget", "UncertaintyBudget", "accepted_sources",
            "combine", "expanded_of", "quantities_of", "uncertainty_budget"]

@@ -32,7 +32,7 @@ from inertest.io.data_file import write_table
 from inertest.io.plan_file import read_toml
 from inertest.lab import identity_block, read_equipment, select_equipment
 from inertest.models.sdf_gyro import COEFFICIENTS
-from inertest.procedures import procedure_module
+from inertest.procedures import procedure
 from inertest.report.conformance import conformance_sections
 from inertest.report.html import Section, page, paragraph, software_version
 from inertest.report.identity import identity_section
@@ -173,8 +173,7 @@ def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
         noise, seed = float(t.get("noise", 0.0)), int(t.get("seed", 0))
         data = simulate(plan, truth, noise=noise, rng=seed)
         result = fit(plan, data)
-        derived = getattr(procedure_module(plan.kind), "truth_quantities", None)
-        truth = derived(truth) if derived is not None else truth
+        truth = procedure(plan.kind).truth_quantities(truth)
         block = identity_block(
             plan.test, lab=lab, tested_at=datetime.now(UTC), software_version=version,
             data_sha256=columns_sha256(data), plan_source=f"plan {plan_path}",

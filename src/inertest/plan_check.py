@@ -87,7 +87,7 @@ from inertest.conformance import Spec, model_names, not_determined_note
 from inertest.errors import InertestError, PlanError, UnitError
 from inertest.lab import Equipment
 from inertest.plan import Plan, did_you_mean
-from inertest.procedures import procedure_module
+from inertest.procedures import procedure
 from inertest.units import convert
 
 #: Default test uncertainty ratio: U <= tolerance / 3.
@@ -424,11 +424,11 @@ def _noise_model_plan(plan: Plan, model: str) -> Plan:
 
 def _simulate(plan: Plan, truth: Mapping[str, float]) -> tuple[dict[str, Any], list[str]]:
     """Noise-free data and the output columns (those the noise reaches)."""
-    module = procedure_module(plan.kind)
+    proc = procedure(plan.kind)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            clean = module.simulate(plan, dict(truth), noise=0.0, rng=0)
+            clean = proc.simulate(plan, dict(truth), noise=0.0, rng=0)
         except PlanError as exc:
             if truth:
                 raise
@@ -437,7 +437,7 @@ def _simulate(plan: Plan, truth: Mapping[str, float]) -> tuple[dict[str, Any], l
                 f"coefficients do not make one ({exc}); give the nominal coefficients with "
                 "--truth FILE (a [coefficients] table like examples/*/truth.toml; the scale "
                 "factors suffice)") from None
-        noisy = module.simulate(plan, dict(truth), noise=1.0, rng=0)
+        noisy = proc.simulate(plan, dict(truth), noise=1.0, rng=0)
     outputs = [k for k in clean if np.asarray(clean[k]).dtype.kind == "f"
                and not np.array_equal(np.asarray(clean[k]), np.asarray(noisy[k]))]
     return clean, outputs
@@ -456,10 +456,9 @@ def _positions(data: Mapping[str, Any], outputs: Sequence[str]) -> np.ndarray:
 
 
 def _fit(plan: Plan, data: Mapping[str, Any], sigma: float | None) -> Any:
-    module = procedure_module(plan.kind)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return module.fit(plan, data, sigma=sigma)
+        return procedure(plan.kind).fit(plan, data, sigma=sigma)
 
 
 def _noise(noise: NoiseModel, pos: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import scipy.integrate
 
+import inertest
 from inertest.earth import Site
 from inertest.errors import InertestWarning, InputError, PlanError
 from inertest.estimation import identify as idf
@@ -15,6 +16,9 @@ from inertest.procedures import accelerometer_multipoint as amp
 from inertest.procedures import gyro_rate_table as grt
 from inertest.procedures import local_level_tumble as ll
 from inertest.procedures import polar_tumble as pt
+from inertest.procedures.accelerometer_multipoint import AccelerometerMultipointSpec as AMSpec
+from inertest.procedures.gyro_rate_table import GyroRateTableSpec as GRTSpec
+from inertest.procedures.local_level_tumble import LocalLevelTumbleSpec as LLSpec
 from noise_generators import noise as noise_for
 
 
@@ -183,19 +187,19 @@ def test_bad_noise_model():
 SITE = Site.at(34.246)
 SETUPS = {
     "polar-tumble": (pt, lambda nm: Plan(SITE, Instrument(output_unit="deg/h"),
-                     pt.SPEC.from_mapping({"positions": 8, "samples_per_position": 6,
+                     pt.PolarTumbleSpec.from_mapping({"positions": 8, "samples_per_position": 6,
                                            "noise_model": nm})),
                      dict(DF=1.2, DI=0.85, DO=-0.62, DS=0.31, DIO=0.12), 6, 0.01),
     "local-level-tumble": (ll, lambda nm: Plan(SITE, Instrument(output_unit="deg/h"),
-                           ll.SPEC.from_mapping({"samples_per_position": 6, "noise_model": nm})),
+                           LLSpec.from_mapping({"samples_per_position": 6, "noise_model": nm})),
                            dict(DF=1.2, DI=0.85, DO=-0.62, DS=0.31), 6, 0.01),
     "accelerometer-multipoint": (amp, lambda nm: Plan(
         SITE, Instrument(kind="accelerometer", output_unit="mA"),
-        amp.SPEC.from_mapping({"positions": 12, "samples_per_position": 6, "noise_model": nm})),
+        AMSpec.from_mapping({"positions": 12, "samples_per_position": 6, "noise_model": nm})),
         dict(K1=1.3, K0=50.0, K2=20.0, dO=30.0), 6, 1e-5),
     "gyro-rate-table": (grt, lambda nm: Plan(
         SITE, Instrument(kind="rate-gyro", output_unit="count"),
-        grt.SPEC.from_mapping({"rates_deg_s": [-300.0, -100, -30, -10, -3, -1, 1, 3, 10, 30,
+        GRTSpec.from_mapping({"rates_deg_s": [-300.0, -100, -30, -10, -3, -1, 1, 3, 10, 30,
                                                100, 300], "samples_per_rate": 6,
                                "noise_model": nm})),
         dict(K=7200.0, B=0.4, asymmetry=50.0), 6, 0.5),
@@ -206,7 +210,7 @@ def mc_ratio(procedure, noise_kind, noise_model, reps=200, seed=11):
     """RMS reported std / scatter of the estimates, per identifiable quantity."""
     mod, make, truth, spp, s = SETUPS[procedure]
     plan = make(noise_model)
-    clean = mod.simulate(plan, truth)
+    clean = inertest.simulate(plan, truth)
     n = clean["output"].size
     noise = noise_for(noise_kind, np.random.default_rng(seed), reps, np.arange(n) // spp, s)
     vals, stds = [], []
@@ -214,7 +218,7 @@ def mc_ratio(procedure, noise_kind, noise_model, reps=200, seed=11):
         data = dict(clean, output=clean["output"] + noise[k])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", InertestWarning)  # rare false alarms at alpha
-            res = mod.fit(plan, data)
+            res = inertest.fit(plan, data)
         est = [*res.coefficients.values(), *res.combinations]
         vals.append([e.value for e in est])
         stds.append([e.std for e in est])
@@ -263,12 +267,12 @@ def test_auto_reports_the_candidates_and_their_weights():
     names the chosen model, gives every candidate's Akaike weight and serialises them."""
     mod, make, truth, spp, s = SETUPS["local-level-tumble"]
     plan = make("auto")
-    clean = mod.simulate(plan, truth)
+    clean = inertest.simulate(plan, truth)
     n = clean["output"].size
     noise = noise_for("flicker", np.random.default_rng(2), 1, np.arange(n) // spp, s)[0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InertestWarning)
-        ident = mod.fit(plan, dict(clean, output=clean["output"] + noise)).identification
+        ident = inertest.fit(plan, dict(clean, output=clean["output"] + noise)).identification
     w = ident.noise_model_weights
     assert set(w) == {"white", "position-offsets", "random-walk", "flicker"}
     assert sum(w.values()) == pytest.approx(1.0)

@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import Site
 from inertest.errors import (
     DataError,
@@ -30,7 +31,7 @@ def make_plan(mountings=("IA-PA", "IA-OA"), positions=24, spp=1, gravity=None,
 
 def test_exact_recovery_all_three_mountings():
     plan = make_plan(("IA-PA", "IA-OA", "PA-OA"))
-    r = amp.fit(plan, amp.simulate(plan, TRUTH), sigma=1e-7)
+    r = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-7)
     assert set(r.coefficients) == {"K1", "K3", "KIP", "KIO", "KPO", "dO", "dP"}
     for k, e in r.coefficients.items():
         assert e.value == pytest.approx(TRUTH[k], rel=1e-9, abs=1e-8), k
@@ -48,7 +49,7 @@ def test_exact_recovery_all_three_mountings():
     ("IA-PA", {"KIO", "KOO", "KPO", "dP"}), ("IA-OA", {"KIP", "KPP", "KPO", "dO"})])
 def test_what_one_mounting_cannot_separate(mounting, missing, positions):
     plan = make_plan((mounting,), positions=positions)
-    r = amp.fit(plan, amp.simulate(plan, TRUTH), sigma=1e-7)
+    r = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-7)
     assert not missing & set(r.coefficients)
     text = " ".join(r.identification.not_separable)
     for n in missing:
@@ -67,7 +68,7 @@ def test_fourier_terms_match_the_ieee_harmonic_expansion():
     # cos sin = sin 2t / 2
     plan = make_plan(("IA-PA",), positions=16)
     g = plan.site.gravity_g
-    r = amp.fit(plan, amp.simulate(plan, TRUTH), sigma=1e-7)
+    r = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-7)
     h = r.fourier["IA-PA"]["harmonics"]
     u, k1 = 1e-6, TRUTH["K1"]
     expected = {
@@ -82,11 +83,11 @@ def test_fourier_terms_match_the_ieee_harmonic_expansion():
 
 def test_least_squares_equals_fourier_closed_form_on_noisy_equally_spaced_data():
     plan = make_plan(("IA-PA", "IA-OA"), positions=24, spp=3)
-    data = amp.simulate(plan, TRUTH, noise=2e-6, rng=5)
+    data = inertest.simulate(plan, TRUTH, noise=2e-6, rng=5)
     for m in ("IA-PA", "IA-OA"):
         sel = data["mounting"] == m
         one = make_plan((m,), positions=24, spp=3)
-        r = amp.fit(one, {k: v[sel] for k, v in data.items()})
+        r = inertest.fit(one, {k: v[sel] for k, v in data.items()})
         cf = r.fourier[m]["coefficients"]
         for k in cf:
             assert r.coefficients[k].value == pytest.approx(cf[k]["value"], rel=1e-9, abs=1e-9)
@@ -99,7 +100,7 @@ def test_least_squares_equals_fourier_closed_form_on_noisy_equally_spaced_data()
 def test_k1_needs_ia_in_the_vertical_plane():
     plan = make_plan(("PA-OA",))
     with pytest.raises(IdentifiabilityError, match="K1 cannot be found.*add an IA-PA or IA-OA"):
-        amp.fit(plan, amp.simulate(plan, TRUTH), sigma=1e-7)
+        inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-7)
 
 
 def test_too_few_positions_alias_k3_into_k1():
@@ -108,7 +109,7 @@ def test_too_few_positions_alias_k3_into_k1():
     out = amp.model.output(amp.head.specific_force("IA-PA", angle, plan.site.gravity_g), TRUTH)
     data = {"mounting": np.array(["IA-PA"] * 5), "angle_deg": angle, "output": out}
     with pytest.raises(IdentifiabilityError, match="K1 cannot be separated from K3.*at least 8"):
-        amp.fit(plan, data, sigma=1e-7)
+        inertest.fit(plan, data, sigma=1e-7)
 
 
 def test_plan_and_data_errors():
@@ -117,15 +118,15 @@ def test_plan_and_data_errors():
     with pytest.raises(PlanError, match="unknown dividing-head mounting"):
         make_plan(("IA-XA",))
     with pytest.raises(PlanError, match='kind = "accelerometer"'):
-        amp.simulate(make_plan(kind="rate-gyro"), TRUTH)
+        inertest.simulate(make_plan(kind="rate-gyro"), TRUTH)
     plan = make_plan()
-    data = amp.simulate(plan, TRUTH)
+    data = inertest.simulate(plan, TRUTH)
     data["mounting"] = data["mounting"].astype("<U8")
     data["mounting"][2] = "IA-XX"
     with pytest.raises(InputError, match="column mounting"):
-        amp.fit(plan, data)
+        inertest.fit(plan, data)
     with pytest.raises(PlanError, match="truth.*K1"):
-        amp.simulate(plan, {"K0": 1.0})
+        inertest.simulate(plan, {"K0": 1.0})
 
 
 @pytest.mark.parametrize(("params", "message"), [
@@ -151,19 +152,19 @@ def test_plan_defaults_and_canonical_mountings():
 
 def test_inverted_output_sign_is_reported():
     plan = make_plan()
-    data = amp.simulate(plan, TRUTH, noise=1e-6, rng=1)
+    data = inertest.simulate(plan, TRUTH, noise=1e-6, rng=1)
     data["output"] = -data["output"]
     with pytest.raises(DataError, match="IA is mounted reversed or the output sign is inverted"):
-        amp.fit(plan, data)
+        inertest.fit(plan, data)
 
 
 def test_unequal_spacing_warns_and_skips_fourier():
     plan = make_plan(("IA-PA",))
-    data = amp.simulate(plan, TRUTH, noise=1e-6, rng=1)
+    data = inertest.simulate(plan, TRUTH, noise=1e-6, rng=1)
     keep = data["angle_deg"] != 15.0
     data = {k: v[keep] for k, v in data.items()}
     with pytest.warns(UserWarning, match="not 8\\+ positions equally spaced"):
-        r = amp.fit(plan, data)
+        r = inertest.fit(plan, data)
     assert r.fourier == {}
     assert r.coefficients["K1"].value == pytest.approx(TRUTH["K1"], rel=1e-5)
 
@@ -177,7 +178,7 @@ def test_monte_carlo_reported_std_matches_scatter():
     for _ in range(400):
         with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
             warnings.simplefilter("ignore", InertestWarning)
-            r = amp.fit(plan, amp.simulate(plan, TRUTH, noise=3e-6, rng=rng))
+            r = inertest.fit(plan, inertest.simulate(plan, TRUTH, noise=3e-6, rng=rng))
         est.append([r.coefficients[n].value for n in names])
         std.append([r.coefficients[n].std for n in names])
         combo.append(r.combinations[0].value)
@@ -191,7 +192,7 @@ def test_monte_carlo_reported_std_matches_scatter():
 
 def test_result_json_layout():
     plan = make_plan()
-    r = amp.fit(plan, amp.simulate(plan, TRUTH, noise=1e-6, rng=2))
+    r = inertest.fit(plan, inertest.simulate(plan, TRUTH, noise=1e-6, rng=2))
     d = r.to_dict()
     assert d["kind"] == "accelerometer-multipoint"
     assert set(d["result"]["fourier"]) == {"IA-PA", "IA-OA"}

@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 import pytest
 
+import inertest
 from inertest.cli import main
 from inertest.earth import OMEGA_IE, Site
 from inertest.equipment import centrifuge as machine
@@ -13,6 +14,7 @@ from inertest.errors import DataError, InertestWarning, PlanError
 from inertest.io.data_file import read_table, write_table
 from inertest.plan import Instrument, Plan
 from inertest.procedures import centrifuge_nine_position as cnp
+from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionSpec as Spec9
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
 from noise_generators import noise as noise_for
 
@@ -81,9 +83,13 @@ def _earth_regressor_means(position, omega, lat_deg=LAT):
     return np.array([1.0, *mean_f, m2[0, 1], m2[1, 2], m2[2, 0], m2[0, 0], m2[1, 1], m2[2, 2]])
 
 
+#: The plan's centrifuge (radius, heading, site).
+MACHINE = cnp.CentrifugeNinePosition().motion
+
+
 def make_plan(**params):
     p = {"radius_m": R, **params}
-    return Plan(Site.at(LAT, G), Instrument(output_unit="rad/s"), cnp.SPEC.from_mapping(p))
+    return Plan(Site.at(LAT, G), Instrument(output_unit="rad/s"), Spec9.from_mapping(p))
 
 
 def test_position_table_matches_the_issue():
@@ -153,7 +159,7 @@ def test_partial_revolution_no_bias_while_naive_mean_is_biased():
 
 def test_exact_recovery_of_all_ten_coefficients():
     plan = make_plan()
-    res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-8)
     assert set(res.coefficients) == set(NAMES) and not res.combinations
     assert res.identification.not_separable == ()
     for n, e in res.coefficients.items():
@@ -198,7 +204,7 @@ def test_seed004_exact_inputs_include_earth_rotation_closed_form(omega):
     fs = 40 * abs(omega) / (2 * np.pi)  # 40 samples per revolution: sampled means are exact
     t = np.arange(0, 6 * 40 + 3) / fs
     for p in (1, 2, 6, 8):
-        f, w = cnp.machine_inputs(plan, np.full(t.size, p), np.full(t.size, omega), t)
+        f, w = cnp.machine_inputs(MACHINE(plan), np.full(t.size, p), np.full(t.size, omega), t)
         f_ref = _earth_force_platform(omega, omega * t) @ _axes(p).T
         np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-12 * R * omega**2)
         runs = cnp.run_means(np.full(t.size, p), np.full(t.size, omega), t, np.zeros(t.size),
@@ -236,7 +242,7 @@ def test_seed004_earth_rotation_leaves_no_bias(revolutions, sense):
     omegas = [sense * 4.43, sense * 8.85]
     plan = make_plan(omegas_rad_s=omegas, revolutions=revolutions)
     data = _hand_simulated(omegas, revolutions, TRUTH)
-    res = cnp.fit(plan, data, sigma=sigma)
+    res = inertest.fit(plan, data, sigma=sigma)
     z = {n: (res.coefficients[n].value - TRUTH[n]) / res.coefficients[n].std for n in NAMES}
     assert max(abs(v) for v in z.values()) < 0.1, z
     # Without the Earth terms in the regressors (the ideal closed form) the same data are
@@ -263,7 +269,8 @@ def test_seed004_monte_carlo_clockwise_arm_unbiased_with_honest_std():
     omegas = [-4.43, -8.85]
     plan = make_plan(omegas_rad_s=omegas, revolutions=100)
     clean = _hand_simulated(omegas, 100, TRUTH)
-    f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
+    f, w = cnp.machine_inputs(MACHINE(plan), clean["position"], clean["omega"],
+                                clean["t"])
     rng = np.random.default_rng(4)
     truth = np.array([TRUTH[n] for n in NAMES]) * K
     z = np.empty((n_mc, len(NAMES)))
@@ -281,7 +288,7 @@ def test_seed004_monte_carlo_clockwise_arm_unbiased_with_honest_std():
 def test_one_rate_loses_df_and_the_squares_like_a_tumble():
     plan = make_plan(omegas_rad_s=[8.85], revolutions=20)
     with pytest.warns(InertestWarning, match="only one main-axis rate"):
-        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+        res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-8)
     assert set(res.coefficients) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
     # Closed form: every run has the same mean fI^2 + fO^2 + fS^2, the trace of mean f f^T,
     # ~ ((R w^2)^2 + g^2) / g0^2 plus the Earth-rate terms (2 W sin(L) / w ~ 1e-5 relative).
@@ -306,7 +313,7 @@ def test_missing_positions_say_what_is_lost(positions, zero, mixed, lead):
     # only, no cross product survives and each axis is up in one position only: DF + g DI etc.
     plan = make_plan(positions=positions, revolutions=5)
     with pytest.warns(InertestWarning, match="not individually identifiable"):
-        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+        res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-8)
     text = res.identification.not_separable
     assert text[0].startswith(f"{zero}: their averaged regressors are zero")
     missing = ", ".join(str(p) for p in range(1, 10) if p not in positions)
@@ -324,7 +331,7 @@ def test_missing_positions_say_what_is_lost(positions, zero, mixed, lead):
 def test_six_positions_still_determine_everything():
     plan = make_plan(positions=[2, 3, 5, 6, 8, 9], revolutions=5)
     with pytest.warns(InertestWarning, match="still identifiable"):
-        res = cnp.fit(plan, cnp.simulate(plan, TRUTH), sigma=1e-8)
+        res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-8)
     assert set(res.coefficients) == set(NAMES)
 
 
@@ -342,8 +349,8 @@ def _analytic_cov_reference(n_samples_by_rate, sigma):
 def test_seed_study_analytic_uncertainties():
     sigma = 1e-7 / 3  # rad/s per sample (3 sigma = 1e-7, seed 004)
     plan = make_plan()
-    data = cnp.simulate(plan, TRUTH)
-    res = cnp.fit(plan, data, sigma=sigma)
+    data = inertest.simulate(plan, TRUTH)
+    res = inertest.fit(plan, data, sigma=sigma)
     n = {w: int(res.run_samples[res.run_omega == w][0]) for w in (4.43, 8.85)}
     # Samples with t < 100 * 2 pi / w at 50 Hz: ceil(100 * 2 pi * 50 / w).
     assert n == {4.43: 7092, 8.85: 3550}
@@ -364,7 +371,7 @@ def test_seed_study_analytic_uncertainties():
 @pytest.mark.slow
 def test_monte_carlo_reported_std_matches_scatter():
     plan = make_plan(revolutions=10)
-    clean = cnp.simulate(plan, TRUTH)
+    clean = inertest.simulate(plan, TRUTH)
     rng = np.random.default_rng(21)
     sigma = 1e-7 / 3
     runs = 300
@@ -392,7 +399,7 @@ _CACHE = {}
 def _inputs(plan, d):
     key = id(plan)
     if key not in _CACHE:
-        f, w = cnp.machine_inputs(plan, d["position"], d["omega"], d["t"])
+        f, w = cnp.machine_inputs(MACHINE(plan), d["position"], d["omega"], d["t"])
         _CACHE[key] = (f, w)
     f, w = _CACHE[key]
     return d["position"], d["omega"], d["t"], d["output"], f, w
@@ -410,7 +417,7 @@ def _inputs(plan, d):
 def _small_test(**params):
     plan = make_plan(omegas_rad_s=[4.43, 8.85, -4.43, -8.85], revolutions=3,
                      sample_rate_hz=10.0, **params)
-    clean = cnp.simulate(plan, TRUTH)
+    clean = inertest.simulate(plan, TRUTH)
     key = clean["position"] * 100 + clean["omega"]
     run_of_row = np.r_[0, np.cumsum(key[1:] != key[:-1])]  # simulate runs one after the other
     return plan, clean, run_of_row
@@ -419,7 +426,8 @@ def _small_test(**params):
 def mc_ratio(kind, noise_model, reps=120, seed=11, s=1e-7):
     """RMS reported std / scatter of the estimates over ``reps`` tests, per coefficient."""
     plan, clean, run_of_row = _small_test()
-    f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
+    f, w = cnp.machine_inputs(MACHINE(plan), clean["position"], clean["omega"],
+                                clean["t"])
     noise = noise_for(kind, np.random.default_rng(seed), reps, run_of_row, s)
     vals, stds, used = [], [], set()
     for k in range(reps):
@@ -465,7 +473,8 @@ def test_within_run_residuals_are_the_noise_only():
     # Noise-free data: the run model (constant + first and second arm harmonics) holds the
     # whole signal, Earth-rate terms included, so nothing is left within the runs.
     plan, clean, _ = _small_test()
-    f, w = cnp.machine_inputs(plan, clean["position"], clean["omega"], clean["t"])
+    f, w = cnp.machine_inputs(MACHINE(plan), clean["position"], clean["omega"],
+                                clean["t"])
     runs = cnp.run_means(clean["position"], clean["omega"], clean["t"], clean["output"], f, w)
     assert np.max(np.abs(runs.within_residuals_rad_s)) < 1e-12 * np.max(np.abs(runs.drift_rad_s))
     assert runs.within_residuals_rad_s.size == runs.n_samples.sum()
@@ -490,10 +499,10 @@ def test_run_offsets_are_found_and_named_in_the_result():
     components, and the runs are the units of the checks."""
     s, b = 1e-7, 3e-7
     plan, data = _with_run_offsets(b, s=s)
-    auto = cnp.fit(plan, data)
+    auto = inertest.fit(plan, data)
     # With the white noise given, the chi-square test against it sees the offsets.
     with pytest.warns(InertestWarning, match='"white" noise does not fit'):
-        white = cnp.fit(plan, data, noise_model="white", sigma=s)
+        white = inertest.fit(plan, data, noise_model="white", sigma=s)
     ident = auto.identification
     assert ident.noise_model == "position-offsets" and white.identification.noise_model == "white"
     assert ident.noise_components["white"] == pytest.approx(s / K, rel=0.1)
@@ -506,43 +515,43 @@ def test_run_offsets_are_found_and_named_in_the_result():
     checks = [c for c in d["checks"] if c["name"] == "noise model fit"]
     assert checks[0]["n_units"] == 36
     # The classical white fit estimates the noise from the run means: it counts the offsets.
-    free = cnp.fit(plan, data, noise_model="white")
+    free = inertest.fit(plan, data, noise_model="white")
     assert free.coefficients["DF"].std == pytest.approx(auto.coefficients["DF"].std, rel=0.5)
 
 
 def test_run_offsets_much_larger_than_a_run_means_white_noise():
     b = 1e-6
     plan, data = _with_run_offsets(b)
-    res = cnp.fit(plan, data, noise_model="position-offsets")
+    res = inertest.fit(plan, data, noise_model="position-offsets")
     assert res.identification.noise_components["position offset"] == pytest.approx(
         b / K, rel=0.4)
 
 
 def test_noise_model_plan_key():
-    assert cnp.SPEC.from_mapping({"radius_m": 2}).noise_model == "auto"
-    spec = cnp.SPEC.from_mapping({"radius_m": 2, "noise_model": "random-walk"})
+    assert Spec9.from_mapping({"radius_m": 2}).noise_model == "auto"
+    spec = Spec9.from_mapping({"radius_m": 2, "noise_model": "random-walk"})
     assert spec.noise_model == "random-walk"
     with pytest.raises(PlanError, match="noise_model"):
-        cnp.SPEC.from_mapping({"radius_m": 2, "noise_model": "pink"})
+        Spec9.from_mapping({"radius_m": 2, "noise_model": "pink"})
     plan, clean, _ = _small_test(noise_model="flicker")
     rng = np.random.default_rng(8)
     data = dict(clean, output=clean["output"] + rng.normal(0, 1e-7, clean["output"].size))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", InertestWarning)
-        res = cnp.fit(plan, data)
+        res = inertest.fit(plan, data)
     assert res.identification.noise_model == "flicker"
     assert set(res.identification.noise_components) == {"white", "flicker"}
 
 
 def test_plan_keys_validated():
     with pytest.raises(PlanError, match="needs radius_m"):
-        cnp.SPEC.from_mapping({})
+        Spec9.from_mapping({})
     with pytest.raises(PlanError, match='unknown key.*radius .did you mean "radius_m"'):
-        cnp.SPEC.from_mapping({"radius_m": 2.5, "radius": 2.5})
+        Spec9.from_mapping({"radius_m": 2.5, "radius": 2.5})
     with pytest.raises(PlanError, match="positions must be"):
-        cnp.SPEC.from_mapping({"radius_m": 2.5, "positions": [0, 1]})
+        Spec9.from_mapping({"radius_m": 2.5, "positions": [0, 1]})
     with pytest.raises(PlanError, match=r"radius_m must be positive \[m\]"):
-        cnp.SPEC.from_mapping({"radius_m": -1.0})
+        Spec9.from_mapping({"radius_m": -1.0})
 
 
 @pytest.mark.parametrize(("params", "message"), [
@@ -560,29 +569,31 @@ def test_plan_keys_validated():
 ])
 def test_plan_parameters_are_read_strictly(params, message):
     with pytest.raises(PlanError, match=message):
-        cnp.SPEC.from_mapping({"kind": cnp.KIND, "radius_m": 2.5, **params})
+        Spec9.from_mapping({"kind": cnp.KIND, "radius_m": 2.5, **params})
 
 
 def test_plan_defaults():
-    spec = cnp.SPEC.from_mapping({"kind": cnp.KIND, "radius_m": 2})
+    spec = Spec9.from_mapping({"kind": cnp.KIND, "radius_m": 2})
     assert spec.radius_m == 2.0 and spec.omegas_rad_s == (4.43, 8.85)
     assert spec.positions == tuple(range(1, 10)) and spec.revolutions == 100
-    assert cnp.SPEC.from_mapping({"radius_m": 2, "positions": [3.0, 1]}).positions == (3, 1)
+    assert Spec9.from_mapping({"radius_m": 2, "positions": [3.0, 1]}).positions == (3, 1)
 
 
 def test_python_errors_for_bad_data():
     plan = make_plan(positions=[1], omegas_rad_s=[4.43], revolutions=2)
-    d = cnp.simulate(plan, TRUTH)
+    d = inertest.simulate(plan, TRUTH)
     with pytest.raises(DataError, match="less than one whole revolution"):
-        cnp.fit(plan, {k: v[:30] for k, v in d.items()}, sigma=1e-8)
+        inertest.fit(plan, {k: v[:30] for k, v in d.items()}, sigma=1e-8)
     with pytest.raises(DataError, match="omega must be nonzero"):
-        cnp.fit(plan, dict(d, omega=0 * d["omega"]), sigma=1e-8)
+        inertest.fit(plan, dict(d, omega=0 * d["omega"]), sigma=1e-8)
     t = np.arange(9) * (2 * np.pi / 4.43) / 4  # 4 samples per revolution: sin 2a = 0 at all
+    slow = make_plan(positions=[1], omegas_rad_s=[4.43], revolutions=2,
+                     sample_rate_hz=4 * 4.43 / (2 * np.pi))  # the data's own clock
     with pytest.raises(DataError, match="omega 4.43 rad/s: .* at least 5 times per cycle"):
-        cnp.fit(plan, {"position": np.ones(9), "omega": np.full(9, 4.43), "t": t,
-                       "output": np.zeros(9)}, sigma=1e-8)
+        inertest.fit(slow, {"position": np.ones(9), "omega": np.full(9, 4.43), "t": t,
+                            "output": np.zeros(9)}, sigma=1e-8)
     with pytest.raises(DataError, match="no degree of freedom"):
-        cnp.fit(plan, d)
+        inertest.fit(plan, d)
 
 
 # --- CLI ------------------------------------------------------------------------------------

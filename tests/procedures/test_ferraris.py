@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.special import j1
 
+import inertest
 from inertest.api import load_data, load_plan
 from inertest.earth import Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
@@ -28,7 +29,7 @@ MG = 1e-3 * G0
 def make_plan(**params):
     p = {"sample_rate_hz": 200.0, **params}
     return Plan(Site.at(49.6, 9.81), Instrument(kind="imu", output_unit="count"),
-                ferraris.SPEC.from_mapping(p))
+                ferraris.FerrarisSpec.from_mapping(p))
 
 
 def truth(**over):
@@ -46,7 +47,7 @@ def test_exact_recovery_without_noise(with_g):
     extra = {"Gg_xx": 40.0, "Gg_yz": -25.0, "Gg_zx": 60.0, "Gg_yy": 10.0} if with_g else {}
     t = quiet_truth(**extra)
     plan = make_plan(g_sensitivity=with_g, rotation_deg=-360.0, earth_rate=False)
-    r = ferraris.fit(plan, ferraris.simulate(plan, t))
+    r = inertest.fit(plan, inertest.simulate(plan, t))
     for name, e in r.coefficients.items():
         assert e.value == pytest.approx(t.get(name, 0.0), rel=1e-9, abs=1e-7), name
     np.testing.assert_allclose(r.face_gravity_error_m_s2, 0.0, atol=1e-10)
@@ -59,9 +60,9 @@ def test_vertical_earth_rate_over_the_turns_is_removed():
     vertical part leaves the horizontal rate over the rests, < W cos L x 2 s / theta = 15 ppm."""
     t = quiet_truth()
     world = make_plan()
-    data = ferraris.simulate(world, t)
-    with_earth = ferraris.fit(world, data)
-    without = ferraris.fit(make_plan(earth_rate=False), data)
+    data = inertest.simulate(world, t)
+    with_earth = inertest.fit(world, data)
+    without = inertest.fit(make_plan(earth_rate=False), data)
     lat = np.radians(49.6)
     w_ie = 7.2921151467e-5
     expected = w_ie * np.sin(lat) * 6.0 / (2 * np.pi)
@@ -78,8 +79,8 @@ def test_calibration_inverts_the_simulated_sensor():
     calibrated = (K (I + M))^-1 (raw - b)), sample by sample."""
     plan = make_plan(g_sensitivity=True, earth_rate=False)
     t = quiet_truth(Gg_xy=30.0)
-    data = ferraris.simulate(plan, t)
-    cal = ferraris.fit(plan, data).calibration
+    data = inertest.simulate(plan, t)
+    cal = inertest.fit(plan, data).calibration
     acc = np.column_stack([data[c] for c in ferraris.ACC_COLUMNS])
     gyr = np.column_stack([data[c] for c in ferraris.GYR_COLUMNS])
     a = cal.accelerometer.apply(acc)
@@ -100,7 +101,7 @@ def test_vertical_face_bias_beats_the_plain_mean_under_face_tilts():
     count_per_mg = np.array([t["Ka_x"], t["Ka_y"], t["Ka_z"]]) * MG  # Ka in count/(m/s^2)
     err_vertical, err_plain = [], []
     for seed in range(20):
-        r = ferraris.fit(plan, ferraris.simulate(plan, t, rng=seed))
+        r = inertest.fit(plan, inertest.simulate(plan, t, rng=seed))
         err_vertical.append((r.calibration.accelerometer.offset - b_true) / count_per_mg)
         err_plain.append((r.stats.acc_mean.mean(axis=0) - b_true) / count_per_mg)
     ev = np.abs(err_vertical).max()
@@ -112,8 +113,8 @@ def test_vertical_face_bias_beats_the_plain_mean_under_face_tilts():
 
 def test_tilt_scatter_is_estimated_and_widens_the_misalignment_std():
     plan = make_plan()
-    level = ferraris.fit(plan, ferraris.simulate(plan, truth(face_tilt_deg=0.0), rng=3))
-    tilted = ferraris.fit(plan, ferraris.simulate(plan, truth(face_tilt_deg=0.5), rng=3))
+    level = inertest.fit(plan, inertest.simulate(plan, truth(face_tilt_deg=0.0), rng=3))
+    tilted = inertest.fit(plan, inertest.simulate(plan, truth(face_tilt_deg=0.5), rng=3))
     assert tilted.tilt_scatter_deg == pytest.approx(0.5, rel=0.8)
     assert level.tilt_scatter_deg < 0.05
     # misalignment std >= tau / sqrt(2) [urad]
@@ -127,8 +128,8 @@ def _tilted_faces(plan, t, rng, tilt_rad):
     simulation: each face's level specific force turned by two elementary rotations of
     N(0, tilt_rad) about its horizontal axes (exact, not small-angle)."""
     A_a, b_a, _, _, _ = ferraris._model_from_truth(t, plan.procedure)
-    level = ferraris.simulate(plan, {**t, "acc_noise": 0.0, "gyr_noise": 0.0})
-    data = ferraris.simulate(plan, t, rng=rng)
+    level = inertest.simulate(plan, {**t, "acc_noise": 0.0, "gyr_noise": 0.0})
+    data = inertest.simulate(plan, t, rng=rng)
     acc0 = np.column_stack([level[c] for c in ferraris.ACC_COLUMNS])
     f0 = np.linalg.solve(A_a, (acc0 - b_a).T).T
     for label in ("x_p", "x_a", "y_p", "y_a", "z_p", "z_a"):
@@ -159,7 +160,7 @@ def test_scale_factors_are_corrected_for_the_second_order_of_face_tilts():
     names = ("Ka_x", "Ka_y", "Ka_z")
     est, std = [], []
     for _ in range(400):
-        r = ferraris.fit(plan, _tilted_faces(plan, t, rng, np.radians(0.5)))
+        r = inertest.fit(plan, _tilted_faces(plan, t, rng, np.radians(0.5)))
         est.append([r.coefficients[n].value for n in names])
         std.append([r.coefficients[n].std for n in names])
     scatter = np.std(est, axis=0, ddof=1)
@@ -178,7 +179,7 @@ needs_real = pytest.mark.skipif(not REAL.exists(), reason="shared/realdata not p
 def real():
     plan = load_plan(EXAMPLES / "plan_imucal.toml")
     data = load_data(REAL)
-    return plan, data, ferraris.fit(plan, data)
+    return plan, data, inertest.fit(plan, data)
 
 
 @needs_real
@@ -191,7 +192,7 @@ def test_part_labels_normalised_and_split_give_the_same_calibration(real):
     labels = np.asarray(data["part"]).astype(object)
     labels[::7] = [" " + str(v).upper() + " " for v in labels[::7]]
     messy["part"] = labels.astype(str)
-    got = ferraris.fit(plan, messy)
+    got = inertest.fit(plan, messy)
     assert got.calibration.accelerometer.to_dict() == ref.calibration.accelerometer.to_dict()
     assert got.calibration.gyroscope.to_dict() == ref.calibration.gyroscope.to_dict()
     np.testing.assert_array_equal(got.identification.covariance, ref.identification.covariance)
@@ -210,7 +211,7 @@ def test_imucal_agrees_on_the_real_session(real):
     imucal = pytest.importorskip("imucal")
     plan, data, _ = real
     # imucal ignores the Earth rate: compare like with like
-    r = ferraris.fit(replace(plan, procedure=replace(plan.procedure, earth_rate=False,
+    r = inertest.fit(replace(plan, procedure=replace(plan.procedure, earth_rate=False,
                                                            tilt_correction=False)), data)
     df = pd.read_csv(REAL).set_index("part")
     info = imucal.FerrarisCalibration(grav=9.81, expected_angle=360.0).compute(
@@ -266,7 +267,7 @@ def test_real_session_calibrates_sensibly(real):
 
 def _sim(**plan_kw):
     plan = make_plan(**plan_kw)
-    return plan, ferraris.simulate(plan, quiet_truth())
+    return plan, inertest.simulate(plan, quiet_truth())
 
 
 def test_missing_face_names_the_coefficients_and_the_fix():
@@ -274,7 +275,7 @@ def test_missing_face_names_the_coefficients_and_the_fix():
     keep = d["part"] != "y_a"
     d = {k: v[keep] for k, v in d.items()}
     with pytest.raises(IdentifiabilityError, match=r"y_a.*Ka_y.*Ma_xy.*Ba_y.*record the y_a"):
-        ferraris.fit(plan, d)
+        inertest.fit(plan, d)
 
 
 def test_missing_turn_names_the_gyro_column():
@@ -282,7 +283,7 @@ def test_missing_turn_names_the_gyro_column():
     keep = d["part"] != "z_rot"
     d = {k: v[keep] for k, v in d.items()}
     with pytest.raises(IdentifiabilityError, match=r"Kg_z, Mg_xz, Mg_yz.*z_rot"):
-        ferraris.fit(plan, d)
+        inertest.fit(plan, d)
 
 
 def test_face_not_turned_over_is_not_identifiable():
@@ -295,7 +296,7 @@ def test_face_not_turned_over_is_not_identifiable():
     part[idx[: idx.size // 2]] = "x_a"
     d["part"] = part
     with pytest.raises(IdentifiabilityError, match="x axis was not turned over"):
-        ferraris.fit(plan, d)
+        inertest.fit(plan, d)
 
 
 def test_swapped_faces_and_columns_and_turn_sign_are_caught():
@@ -304,32 +305,32 @@ def test_swapped_faces_and_columns_and_turn_sign_are_caught():
     p = d["part"].copy()
     p[d["part"] == "z_p"], p[d["part"] == "z_a"] = "z_a", "z_p"
     swapped["part"] = p
-    r = ferraris.fit(plan, swapped)  # indistinguishable from a negated acc_z: K < 0, reported
+    r = inertest.fit(plan, swapped)  # indistinguishable from a negated acc_z: K < 0, reported
     assert r.coefficients["Ka_z"].value < 0
     assert any("acc_z: negative scale factor" in m and "swapped" in m for m in r.messages)
     cols = dict(d, acc_y=d["acc_z"], acc_z=d["acc_y"])
     with pytest.raises(DataError, match="faces y_p/y_a change acc_z most"):
-        ferraris.fit(plan, cols)
-    clockwise = ferraris.simulate(make_plan(rotation_deg=-360.0), quiet_truth())
+        inertest.fit(plan, cols)
+    clockwise = inertest.simulate(make_plan(rotation_deg=-360.0), quiet_truth())
     with pytest.raises(DataError, match="set rotation_deg = -360"):
-        ferraris.fit(plan, clockwise)
+        inertest.fit(plan, clockwise)
 
 
 def test_plan_errors():
     with pytest.raises(PlanError, match="sample_rate_hz"):
-        ferraris.SPEC.from_mapping({})
+        ferraris.FerrarisSpec.from_mapping({})
     with pytest.raises(PlanError, match="rotation_deg"):
-        ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "rotation_deg": 1})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate_hz": 100.0, "rotation_deg": 1})
     with pytest.raises(PlanError, match="acc_unit"):
-        ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "acc_unit": "furlong"})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate_hz": 100.0, "acc_unit": "furlong"})
     with pytest.raises(PlanError, match="unknown name"):
-        ferraris.simulate(make_plan(), {"Ka_q": 1.0})
+        inertest.simulate(make_plan(), {"Ka_q": 1.0})
     with pytest.raises(PlanError, match="earth_rate must be true or false"):
-        ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "earth_rate": 1})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate_hz": 100.0, "earth_rate": 1})
     with pytest.raises(PlanError, match="sample_rate_hz must be a number"):
-        ferraris.SPEC.from_mapping({"sample_rate_hz": True})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate_hz": True})
     with pytest.raises(PlanError, match='unknown key.*sample_rate .*did you mean "sample_rate_hz"'):
-        ferraris.SPEC.from_mapping({"sample_rate": 100.0})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate": 100.0})
 
 
 # --- Monte Carlo of the stated uncertainties --------------------------------------------------
@@ -344,7 +345,7 @@ def test_monte_carlo_std_matches_scatter():
     rng = np.random.default_rng(7)
     est, std = [], []
     for _ in range(300):
-        r = ferraris.fit(plan, ferraris.simulate(plan, t, rng=rng))
+        r = inertest.fit(plan, inertest.simulate(plan, t, rng=rng))
         est.append([e.value for e in r.coefficients.values()])
         std.append([e.std for e in r.coefficients.values()])
     names = list(r.coefficients)
@@ -359,8 +360,8 @@ def test_monte_carlo_std_matches_scatter():
 
 def test_noise_given_twice_is_refused():
     with pytest.raises(PlanError, match="one place only"):
-        ferraris.simulate(make_plan(), truth(), noise=2.0)
-    d = ferraris.simulate(make_plan(), quiet_truth(**{"acc_noise": 0.0}) | {}, noise=0.0)
+        inertest.simulate(make_plan(), truth(), noise=2.0)
+    d = inertest.simulate(make_plan(), quiet_truth(**{"acc_noise": 0.0}) | {}, noise=0.0)
     assert np.ptp(d["acc_x"][d["part"] == "x_p"]) == 0.0
 
 
@@ -376,8 +377,8 @@ def test_second_real_session_in_si_units_with_clockwise_turns():
     params = {"sample_rate_hz": 102.4, "acc_unit": "m/s^2", "gyr_unit": "deg/s",
               "g_sensitivity": True}
     with pytest.raises(DataError, match="set rotation_deg = -360"):
-        ferraris.fit(make_plan(**params), data)
-    r = ferraris.fit(make_plan(**params, rotation_deg=-360.0, earth_rate=False,
+        inertest.fit(make_plan(**params), data)
+    r = inertest.fit(make_plan(**params, rotation_deg=-360.0, earth_rate=False,
                                tilt_correction=False), data)
     assert np.abs(r.face_gravity_error_m_s2).max() < 1.0 * MG
     df.index = pd.Index(part, name="part")
@@ -400,7 +401,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     reading per sample), positive Ba_x and Bg_x. The fit reports exactly these and
     Ma_yx = Mg_yx = 0."""
     phys = make_plan(acc_unit="m/s^2", gyr_unit="rad/s", earth_rate=False)
-    d = ferraris.simulate(phys, {})
+    d = inertest.simulate(phys, {})
     f = np.column_stack([d[c] for c in ferraris.ACC_COLUMNS])
     w = np.column_stack([d[c] for c in ferraris.GYR_COLUMNS])
     Ma, Mg = np.zeros((3, 3)), np.zeros((3, 3))
@@ -413,7 +414,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     gyr = w @ Sg.T + Sg @ Bg
     data = {"part": d["part"], **{c: acc[:, i] for i, c in enumerate(ferraris.ACC_COLUMNS)},
             **{c: gyr[:, i] for i, c in enumerate(ferraris.GYR_COLUMNS)}}
-    c = ferraris.fit(make_plan(earth_rate=False), data).coefficients
+    c = inertest.fit(make_plan(earth_rate=False), data).coefficients
     assert c["Ma_xy"].value == pytest.approx(1500.0, abs=1e-6) and abs(c["Ma_yx"].value) < 1e-6
     assert c["Mg_xy"].value == pytest.approx(2000.0, abs=1e-6) and abs(c["Mg_yx"].value) < 1e-6
     assert c["Mg_xy"].unit == "urad"
@@ -436,7 +437,7 @@ def test_imucal_agrees_on_the_real_session_with_a_negated_channel(column):
                                            tilt_correction=False))
     data = dict(load_data(REAL))
     data[column] = -np.asarray(data[column], dtype=float)
-    r = ferraris.fit(plan, data)
+    r = inertest.fit(plan, data)
     letter = "g" if column.startswith("gyr") else "a"
     assert r.coefficients[f"K{letter}_{column[-1]}"].value < 0
     assert any(f"{column}: negative scale factor" in m for m in r.messages)
@@ -469,7 +470,7 @@ def test_earth_rate_during_turns_leaves_the_stated_misalignment(turn_s, rest_s, 
     plan = replace(plan, procedure=replace(plan.procedure, turn_duration_s=turn_s,
                                            rest_s=rest_s, rotation_deg=rotation_deg))
     perfect = {f"K{s}_{a}": 1.0 for s in "ag" for a in "xyz"}
-    c = ferraris.fit(plan, ferraris.simulate(plan, perfect)).coefficients
+    c = inertest.fit(plan, inertest.simulate(plan, perfect)).coefficients
     w_ie = 7.2921151467e-5  # rad/s (WGS 84)
     t_eff = 2 * rest_s + j1(1.0) * turn_s
     expected_urad = w_ie * np.cos(np.radians(49.6)) * t_eff / np.radians(rotation_deg) * 1e6
@@ -512,7 +513,7 @@ def test_monte_carlo_noise_model_matrix(case):
     0.12-0.22 under flicker (Ma 2.1)."""
     plan = make_plan(sample_rate_hz=50.0, earth_rate=False, g_sensitivity=True,
                      noise_model=case)
-    base = ferraris.simulate(plan, quiet_truth())
+    base = inertest.simulate(plan, quiet_truth())
     reps = 100
     cols = ferraris.ACC_COLUMNS + ferraris.GYR_COLUMNS
     noise = _channel_noise(case, base["part"], np.random.default_rng(3), reps,
@@ -525,7 +526,7 @@ def test_monte_carlo_noise_model_matrix(case):
         one_thread = nullcontext()
     with one_thread, warnings.catch_warnings():
         warnings.simplefilter("ignore", InertestWarning)  # the checks' rare false alarms
-        fits = [ferraris.fit(plan, {**base, **{c: base[c] + noise[r, k]
+        fits = [inertest.fit(plan, {**base, **{c: base[c] + noise[r, k]
                                                for k, c in enumerate(cols)}})
                 for r in range(reps)]
     # The model checks hold their level under the matching noise model (alpha = 1e-3 each).
@@ -543,7 +544,7 @@ def test_monte_carlo_noise_model_matrix(case):
 
 def test_noise_model_and_components_in_the_result():
     plan = make_plan(noise_model="random-walk")
-    r = ferraris.fit(plan, ferraris.simulate(plan, truth(face_tilt_deg=0.0), rng=2))
+    r = inertest.fit(plan, inertest.simulate(plan, truth(face_tilt_deg=0.0), rng=2))
     d = r.to_dict()
     assert d["identification"]["noise"]["model"] == "random-walk"
     noise = d["result"]["noise"]
@@ -553,7 +554,7 @@ def test_noise_model_and_components_in_the_result():
     # white truth: the fitted white level is the simulated one (3 count), the walk small
     assert noise["gyroscope"]["white"]["value"] == pytest.approx(3.0, rel=0.1)
     with pytest.raises(PlanError, match="noise_model"):
-        ferraris.SPEC.from_mapping({"sample_rate_hz": 100.0, "noise_model": "pink"})
+        ferraris.FerrarisSpec.from_mapping({"sample_rate_hz": 100.0, "noise_model": "pink"})
 
 
 # --- model checks (issue 15): the session's redundancy against the noise model -------------
@@ -590,7 +591,7 @@ def test_imucal_real_sessions_pass_the_model_checks(real, model):
     for plan, data in ((real[0], real[1]), _example_session()):
         with warnings.catch_warnings():
             warnings.simplefilter("error", InertestWarning)  # no misfit warning
-            r = ferraris.fit(plan, data, noise_model=model)
+            r = inertest.fit(plan, data, noise_model=model)
         c = r.identification.checks
         assert c.fits and not c.outliers and c.p_value > 1e-3, c
         assert c.dof == (13 if model == "position-offsets" else 15)
@@ -610,7 +611,7 @@ def test_model_checks_pass_on_simulated_sessions():
     for seed in range(20):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", InertestWarning)
-            r = ferraris.fit(plan, ferraris.simulate(plan, truth(), rng=seed))
+            r = inertest.fit(plan, inertest.simulate(plan, truth(), rng=seed))
         bad += not r.identification.checks.fits
     assert bad == 0
 
@@ -621,13 +622,13 @@ def test_mislabelled_face_is_an_outlier_and_warns():
     sums disagree far beyond any face tilt (and the y bias it gives moves the acc_y sums of the
     other pairs); every outlier names the y faces or acc_y, and the fit warns."""
     plan = make_plan()
-    d = ferraris.simulate(plan, truth(), rng=1)
+    d = inertest.simulate(plan, truth(), rng=1)
     ya, zp = _rows(d, "y_a"), _rows(d, "z_p")
     k = ya.size // 3
     for c in ferraris.ACC_COLUMNS + ferraris.GYR_COLUMNS:
         d[c][ya[:k]] = d[c][zp[:k]]
     with pytest.warns(InertestWarning, match="does not fit its \"white\" noise model"):
-        r = ferraris.fit(plan, d)
+        r = inertest.fit(plan, d)
     c = r.identification.checks
     assert not c.fits and c.outliers
     assert all(o.label.startswith("y faces") or o.label.endswith("acc_y")
@@ -640,13 +641,13 @@ def test_corrupted_turn_is_an_outlier_and_warns():
     but the mean specific force over the turn is no longer g along one axis: the x_rot
     |a| - g check is far outside the hand-turn allowance."""
     plan = make_plan()
-    d = ferraris.simulate(plan, truth(), rng=4)
+    d = inertest.simulate(plan, truth(), rng=4)
     xr, xa = _rows(d, "x_rot"), _rows(d, "x_a")
     k = int(plan.procedure.sample_rate_hz)
     for c in ferraris.ACC_COLUMNS + ferraris.GYR_COLUMNS:
         d[c][xr[-k:]] = d[c][xa[:k]]
     with pytest.warns(InertestWarning, match="x_rot"):
-        r = ferraris.fit(plan, d)
+        r = inertest.fit(plan, d)
     labels = [o.label for o in r.identification.checks.outliers]
     assert "x_rot |a| - g" in labels
 
@@ -654,11 +655,11 @@ def test_corrupted_turn_is_an_outlier_and_warns():
 def test_face_tilt_beyond_the_plan_bound_is_flagged():
     """Faces set with 5-deg tilts against the plan's 1 deg: the accelerometer pair sums reject
     the session; with face_tilt_deg = 8 in the plan the same session is consistent."""
-    d = ferraris.simulate(make_plan(), truth(face_tilt_deg=5.0), rng=7)
+    d = inertest.simulate(make_plan(), truth(face_tilt_deg=5.0), rng=7)
     with pytest.warns(InertestWarning):
-        r = ferraris.fit(make_plan(), d)
+        r = inertest.fit(make_plan(), d)
     assert not r.identification.checks.fits
     with warnings.catch_warnings():
         warnings.simplefilter("error", InertestWarning)
-        r = ferraris.fit(make_plan(face_tilt_deg=8.0), d)
+        r = inertest.fit(make_plan(face_tilt_deg=8.0), d)
     assert r.identification.checks.fits

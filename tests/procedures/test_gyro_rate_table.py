@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import OMEGA_IE, Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.plan import Instrument, Plan
@@ -14,7 +15,7 @@ DEG_H = np.pi / 180 / 3600
 
 
 def make_plan(rates, *, spr=1, fit_k2=False, unit="count", axis="U", kind="rate-gyro"):
-    spec = grt.SPEC.from_mapping({"rates_deg_s": list(rates), "samples_per_rate": spr,
+    spec = grt.GyroRateTableSpec.from_mapping({"rates_deg_s": list(rates), "samples_per_rate": spr,
                                   "fit_k2": fit_k2, "table_axis": axis})
     return Plan(Site.at(LAT_DEG), Instrument(kind=kind, output_unit=unit), spec)
 
@@ -22,12 +23,12 @@ def make_plan(rates, *, spr=1, fit_k2=False, unit="count", axis="U", kind="rate-
 def test_closed_form_pair_of_opposite_rates():
     """K = (E+ - E-)/(2w) and B = (E+ + E-)/(2K) - Earth rate, from the readings themselves."""
     plan = make_plan([-50.0, 50.0])
-    data = grt.simulate(plan, {"K": 7200.0, "B": 0.4})
+    data = inertest.simulate(plan, {"K": 7200.0, "B": 0.4})
     e_neg, e_pos = data["output"]
     w = np.radians(50.0)
     K = (e_pos - e_neg) / (2 * w)  # count/s per rad/s
     B = (e_pos + e_neg) / (2 * K) - W_UP
-    res = grt.fit(plan, data, sigma=0.1)
+    res = inertest.fit(plan, data, sigma=0.1)
     assert res.coefficients["K"].value == pytest.approx(K * np.pi / 180, rel=1e-13)
     assert res.coefficients["B"].value == pytest.approx(B / DEG_H, abs=1e-9)
     assert res.coefficients["B"].value == pytest.approx(0.4, abs=1e-9)
@@ -41,13 +42,13 @@ def test_closed_form_pair_of_opposite_rates():
 def test_exact_recovery_with_asymmetry_and_k2():
     plan = make_plan([-200, -100, -20, -1, 0, 1, 20, 100, 200], fit_k2=True)
     truth = {"K": 7200.0, "B": -0.7, "asymmetry": 35.0, "K2": 0.12}
-    res = grt.fit(plan, grt.simulate(plan, truth), sigma=0.01)
+    res = inertest.fit(plan, inertest.simulate(plan, truth), sigma=0.01)
     for name, value in truth.items():
         assert res.coefficients[name].value == pytest.approx(value, rel=1e-9, abs=1e-9)
     # IEEE 952 asymmetry: (K+ - K-)/mean, with K+- = K (1 +- a/2).
     assert res.coefficients["K_pos"].value == pytest.approx(7200.0 * (1 + 17.5e-6), rel=1e-12)
     assert res.coefficients["K_neg"].value == pytest.approx(7200.0 * (1 - 17.5e-6), rel=1e-12)
-    derived = grt.truth_quantities(truth)
+    derived = grt.GyroRateTable().truth_quantities(truth)
     for name in ("K_pos", "K_neg"):
         assert derived[name] == pytest.approx(res.coefficients[name].value, rel=1e-12)
 
@@ -60,7 +61,7 @@ def test_nonlinearity_closed_form_for_a_quadratic_error():
     k2 = 0.5e-6 / np.radians(1.0)  # 0.5 ppm per deg/s, in 1/(rad/s)
     # The model without K2 does not fit these readings, and the checks say so.
     with pytest.warns(InertestWarning, match="does not fit the data"):
-        res = grt.fit(plan, grt.simulate(plan, {"K": 7200.0, "K2": 0.5}), sigma=0.01)
+        res = inertest.fit(plan, inertest.simulate(plan, {"K": 7200.0, "K2": 0.5}), sigma=0.01)
     assert res.identification.checks.verdict == "model does not fit"
     w = np.radians(rates)
     dev = 7200.0 / np.radians(1.0) * k2 * (w**2 - np.mean(w**2))
@@ -71,7 +72,7 @@ def test_nonlinearity_closed_form_for_a_quadratic_error():
 
 def test_rate_output_gives_a_dimensionless_scale_factor():
     plan = make_plan([-10, -1, 1, 10], unit="deg/s", axis="N")
-    res = grt.fit(plan, grt.simulate(plan, {"K": 1.0002, "B": 2.0}), sigma=1e-6)
+    res = inertest.fit(plan, inertest.simulate(plan, {"K": 1.0002, "B": 2.0}), sigma=1e-6)
     assert res.coefficients["K"].unit == "1"
     assert res.coefficients["K"].value == pytest.approx(1.0002, rel=1e-13)
     assert res.coefficients["B"].value == pytest.approx(2.0, abs=1e-8)
@@ -87,27 +88,27 @@ def test_rates_that_cannot_give_the_scale_factor_or_asymmetry(rates, msg):
     plan = make_plan(rates)
     data = {"rate_deg_s": np.array(rates, float), "output": np.ones(len(rates))}
     with pytest.raises(IdentifiabilityError, match=msg):
-        grt.fit(plan, data, sigma=1.0)
+        inertest.fit(plan, data, sigma=1.0)
 
 
 def test_k2_needs_three_rates():
     plan = make_plan([-10, 10], fit_k2=True)
     with pytest.raises(IdentifiabilityError, match="K2 needs at least three distinct table rates"):
-        grt.fit(plan, grt.simulate(plan, {"K": 7200.0}), sigma=1.0)
+        inertest.fit(plan, inertest.simulate(plan, {"K": 7200.0}), sigma=1.0)
 
 
 def test_bad_plans_and_data():
     with pytest.raises(PlanError, match='unknown key.*rates .*did you mean "rates_deg_s"'):
-        grt.SPEC.from_mapping({"rates": [1, 2]})
+        grt.GyroRateTableSpec.from_mapping({"rates": [1, 2]})
     with pytest.raises(PlanError, match="tests a gyro"):
-        grt.fit(make_plan([-1, 1], kind="accelerometer", unit="g"), {})
+        inertest.fit(make_plan([-1, 1], kind="accelerometer", unit="g"), {})
     with pytest.raises(DataError, match="lacks column"):
-        grt.fit(make_plan([-1, 1]), {"rate_deg_s": np.array([1.0, -1.0])})
+        inertest.fit(make_plan([-1, 1]), {"rate_deg_s": np.array([1.0, -1.0])})
     with pytest.raises(PlanError, match="needs the scale factor K in count/deg"):
-        grt.simulate(make_plan([-1, 1]), {"B": 1.0})
+        inertest.simulate(make_plan([-1, 1]), {"B": 1.0})
     with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
         plan = make_plan([-1, 1])
-        grt.fit(plan, grt.simulate(plan, {"K": 10.0}))
+        inertest.fit(plan, inertest.simulate(plan, {"K": 10.0}))
 
 
 @pytest.mark.parametrize(("params", "msg"), [
@@ -122,7 +123,7 @@ def test_bad_plans_and_data():
 def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
     """A boolean where a number belongs, a number where a boolean belongs, a misspelt key."""
     with pytest.raises(PlanError, match=msg):
-        grt.SPEC.from_mapping(params)
+        grt.GyroRateTableSpec.from_mapping(params)
 
 
 @pytest.mark.slow
@@ -133,7 +134,7 @@ def test_monte_carlo_stated_uncertainties():
     names = ["K", "B", "K2", "asymmetry"]
     est, std = {n: [] for n in names}, {n: [] for n in names}
     for _ in range(400):
-        res = grt.fit(plan, grt.simulate(plan, truth, noise=2.0, rng=rng))
+        res = inertest.fit(plan, inertest.simulate(plan, truth, noise=2.0, rng=rng))
         for n in names:
             est[n].append(res.coefficients[n].value)
             std[n].append(res.coefficients[n].std)

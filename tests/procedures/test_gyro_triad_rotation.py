@@ -6,8 +6,10 @@ import warnings
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import OMEGA_IE, Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
+from inertest.models.rate_gyro import triad_from_truth
 from inertest.models.triad import TriadCalibration
 from inertest.plan import Instrument, Plan
 from inertest.procedures import gyro_triad_rotation as gtr
@@ -23,7 +25,7 @@ URAD = 1e-6
 
 
 def make_plan(unit="count", **params):
-    spec = gtr.SPEC.from_mapping(params)
+    spec = gtr.GyroTriadRotationSpec.from_mapping(params)
     return Plan(Site.at(LAT_DEG), Instrument(kind="gyro-triad", output_unit=unit), spec)
 
 
@@ -33,7 +35,7 @@ def test_seed003_counts_of_a_turn_about_the_vertical_axis():
     plan = make_plan(rate_deg_s=12.0, rotation_window_s=40.0,
                      rotations=[{"attitude": "ENU", "axis": "z"}], static_attitudes=[])
     truth = {"K_x": 7200.0, "K_y": 7190.0, "K_z": 7210.0, "B_x": 0.2, "B_y": 0.4, "B_z": 0.9}
-    data = gtr.simulate(plan, truth)
+    data = inertest.simulate(plan, truth)
     k = np.array([7200.0, 7190.0, 7210.0]) * 180 / np.pi  # count/rad
     T, t_rot = 40.0, 30.0
     for row, d in enumerate((1, -1)):
@@ -47,7 +49,7 @@ def test_seed003_counts_of_a_turn_about_the_vertical_axis():
 
 def test_exact_recovery_and_closed_form_scale():
     plan = make_plan(rate_deg_s=20.0, rotation_window_s=22.0)
-    res = gtr.fit(plan, gtr.simulate(plan, TRUTH), sigma=0.5)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=0.5)
     for name, value in TRUTH.items():
         e = res.coefficients[name]
         tol = {"count/deg": 1e-9, "urad": 5e-6, "deg/h": 1e-8}[e.unit]
@@ -60,7 +62,7 @@ def test_exact_recovery_and_closed_form_scale():
 def test_exact_recovery_with_acceleration_and_rate_output():
     truth = {**TRUTH, "K_x": 1.0003, "K_y": 0.9998, "K_z": 1.0001}
     plan = make_plan(unit="deg/s", rate_deg_s=30.0, accel_deg_s2=5.0)
-    res = gtr.fit(plan, gtr.simulate(plan, truth), sigma=1e-6)
+    res = inertest.fit(plan, inertest.simulate(plan, truth), sigma=1e-6)
     assert res.coefficients["K_x"].unit == "1"
     for name, value in truth.items():
         assert res.coefficients[name].value == pytest.approx(value, abs=1e-7), name
@@ -68,8 +70,8 @@ def test_exact_recovery_with_acceleration_and_rate_output():
 
 def test_calibration_block_inverts_the_output_model():
     plan = make_plan()
-    res = gtr.fit(plan, gtr.simulate(plan, TRUTH), sigma=0.5)
-    A, b = gtr.truth_model(TRUTH, "count")
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=0.5)
+    A, b = triad_from_truth(TRUTH, "count")
     w = np.random.default_rng(0).normal(scale=0.5, size=(10, 3))  # rad/s
     raw = w @ A.T + b  # count/s
     gyro = res.calibration.gyroscope
@@ -81,9 +83,9 @@ def test_calibration_block_inverts_the_output_model():
 
 def test_rotations_about_one_axis_only_name_what_is_missing():
     plan = make_plan(rotations=[{"attitude": "UEN", "axis": "x"}])
-    data = gtr.simulate(plan, TRUTH)
+    data = inertest.simulate(plan, TRUTH)
     with pytest.raises(IdentifiabilityError) as exc:
-        gtr.fit(plan, data, sigma=1.0)
+        inertest.fit(plan, data, sigma=1.0)
     msg = str(exc.value)
     assert "no rotation about y: K_y, M_xy, M_zy" in msg and "M_yx, M_yz (need K_y)" in msg
     assert 'attitude "NUE", y up' in msg
@@ -93,44 +95,44 @@ def test_one_direction_without_static_windows():
     plan = make_plan(directions=[1], static_attitudes=[])
     with pytest.raises(IdentifiabilityError, match="rotations about x run in one direction only"
                        ".*add rotations about x with direction -1, or static positions"):
-        gtr.fit(plan, gtr.simulate(plan, TRUTH), sigma=1.0)
+        inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1.0)
     # With static windows one direction suffices.
     plan = make_plan(directions=[1])
-    res = gtr.fit(plan, gtr.simulate(plan, TRUTH), sigma=1.0)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1.0)
     assert res.coefficients["K_z"].value == pytest.approx(TRUTH["K_z"], rel=1e-12)
 
 
 def test_mislabelled_axis_and_direction():
     plan = make_plan()
-    data = gtr.simulate(plan, TRUTH)
+    data = inertest.simulate(plan, TRUTH)
     bad = {k: v.copy() for k, v in data.items()}
     bad["axis"][0] = "y"
     with pytest.raises(DataError, match='data row 1 .* labelled a rotation about y, but gyro x '
                                         "counted the turn"):
-        gtr.fit(plan, bad, sigma=1.0)
+        inertest.fit(plan, bad, sigma=1.0)
     bad = {k: v.copy() for k, v in data.items()}
     bad["direction"][1] = 1.0
     with pytest.raises(DataError, match="data row 2 .*fix the direction column"):
-        gtr.fit(plan, bad, sigma=1.0)
+        inertest.fit(plan, bad, sigma=1.0)
     bad = {k: v.copy() for k, v in data.items()}
     bad["attitude"][3] = "ENE"
     with pytest.raises(DataError, match="data row 4: .*not an orthogonal triad"):
-        gtr.fit(plan, bad, sigma=1.0)
+        inertest.fit(plan, bad, sigma=1.0)
 
 
 def test_too_few_windows_and_bad_plan():
     plan = make_plan(static_attitudes=[], directions=[1, -1],
                      rotations=[{"attitude": "UEN", "axis": "x"}, {"attitude": "NUE", "axis": "y"}])
     with pytest.raises(IdentifiabilityError, match="no rotation about z"):
-        gtr.fit(plan, gtr.simulate(plan, TRUTH))
+        inertest.fit(plan, inertest.simulate(plan, TRUTH))
     with pytest.raises(PlanError, match="shorter than one turn"):
         make_plan(rate_deg_s=10.0, rotation_window_s=30.0)
     with pytest.raises(PlanError, match='noise_model = "pink" is not one of auto, white'):
         make_plan(noise_model="pink")
     with pytest.raises(PlanError, match="unknown name"):
-        gtr.simulate(make_plan(), {"K_w": 1.0})
+        inertest.simulate(make_plan(), {"K_w": 1.0})
     with pytest.raises(PlanError, match="needs the scale factors K_x, K_y, K_z in count/deg"):
-        gtr.simulate(make_plan(), {"B_x": 1.0})
+        inertest.simulate(make_plan(), {"B_x": 1.0})
 
 
 @pytest.mark.slow
@@ -144,7 +146,7 @@ def test_monte_carlo_stated_uncertainties(model, noise):
     for r in range(n):
         with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
             warnings.simplefilter("ignore", InertestWarning)
-            res = gtr.fit(plan, gtr.simulate(plan, TRUTH, noise=noise, rng=rng))
+            res = inertest.fit(plan, inertest.simulate(plan, TRUTH, noise=noise, rng=rng))
         est[r] = [res.coefficients[k].value for k in gtr.NAMES]
         std[r] = [res.coefficients[k].std for k in gtr.NAMES]
     ratio = std.mean(axis=0) / est.std(axis=0, ddof=1)
@@ -180,9 +182,9 @@ def test_real_imucal_session_agrees_with_imucal_ferraris(realdata_dir):
     names = ["part", "attitude", "axis", "direction", "duration_s", "counts_x", "counts_y",
              "counts_z"]
     data = {n: np.array([r[i] for r in rows]) for i, n in enumerate(names)}
-    spec = gtr.SPEC.from_mapping({"rate_deg_s": 120.0, "rotation_window_s": 5.0})
+    spec = gtr.GyroTriadRotationSpec.from_mapping({"rate_deg_s": 120.0, "rotation_window_s": 5.0})
     plan = Plan(Site.at(49.6), Instrument(kind="imu", output_unit="count"), spec)
-    res = gtr.fit(plan, data)  # raw LSB read as count/s, so K is in LSB per deg/s
+    res = inertest.fit(plan, data)  # raw LSB read as count/s, so K is in LSB per deg/s
     ours = res.forward * np.pi / 180
     np.testing.assert_allclose(np.diag(ours), np.diag(peer_forward), rtol=1e-4)
     for i in range(3):
@@ -201,12 +203,12 @@ def test_convention_misalignment_scale_bias_by_hand():
     plan = make_plan(rate_deg_s=20.0, rotation_window_s=22.0)
     rows = gtr.plan_rows(plan.procedure)
     theta = gtr.body_angles(rows["attitude"], rows["axis"], rows["direction"],
-                            rows["duration_s"], plan.procedure, plan.site)
+                            rows["duration_s"], gtr.GyroTriadRotation().motion(plan))
     A = 7200.0 * 180 / np.pi * (np.eye(3) + np.array([[0, 100e-6, 0], [0, 0, 0], [0, 0, 0]]))
     b = A @ np.array([0.5 * DEG_H, 0.0, 0.0])
     counts = theta @ A.T + np.outer(rows["duration_s"], b)
     data = {**rows, **{f"counts_{a}": counts[:, i] for i, a in enumerate("xyz")}}
-    c = gtr.fit(plan, data, sigma=0.5).coefficients
+    c = inertest.fit(plan, data, sigma=0.5).coefficients
     assert c["M_xy"].value == pytest.approx(100.0, abs=1e-6) and c["M_xy"].unit == "urad"
     assert abs(c["M_yx"].value) < 1e-6
     assert c["K_z"].value == pytest.approx(7200.0, rel=1e-12) and c["K_z"].unit == "count/deg"
@@ -222,7 +224,7 @@ def test_convention_misalignment_scale_bias_by_hand():
 ])
 def test_plan_fields_refuse_wrong_types_and_misspelt_keys(params, msg):
     with pytest.raises(PlanError, match=msg):
-        gtr.SPEC.from_mapping(params)
+        gtr.GyroTriadRotationSpec.from_mapping(params)
 
 
 def _window_noise(case, duration_s, rng, reps, sw=20.0):
@@ -274,7 +276,7 @@ def _assert_std_matches_scatter(case, *, noise_model):
     reported std / scatter within 0.8-1.25 for each group (K, M, B); a named model is used."""
     plan = make_plan(rate_deg_s=20.0, rotation_window_s=20.0, static_window_s=40.0, repeats=3,
                      window_noise="sqrt-window")
-    base = gtr.simulate(plan, TRUTH)
+    base = inertest.simulate(plan, TRUTH)
     reps = 150
     noise = _window_noise(case, base["duration_s"], np.random.default_rng(11), reps)
     est, std = np.empty((reps, 12)), np.empty((reps, 12))
@@ -283,7 +285,7 @@ def _assert_std_matches_scatter(case, *, noise_model):
                            for i, a in enumerate("xyz")}}
         with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
             warnings.simplefilter("ignore", InertestWarning)
-            res = gtr.fit(plan, data, noise_model=noise_model)
+            res = inertest.fit(plan, data, noise_model=noise_model)
         if noise_model != "auto":
             assert res.identification.noise_model == noise_model
         est[r] = [res.coefficients[k].value for k in gtr.NAMES]
@@ -312,8 +314,8 @@ def test_window_kernel_random_walk_and_flicker_against_sampled_integrals():
 
 def test_noise_model_named_in_the_result_and_bad_start_times():
     plan = make_plan(repeats=2, window_noise="sqrt-window", noise_model="random-walk")
-    data = gtr.simulate(plan, TRUTH, noise=4.0, rng=1)
-    d = gtr.fit(plan, data).to_dict()
+    data = inertest.simulate(plan, TRUTH, noise=4.0, rng=1)
+    d = inertest.fit(plan, data).to_dict()
     assert d["identification"]["noise"]["model"] == "random-walk"
     units = d["result"]["noise_components"]
     assert units["white"]["unit"] == "count/sqrt(s)"
@@ -321,7 +323,7 @@ def test_noise_model_named_in_the_result_and_bad_start_times():
     bad = {**data, "start_s": data["start_s"].copy()}
     bad["start_s"][3] = bad["start_s"][2]
     with pytest.raises(DataError, match="start_s at data row 4 is before the end"):
-        gtr.fit(plan, bad)
+        inertest.fit(plan, bad)
     with pytest.raises(PlanError, match="window_noise"):
         make_plan(window_noise="white")
 
@@ -334,8 +336,8 @@ def test_checks_a_static_window_with_a_wrong_attitude_label_is_an_outlier():
     sqrt(dof): two windows' labels swapped (two opposite outliers) are not seen then; with the
     level given the chi-square and both windows show."""
     plan = make_plan(repeats=3)
-    data = gtr.simulate(plan, TRUTH, noise=2.0, rng=3)
-    r = gtr.fit(plan, data, noise_model="white")
+    data = inertest.simulate(plan, TRUTH, noise=2.0, rng=3)
+    r = inertest.fit(plan, data, noise_model="white")
     checks = r.to_dict()["checks"]
     assert checks[0]["verdict"] == "consistent" and checks[0]["unit"] == "window"
     k = int(np.flatnonzero(data["attitude"] == "UEN")[2])  # the first static UEN window
@@ -343,7 +345,7 @@ def test_checks_a_static_window_with_a_wrong_attitude_label_is_an_outlier():
     bad = {c: np.array(v, copy=True) for c, v in data.items()}
     bad["attitude"][k] = "DWN"
     with pytest.warns(InertestWarning, match="does not fit.*gyro x, window 7"):
-        r = gtr.fit(plan, bad, noise_model="white")
+        r = inertest.fit(plan, bad, noise_model="white")
     c = r.identification.checks
     assert c.verdict == "model does not fit"
     assert [o.label for o in c.outliers] == [f"gyro x, window {k + 1} (UEN static)"]
@@ -357,7 +359,7 @@ def test_checks_a_static_window_with_a_wrong_attitude_label_is_an_outlier():
     bad = {c: np.array(v, copy=True) for c, v in data.items()}
     bad["attitude"][k], bad["attitude"][k + 1] = data["attitude"][k + 1], data["attitude"][k]
     with pytest.warns(InertestWarning, match="chi-square"):
-        r = gtr.fit(plan, bad, noise_model="white", sigma=2.0)
+        r = inertest.fit(plan, bad, noise_model="white", sigma=2.0)
     c = r.identification.checks
     assert c.p_value < 1e-6
     assert {f"gyro x, window {k + 1} (UEN static)",

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import OMEGA_IE, Site
 from inertest.errors import InertestWarning, InputError, PlanError
 from inertest.plan import Instrument, Plan
@@ -22,7 +23,7 @@ def make_plan(positions=None, spp=1, lat=34.246):
 def test_seed000_readings_written_out_with_earth_rate():
     # I up (UNW): reading = W sinL + DF + g DI + g^2 DII; I north (NUE): W cosL + DF + g DO + ...
     plan = make_plan(["UNW", "NUE"])
-    d = ll.simulate(plan, TRUTH)
+    d = inertest.simulate(plan, TRUTH)
     L, gm = plan.site.latitude_rad, plan.site.gravity_g
     w = OMEGA_IE / DEG_PER_H_TO_RAD_PER_S
     np.testing.assert_allclose(d["output"], [
@@ -33,7 +34,7 @@ def test_seed000_readings_written_out_with_earth_rate():
 
 def test_exact_recovery_and_what_cannot_be_found():
     plan = make_plan()
-    res = ll.fit(plan, ll.simulate(plan, TRUTH), sigma=1e-3)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DI", "DO", "DS"}
     for n, e in res.coefficients.items():
         assert e.value == pytest.approx(TRUTH[n], abs=1e-10)
@@ -48,15 +49,15 @@ def test_exact_recovery_and_what_cannot_be_found():
 
 def test_unbalanced_plan_warns_and_left_handed_rejected():
     plan = make_plan(["UNW", "USE", "NUE", "NDW", "ENU", "ESD"])
-    d = ll.simulate(plan, TRUTH)
+    d = inertest.simulate(plan, TRUTH)
     with pytest.warns(InertestWarning, match="I axis is never both up and down"):
-        res = ll.fit(plan, d, sigma=1e-3)
+        res = inertest.fit(plan, d, sigma=1e-3)
     assert "DI" not in res.coefficients
     with pytest.raises(InputError, match="left-handed"):
         make_plan(["WNU"])
     bad = dict(d, S_dir=np.where(d["S_dir"] == "W", "E", d["S_dir"]))
     with pytest.raises(InputError, match="left-handed"):
-        ll.fit(plan, bad)
+        inertest.fit(plan, bad)
 
 
 @pytest.mark.slow
@@ -66,7 +67,7 @@ def test_monte_carlo_reported_std_matches_scatter():
     rng = np.random.default_rng(11)
     vals, stds = [], []
     for _ in range(400):
-        res = ll.fit(plan, ll.simulate(plan, c, noise=0.02, rng=rng))
+        res = inertest.fit(plan, inertest.simulate(plan, c, noise=0.02, rng=rng))
         vals.append([e.value for e in res.coefficients.values()]
                     + [k.value for k in res.combinations])
         stds.append([e.std for e in res.coefficients.values()]

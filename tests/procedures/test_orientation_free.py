@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+import inertest
 from inertest.cli import main
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.io.plan_file import load_plan
 from inertest.procedures import orientation_free as of
-from inertest.procedures.orientation_free import fit, fit_accelerometer
+from inertest.procedures.orientation_free import fit_accelerometer
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = ROOT / "examples" / "orientation_free"
@@ -43,7 +44,7 @@ def xsens_data():
 
 @pytest.fixture(scope="module")
 def xsens(xsens_data):
-    return fit(load_plan(EXAMPLES / "plan_xsens.toml"), xsens_data)
+    return inertest.fit(load_plan(EXAMPLES / "plan_xsens.toml"), xsens_data)
 
 
 def test_real_static_intervals_have_abs_a_equal_g(xsens):
@@ -73,7 +74,7 @@ def test_real_auto_threshold_keeps_the_lowest_residual_and_the_checks(xsens, xse
     plan = load_plan(EXAMPLES / "plan_xsens.toml")
     auto = dataclasses.replace(plan, procedure=dataclasses.replace(plan.procedure,
                                                                    threshold_factor="auto"))
-    res = fit(auto, xsens_data)
+    res = inertest.fit(auto, xsens_data)
     cands = res.threshold_search
     assert [c.threshold_factor for c in cands] == list(of.AUTO_THRESHOLD_FACTORS)
     rms = np.array([c.residual_rms_m_s2 for c in cands])
@@ -101,7 +102,7 @@ def test_auto_threshold_from_the_plan_file(tmp_path):
         load_plan(tmp_path / "bad.toml")
     rng = np.random.default_rng(12)
     att = Rotation.concatenate([Rotation.identity(), Rotation.random(20, random_state=rng)])
-    res = fit(auto, _session(rng, _truth_matrices(rng), attitudes=att))
+    res = inertest.fit(auto, _session(rng, _truth_matrices(rng), attitudes=att))
     assert len(res.intervals) == 21 and len(res.threshold_search) == 9
 
 
@@ -210,7 +211,7 @@ def test_simulated_session_within_uncertainty(tmp_path, reference_axis):
     rng = np.random.default_rng(11)
     model = _truth_matrices(rng, reference_axis)
     att = Rotation.concatenate([Rotation.identity(), Rotation.random(36, random_state=rng)])
-    res = fit(_plan(tmp_path, reference_axis), _session(rng, model, attitudes=att))
+    res = inertest.fit(_plan(tmp_path, reference_axis), _session(rng, model, attitudes=att))
     truth = _engineering(model)
     assert len(res.intervals) == 37
     z = {k: (e.value - truth[k]) / e.std for k, e in res.coefficients.items()}
@@ -258,7 +259,7 @@ def _whole_procedure_mc(chunk, reps=100):
     rng = np.random.default_rng([5, chunk])
     vals, stds, covs = [], [], []
     for _ in range(reps):
-        r = fit(plan, _session(rng, model, attitudes=att, init_s=20.0, still_s=2.0))
+        r = inertest.fit(plan, _session(rng, model, attitudes=att, init_s=20.0, still_s=2.0))
         vals.append([e.value for e in r.coefficients.values()])
         stds.append([e.std for e in r.coefficients.values()])
         covs.append(r.identification.covariance)
@@ -319,7 +320,7 @@ def test_too_few_attitudes_named(tmp_path):
     rng = np.random.default_rng(3)
     att = Rotation.concatenate([Rotation.identity(), Rotation.random(6, random_state=rng)])
     with pytest.raises(IdentifiabilityError, match=r"found 7 static.*at least 9.*36-50"):
-        fit(_plan(tmp_path), _session(rng, _truth_matrices(rng), attitudes=att))
+        inertest.fit(_plan(tmp_path), _session(rng, _truth_matrices(rng), attitudes=att))
 
 
 def test_too_similar_attitudes_say_which_to_add(tmp_path):
@@ -330,7 +331,7 @@ def test_too_similar_attitudes_say_which_to_add(tmp_path):
     att = Rotation.concatenate([Rotation.identity(), tilts])
     data = _session(rng, _truth_matrices(rng), attitudes=att)
     try:
-        res = fit(_plan(tmp_path), data)
+        res = inertest.fit(_plan(tmp_path), data)
         text = " ".join(res.messages)
     except IdentifiabilityError as exc:
         text = str(exc)
@@ -371,9 +372,9 @@ def test_review19_time_gap_refused_and_a_failed_gyro_check_is_said():
     data = {k: np.asarray(v)[keep] for k, v in table.items()}
     plan = load_plan(EXAMPLES / "plan_xsens.toml")
     with pytest.raises(DataError, match=r"'t_s' has 1 gap\(s\) in time, the first of 5\.0"):
-        fit(plan, data)
+        inertest.fit(plan, data)
     del data["t_s"]
-    res = fit(plan, data)
+    res = inertest.fit(plan, data)
     (check,) = [c for c in res.to_dict()["checks"] if c["name"].startswith("gyro carries")]
     assert check["verdict"] == "fail"
     assert any(m.startswith("check failed: the calibrated gyro") for m in res.messages)

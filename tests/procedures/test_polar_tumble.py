@@ -5,6 +5,7 @@ import warnings
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import Site
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.models.sdf_gyro import COEFFICIENTS, drift_regressors
@@ -45,8 +46,8 @@ def seed_terms(mounting, L, gm, c):
 
 def test_seed000_fourier_terms_match_the_measurement_equation():
     plan = make_plan()
-    data = pt.simulate(plan, TRUTH)
-    res = pt.fit(plan, data, sigma=1e-3)
+    data = inertest.simulate(plan, TRUTH)
+    res = inertest.fit(plan, data, sigma=1e-3)
     gm = plan.site.gravity_g
     for m, h in res.harmonics.items():
         np.testing.assert_allclose([t.value for t in h.terms],
@@ -55,7 +56,7 @@ def test_seed000_fourier_terms_match_the_measurement_equation():
 
 def test_seed000_exact_recovery_without_noise():
     plan = make_plan()
-    res = pt.fit(plan, pt.simulate(plan, TRUTH), sigma=1e-3)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DI", "DO", "DS", "DIO", "DOS", "DSI"}
     for name, e in res.coefficients.items():
         assert e.value == pytest.approx(TRUTH[name], abs=1e-10)
@@ -73,8 +74,8 @@ def test_seed000_closed_form_equals_general_least_squares():
     # estimator when the angles are equally spaced (orthogonal harmonics).
     for pair in ("O", "S"):
         plan = make_plan(mountings=(f"{pair}-Np", f"{pair}-Sp"), spp=3)
-        data = pt.simulate(plan, TRUTH, noise=0.01, rng=7)
-        res = pt.fit(plan, data)
+        data = inertest.simulate(plan, TRUTH, noise=0.01, rng=7)
+        res = inertest.fit(plan, data)
         x = dict(res.coefficients)
         for cf in res.closed_form[pair]:
             if len(cf.terms) == 1:
@@ -94,7 +95,7 @@ def test_seed000_closed_form_equals_general_least_squares():
 
 def test_one_mounting_determines_only_what_it_can():
     plan = make_plan(mountings=("O-Np",))
-    res = pt.fit(plan, pt.simulate(plan, TRUTH), sigma=1e-3)
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH), sigma=1e-3)
     assert set(res.coefficients) == {"DSI"}  # S2 = cos^2 L DSI / 2 alone
     assert res.identification.rank == 5
     assert len(res.combinations) == 4
@@ -105,8 +106,8 @@ def test_one_mounting_determines_only_what_it_can():
 
 def test_rate_output_unit_and_given_sigma():
     plan = make_plan(unit="deg/h")
-    data = pt.simulate(plan, TRUTH, noise=0.05, rng=3)
-    res = pt.fit(plan, data, sigma=0.05)
+    data = inertest.simulate(plan, TRUTH, noise=0.05, rng=3)
+    res = inertest.fit(plan, data, sigma=0.05)
     assert not res.identification.sigma_from_residuals
     # For 4 x 16 equally spaced readings DI appears in S1 of every mounting:
     # S1 = gamma cosL DI + ..., var(S1) = 2 s^2/16, averaged over 4 mountings.
@@ -117,26 +118,26 @@ def test_rate_output_unit_and_given_sigma():
 
 def test_spacing_warning():
     plan = make_plan(positions=10)
-    data = pt.simulate(plan, TRUTH)
+    data = inertest.simulate(plan, TRUTH)
     with pytest.warns(InertestWarning, match="not a multiple of 4"):
-        res = pt.fit(plan, data, sigma=1e-3)
+        res = inertest.fit(plan, data, sigma=1e-3)
     assert res.coefficients["DI"].value == pytest.approx(TRUTH["DI"], abs=1e-10)
 
 
 def test_bad_data():
     plan = make_plan()
-    data = pt.simulate(plan, TRUTH, noise=0.01, rng=1)
+    data = inertest.simulate(plan, TRUTH, noise=0.01, rng=1)
     with pytest.raises(DataError, match="lacks column"):
-        pt.fit(plan, {k: v for k, v in data.items() if k != "angle_deg"})
+        inertest.fit(plan, {k: v for k, v in data.items() if k != "angle_deg"})
     bad = dict(data, output=np.where(np.arange(data["output"].size) == 5, np.nan, data["output"]))
     with pytest.raises(DataError, match="NaN.*row 6"):
-        pt.fit(plan, bad)
+        inertest.fit(plan, bad)
     bad = dict(data, mounting=np.where(data["mounting"] == "O-Np", "O-Up", data["mounting"]))
     with pytest.raises(DataError, match="O-Up"):
-        pt.fit(plan, bad)
+        inertest.fit(plan, bad)
     few = make_plan(mountings=("O-Np", "O-Sp"), positions=3)
     with pytest.warns(InertestWarning) as rec:
-        res = pt.fit(few, pt.simulate(few, TRUTH), sigma=1e-3)
+        res = inertest.fit(few, inertest.simulate(few, TRUTH), sigma=1e-3)
     assert any("no Fourier terms for mounting O-Np: 3 distinct" in str(w.message) for w in rec)
     assert res.harmonics == {} and res.closed_form == {}
     for c in res.combinations:  # the general LS still says what 3 angles determine
@@ -144,9 +145,9 @@ def test_bad_data():
     one = {"mounting": np.array(["O-Np"]), "angle_deg": np.array([0.0]), "output": np.ones(1)}
     with pytest.raises(IdentifiabilityError, match="no degree of freedom"), \
             pytest.warns(InertestWarning):
-        pt.fit(few, one)
+        inertest.fit(few, one)
     with pytest.raises(PlanError, match="cos L"):
-        pt.simulate(make_plan(lat=89.5), TRUTH)
+        inertest.simulate(make_plan(lat=89.5), TRUTH)
     with pytest.raises(PlanError, match='unknown key.*postions.*did you mean "positions"'):
         pt.PolarTumbleSpec.from_mapping({"postions": 8})
 
@@ -188,7 +189,7 @@ def test_monte_carlo_reported_std_matches_scatter():
     for _ in range(400):
         with warnings.catch_warnings():  # the model checks' false alarms at alpha = 1e-3
             warnings.simplefilter("ignore", InertestWarning)
-            res = pt.fit(plan, pt.simulate(plan, c, noise=0.01, rng=rng))
+            res = inertest.fit(plan, inertest.simulate(plan, c, noise=0.01, rng=rng))
         vals = [res.coefficients[n].value for n in res.coefficients]
         vals += [k.value for k in res.combinations]
         runs.append(vals)
@@ -228,7 +229,7 @@ def test_flicker_bias_time_scale_matches_the_history_of_the_1_over_f_noise(histo
     plan = Plan(plan.site, plan.instrument, pt.PolarTumbleSpec.from_mapping(
         {"positions": 16, "samples_per_position": 5, "noise_model": "flicker",
          "bias_time_scale": float(history)}))
-    clean = pt.simulate(plan, TRUTH)
+    clean = inertest.simulate(plan, TRUTH)
     n = clean["output"].size
     rng = np.random.default_rng(150 + history)
     runs, reported = [], []
@@ -237,7 +238,7 @@ def test_flicker_bias_time_scale_matches_the_history_of_the_1_over_f_noise(histo
                     + 0.002 * _flicker_with_history(rng, n, history))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", InertestWarning)
-            res = pt.fit(plan, data)
+            res = inertest.fit(plan, data)
         assert res.identification.bias_time_scale == history
         runs.append([res.coefficients[c].value for c in ("DI", "DO", "DS")]
                     + [k.value for k in res.combinations])
@@ -255,7 +256,7 @@ def test_coefficient_order_is_the_design_order():
 
 def _sp_angle_180_off(mountings):
     plan = make_plan(mountings=mountings, spp=10, unit="deg/h")
-    d = pt.simulate(plan, TRUTH, noise=0.01, rng=1)
+    d = inertest.simulate(plan, TRUTH, noise=0.01, rng=1)
     sp = np.char.endswith(d["mounting"].astype(str), "Sp")
     d["angle_deg"] = np.where(sp, np.mod(d["angle_deg"] + 180.0, 360.0), d["angle_deg"])
     return plan, d
@@ -266,10 +267,10 @@ def test_sp_angle_read_180_deg_off_is_flagged_with_four_mountings():
     pairs then disagree and the model checks must say so."""
     plan, d = _sp_angle_180_off(pt.table.MOUNTINGS)
     with pytest.warns(InertestWarning, match="does not fit the data"):
-        res = pt.fit(plan, d)
+        res = inertest.fit(plan, d)
     assert res.identification.checks.verdict == "model does not fit"
     # Correct labels: no warning (PYTHONWARNINGS=error), verdict consistent.
-    res = pt.fit(plan, pt.simulate(plan, TRUTH, noise=0.01, rng=1))
+    res = inertest.fit(plan, inertest.simulate(plan, TRUTH, noise=0.01, rng=1))
     assert res.identification.checks.verdict == "consistent"
 
 
@@ -277,13 +278,13 @@ def test_position_offsets_give_the_std_of_position_means():
     """50 samples per position and an offset per position: the reported std is that of least
     squares over the position means (independent implementation), not of the samples."""
     plan = make_plan(positions=8, spp=50, unit="deg/h")
-    d = pt.simulate(plan, TRUTH, noise=0.01, rng=4)
+    d = inertest.simulate(plan, TRUTH, noise=0.01, rng=4)
     rng = np.random.default_rng(5)
     d["output"] = d["output"] + np.repeat(rng.normal(0.0, 0.01, d["output"].size // 50), 50)
-    res = pt.fit(plan, d, noise_model="position-offsets")
+    res = inertest.fit(plan, d, noise_model="position-offsets")
     assert res.identification.noise_model == "position-offsets"
     means = d["output"].reshape(-1, 50).mean(axis=1)
-    clean = pt.simulate(make_plan(positions=8, spp=1, unit="deg/h"), TRUTH)
+    clean = inertest.simulate(make_plan(positions=8, spp=1, unit="deg/h"), TRUTH)
     # independent of the motion: the seed's table of fI, fO, fS (gamma = g/g0) per mounting
     gm, L, th = plan.site.gravity_g, plan.site.latitude_rad, np.radians(clean["angle_deg"])
     sign = np.where(np.char.endswith(clean["mounting"].astype(str), "Np"), 1.0, -1.0)

@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
+import inertest
 from inertest.earth import Site
 from inertest.errors import DataError, PlanError
 from inertest.plan import Instrument, Plan
@@ -26,7 +27,7 @@ def _quiet_fit(plan, data, **kw):
     # Noise-free data: residuals are rounding, not white noise; the model checks say so.
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return st.fit(plan, data, **kw)
+        return inertest.fit(plan, data, **kw)
 
 
 def _vec(terms):
@@ -47,7 +48,7 @@ def test_seed000_polar_servo_I_plus_minus_identifies_by_hand():
     # C2 = g^2 cL^2 (DOO - DSS)/2: sums and differences over s give the seven below, and
     # the two combinations.
     plan = _plan(mountings=["I+H", "I-H"], duration_h=24.0, sample_interval_s=30.0)
-    r = _quiet_fit(plan, st.simulate(plan, TRUTH))
+    r = _quiet_fit(plan, inertest.simulate(plan, TRUTH))
     assert set(r.coefficients) == {"DI", "DO", "DS", "DIO", "DSI", "DOS"}
     for n, e in r.coefficients.items():
         assert e.value == pytest.approx(TRUTH[n], abs=1e-8)
@@ -67,7 +68,7 @@ def test_seed000_polar_servo_I_plus_minus_identifies_by_hand():
 
 def test_seed000_polar_harmonics_and_curve_match_closed_form():
     plan = _plan(mountings=["I+E", "I-H"], duration_h=24.0, sample_interval_s=30.0)
-    r = _quiet_fit(plan, st.simulate(plan, TRUTH))
+    r = _quiet_fit(plan, inertest.simulate(plan, TRUTH))
     g, L = plan.site.gravity_g, np.radians(45.0)
     sL, cL = np.sin(L), np.cos(L)
     c = TRUTH
@@ -94,7 +95,7 @@ def test_vertical_table_identifies_DI_and_DF_plus_DII_only():
     # fI = s g, fO = fS = 0 at every angle: drift = DF + s g DI + g^2 DII.
     plan = _plan(table_axis="vertical", mountings=["I+N", "I-N"], duration_h=6.0,
                  sample_interval_s=30.0)
-    r = _quiet_fit(plan, st.simulate(plan, TRUTH))
+    r = _quiet_fit(plan, inertest.simulate(plan, TRUTH))
     g = plan.site.gravity_g
     assert set(r.coefficients) == {"DI"}
     assert r.coefficients["DI"].value == pytest.approx(TRUTH["DI"], abs=1e-8)
@@ -107,7 +108,7 @@ def test_vertical_table_identifies_DI_and_DF_plus_DII_only():
 
 def test_one_sign_of_I_cannot_separate_DI_DIO_DSI():
     plan = _plan(mountings=["I+H"], duration_h=24.0, sample_interval_s=60.0)
-    r = _quiet_fit(plan, st.simulate(plan, TRUTH))
+    r = _quiet_fit(plan, inertest.simulate(plan, TRUTH))
     assert "DI" not in r.coefficients and "DIO" not in r.coefficients
     assert any("I reversed" in s for s in r.identification.not_separable)
 
@@ -120,7 +121,7 @@ def test_stability_series_of_white_encoder_noise():
     expected = np.sqrt(2) * 2.0 / 3600.0          # arcsec/s = deg/h
     ms = []
     for seed in range(8):
-        r = st.fit(plan, st.simulate(plan, TRUTH, rng=seed))
+        r = inertest.fit(plan, inertest.simulate(plan, TRUTH, rng=seed))
         for s in r.stability.values():
             assert s.drift_deg_h.size == 24
             assert abs(s.trend.value) < 4 * s.trend.std
@@ -140,7 +141,7 @@ def test_seed000_polar_day_monte_carlo_std_honest():
     rng = np.random.default_rng(2017)
     z, scatter = {}, {}
     for _ in range(60):
-        r = st.fit(plan, st.simulate(plan, TRUTH, rng=rng))
+        r = inertest.fit(plan, inertest.simulate(plan, TRUTH, rng=rng))
         items = {**{n: (e.value, e.std, TRUTH[n]) for n, e in r.coefficients.items()},
                  **{c.name: (c.value, c.std, _vec(c.terms) @ _vec(TRUTH))
                     for c in r.combinations}}
@@ -156,7 +157,7 @@ def test_seed000_polar_day_monte_carlo_std_honest():
 
 def test_bad_input_one_line_errors():
     plan = _plan(mountings=["I+H", "I-H"], duration_h=24.0, sample_interval_s=120.0)
-    data = st.simulate(plan, {"DF": 1.0})
+    data = inertest.simulate(plan, {"DF": 1.0})
     errors = []
     with pytest.raises(PlanError, match="left-handed") as e:
         _plan(mountings=["I+HW"])
@@ -166,20 +167,20 @@ def test_bad_input_one_line_errors():
     errors.append(e)
     bad = dict(data, mounting=np.where(data["mounting"] == "I-H", "O-H", data["mounting"]))
     with pytest.raises(DataError, match="input axis I along it") as e:
-        st.fit(plan, bad)
+        inertest.fit(plan, bad)
     errors.append(e)
     t = data["time_s"].copy()
     t[[5, 6]] = t[[6, 5]]
     with pytest.raises(DataError, match="does not increase at data row 7") as e:
-        st.fit(plan, dict(data, time_s=t))
+        inertest.fit(plan, dict(data, time_s=t))
     errors.append(e)
     short = _plan(mountings=["I+H", "I-H"], duration_h=12.0, sample_interval_s=120.0)
     with pytest.raises(DataError, match="less than one table revolution") as e:
-        st.simulate(short, {})
+        inertest.simulate(short, {})
     errors.append(e)
     keep = data["time_s"] % 86520 < 12 * 3600
     with pytest.raises(DataError, match="less than one table revolution") as e:
-        st.fit(plan, {k: v[keep] for k, v in data.items()})
+        inertest.fit(plan, {k: v[keep] for k, v in data.items()})
     errors.append(e)
     with pytest.raises(PlanError, match="encoder_noise_arcsec") as e:
         _plan(encoder_noise_arcsec=-1.0)
@@ -195,5 +196,5 @@ def test_vertical_short_record_is_fine_and_spec_defaults():
     assert spec.mountings == ("I+N", "I-N")
     plan = _plan(table_axis="vertical", duration_h=2.0, sample_interval_s=60.0)
     assert dataclasses.asdict(plan.procedure)["duration_h"] == 2.0
-    r = _quiet_fit(plan, st.simulate(plan, {"DF": 0.5}))
+    r = _quiet_fit(plan, inertest.simulate(plan, {"DF": 0.5}))
     assert r.combinations[0].value == pytest.approx(0.5, abs=1e-8)

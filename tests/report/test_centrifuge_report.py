@@ -5,10 +5,11 @@ import warnings
 
 import numpy as np
 
+import inertest
 from inertest.cli import main
 from inertest.earth import Site
 from inertest.plan import Instrument, Plan
-from inertest.procedures import centrifuge_nine_position as cnp
+from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionSpec as Spec9
 from inertest.report.html import page
 from inertest.report.sections import result_sections
 
@@ -17,12 +18,12 @@ TRUTH = dict(DF=0.5, DI=0.3, DO=-0.2, DS=0.15, DIO=0.01, DOS=-0.008, DSI=0.006, 
 
 
 def _result(sigma=None, **params):
-    spec = cnp.SPEC.from_mapping({"radius_m": 2.5, "revolutions": 5, **params})
+    spec = Spec9.from_mapping({"radius_m": 2.5, "revolutions": 5, **params})
     plan = Plan(Site.at(45.0, 9.8066), Instrument(output_unit="mA", scale_factor=10.0), spec)
-    data = cnp.simulate(plan, TRUTH, noise=1e-4, rng=3)
+    data = inertest.simulate(plan, TRUTH, noise=1e-4, rng=3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return cnp.fit(plan, data, sigma=sigma)
+        return inertest.fit(plan, data, sigma=sigma)
 
 
 def test_section_has_units_uncertainties_runs_and_figure():

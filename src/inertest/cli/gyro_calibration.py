@@ -57,9 +57,8 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
     from inertest.equipment.rate_table import axis_index, triad_attitude
     from inertest.io.data_file import write_table
     from inertest.io.plan_file import load_truth
-    from inertest.models.rate_gyro import raw_rate_per_si
+    from inertest.models.rate_gyro import raw_rate_per_si, triad_from_truth
     from inertest.procedures import navigation_calibration as nav
-    from inertest.procedures.gyro_triad_rotation import truth_model
 
     check_paths([output], [plan, truth])
     p = _rotation_plan(plan)
@@ -67,7 +66,7 @@ def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: 
         raise InputError("--rate-hz must be positive, --rest-s and --noise non-negative")
     spec = p.procedure
     per_si = raw_rate_per_si(p.instrument.output_unit)
-    A, b = truth_model(load_truth(truth), p.instrument.output_unit)
+    A, b = triad_from_truth(load_truth(truth), p.instrument.output_unit)
     turns, attitudes = [], []
     for r in spec.rotations:
         for d in spec.directions:

@@ -43,7 +43,8 @@ segment per run (position, signed rate), inputs from :func:`centrifuge_motion`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -53,7 +54,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu
 from inertest.equipment.motion import Inputs
-from inertest.equipment.type_b import TypeBSource, current_error
+from inertest.equipment.type_b import TypeBSource, type_b_error
 from inertest.errors import InputError
 
 #: Position numbers of the nine-position method.
@@ -578,6 +579,9 @@ class CentrifugeRuns:
         Azimuth non-synchronisation.
     earth_rotation_in_acceleration : bool
         Include the Earth-rate Coriolis and centripetal terms in the specific force.
+    type_b : mapping of str to float
+        The machine's Type-B errors [SI] (:data:`TYPE_B`: radius, rate, tilt) on top of
+        ``errors``; empty for the nominal machine.
     """
 
     runs: tuple[tuple[int, float], ...]
@@ -587,6 +591,7 @@ class CentrifugeRuns:
     errors: CentrifugeErrors | None = None
     dgamma: NonSynchronisation | None = None
     earth_rotation_in_acceleration: bool = True
+    type_b: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for p, w in self.runs:
@@ -606,13 +611,13 @@ class CentrifugeRuns:
         except ValueError:
             raise InputError(f"unknown centrifuge run {segment!r}; the plan has "
                              f"{', '.join(self.segments)}") from None
-        errors, tilt = self.errors, current_error("tilt")   # Type-B (zero unless applied)
+        errors, tilt = self.errors, type_b_error(self.type_b, "tilt")   # Type-B (0: nominal)
         if tilt:
             base = CentrifugeErrors() if errors is None else errors
             errors = replace(base, parallelism_x_rad=base.parallelism_x_rad + tilt)
         f_ios, omega_ios, attitude = instrument_inputs(
-            t, w * (1.0 + current_error("rate")), p,
-            radius_m=self.radius_m + current_error("radius"),
+            t, w * (1.0 + type_b_error(self.type_b, "rate")), p,
+            radius_m=self.radius_m + type_b_error(self.type_b, "radius"),
             gravity_m_s2=self.site.gravity_m_s2,
             latitude_rad=self.site.latitude_rad, platform_heading_rad=self.platform_heading_rad,
             errors=errors, dgamma=self.dgamma,
@@ -638,3 +643,30 @@ class CentrifugeRuns:
             part = self.inputs(str(u), tt[idx])
             C[idx], w[idx], f[idx] = part.C_ni, part.omega_i, part.f_i
         return Inputs(C, w, f)
+
+
+@dataclass(frozen=True)
+class Centrifuge:
+    """A dual-axis centrifuge at a site, with its Type-B errors: its runs on demand.
+
+    Attributes
+    ----------
+    radius_m : float
+        Nominal arm radius [m].
+    site : Site
+    platform_heading_rad : float
+        Azimuth of ``x_P`` [rad].
+    type_b : mapping of str to float
+        Type-B errors [SI] (:data:`TYPE_B`); empty for the nominal machine.
+    """
+
+    radius_m: float
+    site: Site
+    platform_heading_rad: float = 0.0
+    type_b: Mapping[str, float] = field(default_factory=dict)
+
+    def runs(self, runs: tuple[tuple[int, float], ...]) -> CentrifugeRuns:
+        """The error-free machine (Earth rotation included) running ``(position, omega)`` runs."""
+        return CentrifugeRuns(runs, radius_m=self.radius_m, site=self.site,
+                              platform_heading_rad=self.platform_heading_rad,
+                              type_b=self.type_b)

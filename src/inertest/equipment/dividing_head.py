@@ -24,13 +24,15 @@ and increasing as the second axis turns up; ``gamma = g_local / g0``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site
 from inertest.equipment.motion import StaticPositions
-from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
+from inertest.equipment.type_b import TypeBSource, tilt_rotation, type_b_error
 from inertest.errors import InputError
 
 MOUNTINGS: tuple[str, ...] = ("IA-PA", "IA-OA", "PA-OA")
@@ -122,7 +124,8 @@ def attitudes(
 
 
 def motion(
-    mountings: ArrayLike, angles_deg: ArrayLike, site: Site, *, head_azimuth_deg: float = 0.0
+    mountings: ArrayLike, angles_deg: ArrayLike, site: Site, *, head_azimuth_deg: float = 0.0,
+    type_b: Mapping[str, float] | None = None,
 ) -> StaticPositions:
     """The head holding the instrument at every angle of every mounting, as a motion.
 
@@ -136,6 +139,8 @@ def motion(
         Local gravity (and latitude, for the Earth rate).
     head_azimuth_deg : float
         Azimuth of the head axis, clockwise from north [deg].
+    type_b : mapping of str to float, optional
+        The head's Type-B errors [SI] (:data:`TYPE_B`); none for the nominal head.
 
     Returns
     -------
@@ -143,8 +148,7 @@ def motion(
         Segments ``"<mounting>@<angle>"`` (:func:`position_labels`), mounting by mounting;
         instrument axes (IA, PA, OA). Its specific force ``f_i / g0`` equals
         :func:`specific_force` with ``gravity_g = g / g0``; the axis along the head axis feels
-        none. Inside :func:`~inertest.equipment.type_b.errors_applied` the :data:`TYPE_B`
-        errors apply.
+        none (on the nominal head).
 
     Raises
     ------
@@ -153,8 +157,8 @@ def motion(
     """
     angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
     # Type-B errors (zero unless applied): the labels stay the nominal angles.
-    true_angles = angles + np.degrees(current_error("angle"))
-    tilt = tilt_rotation(current_error("tilt"))
+    true_angles = angles + np.degrees(type_b_error(type_b, "angle"))
+    tilt = tilt_rotation(type_b_error(type_b, "tilt"))
     out: dict[str, NDArray[np.float64]] = {}
     for m in np.atleast_1d(np.asarray(mountings).astype(str)):
         for label, c in zip(position_labels(m, angles), attitudes(str(m), true_angles,

@@ -21,6 +21,7 @@ axes of the calibration), SI units.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -172,3 +173,38 @@ def turns_motion(
     starts = {label: (face_attitude(axis, +1, heading_rad), axis, direction)
               for label, axis in TURNS}
     return Turns(site, starts, RaisedCosineProfile(abs(angle_rad), duration_s), rest_s)
+
+
+@dataclass(frozen=True)
+class FerrarisSession:
+    """A Ferraris session's motion: the six level faces and the three turns.
+
+    Attributes
+    ----------
+    site : Site
+    angle_rad : float
+        Signed turn angle [rad] (right-handed about the +axis).
+    turn_duration_s : float
+        Duration of each raised-cosine turn [s].
+    rest_s : float
+        Rest before and after each turn [s].
+    heading_rad : float
+        Heading of the faces [rad].
+    """
+
+    site: Site
+    angle_rad: float
+    turn_duration_s: float
+    rest_s: float = 0.0
+    heading_rad: float = 0.0
+
+    @functools.cached_property
+    def faces(self) -> StaticPositions:
+        """The six level faces (:func:`faces_motion`)."""
+        return faces_motion(self.site, self.heading_rad)
+
+    @functools.cached_property
+    def turns(self) -> Turns:
+        """The three turns (:func:`turns_motion`)."""
+        return turns_motion(self.site, self.angle_rad, self.turn_duration_s, self.rest_s,
+                            self.heading_rad)

@@ -9,7 +9,7 @@ letter S names *south* here; the gyro's spin-reference axis is the third column 
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
 from inertest.equipment.directions import letter_of, triad_axes
 from inertest.equipment.motion import StaticPositions
-from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
+from inertest.equipment.type_b import TypeBSource, tilt_rotation, type_b_error
 from inertest.errors import InputError
 from inertest.units import G0
 
@@ -75,7 +75,8 @@ TYPE_B: tuple[TypeBSource, ...] = (
 )
 
 
-def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositions:
+def motion(positions: Iterable[str | Sequence[str]], site: Site, *,
+           type_b: Mapping[str, float] | None = None) -> StaticPositions:
     """The fixture holding the gyro in each position, as a motion.
 
     Parameters
@@ -84,6 +85,8 @@ def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositi
         Directions of (I, O, S) at each position: ``("U", "N", "W")``, ``"UNW"`` or a label
         ``"U N W"`` (letters E, W, N, S, U, D; S = south).
     site : Site
+    type_b : mapping of str to float, optional
+        The fixture's Type-B errors [SI] (:data:`TYPE_B`); none for the nominal fixture.
 
     Returns
     -------
@@ -97,7 +100,7 @@ def motion(positions: Iterable[str | Sequence[str]], site: Site) -> StaticPositi
     InputError
         A position that is not three local directions of a right-handed triad.
     """
-    tilt = tilt_rotation(current_error("tilt"))   # Type-B (zero unless applied)
+    tilt = tilt_rotation(type_b_error(type_b, "tilt"))   # Type-B (zero on the nominal fixture)
     attitudes: dict[str, NDArray[np.float64]] = {}
     for p in positions:
         triple = p.split() if isinstance(p, str) and " " in p.strip() else list(p)

@@ -20,7 +20,7 @@ Conventions
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
 import numpy as np
@@ -160,3 +160,31 @@ class StaticPositions:
         w = np.stack([p.omega_i[0] for p in parts])[inv]
         f = np.stack([p.f_i[0] for p in parts])[inv]
         return Inputs(C, w, f)
+
+
+@dataclass(frozen=True)
+class Fixture:
+    """A static test machine at a site, with its Type-B errors: its positions on demand.
+
+    A polar-axis table, a level fixture, a multi-position cube or a dividing head holds the
+    instrument in positions that a plan lists and that the data name (a test may run fewer or
+    other positions than planned). ``positions(*where)`` is the equipment module's
+    ``motion(*where, site, type_b=...)``: the :class:`StaticPositions` of those positions on
+    this machine, with its Type-B errors (:mod:`inertest.equipment.type_b`) applied.
+
+    Attributes
+    ----------
+    place : callable
+        The equipment module's ``motion`` function.
+    site : Site
+    type_b : mapping of str to float
+        ``{source name: error [SI]}``; empty for the nominal machine.
+    """
+
+    place: Callable[..., StaticPositions]
+    site: Site
+    type_b: Mapping[str, float] = field(default_factory=dict)
+
+    def positions(self, *where: object, **options: object) -> StaticPositions:
+        """The static positions ``where`` (labels, or mountings and angles) on this machine."""
+        return self.place(*where, self.site, type_b=self.type_b, **options)

@@ -24,6 +24,7 @@ Schemes (``scheme_positions``):
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,7 +34,7 @@ from inertest.earth import Site
 from inertest.equipment.directions import triad_axes
 from inertest.equipment.level_fixture import all_positions
 from inertest.equipment.motion import StaticPositions
-from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
+from inertest.equipment.type_b import TypeBSource, tilt_rotation, type_b_error
 from inertest.errors import InputError
 
 SCHEMES = ("6", "12", "24")
@@ -94,7 +95,8 @@ TYPE_B: tuple[TypeBSource, ...] = (
 )
 
 
-def motion(labels: object, site: Site) -> StaticPositions:
+def motion(labels: object, site: Site, *,
+           type_b: Mapping[str, float] | None = None) -> StaticPositions:
     """The fixture as a :class:`~inertest.equipment.motion.Motion`: one static segment per label.
 
     Parameters
@@ -103,6 +105,8 @@ def motion(labels: object, site: Site) -> StaticPositions:
         Position labels (repeats allowed; each distinct label is one segment, in first-seen
         order).
     site : Site
+    type_b : mapping of str to float, optional
+        The fixture's Type-B errors [SI] (:data:`TYPE_B`); none for the nominal fixture.
 
     Returns
     -------
@@ -111,6 +115,6 @@ def motion(labels: object, site: Site) -> StaticPositions:
         ``omega_i = C_ni^T W_ie_n``.
     """
     distinct = dict.fromkeys(str(x) for x in np.asarray(labels, dtype=str).ravel())
-    tilt = tilt_rotation(current_error("tilt"))   # Type-B (zero unless applied)
+    tilt = tilt_rotation(type_b_error(type_b, "tilt"))   # Type-B (zero on the nominal fixture)
     return StaticPositions({lab: tilt @ attitude(lab) for lab in distinct}, site)
 

@@ -22,6 +22,8 @@ towards up. Then, with latitude L and specific force in units of local gravity::
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
@@ -32,8 +34,8 @@ from inertest.equipment.type_b import (
     TypeBSource,
     axis_tilt_rotation,
     component_error,
-    current_error,
     tilt_rotation,
+    type_b_error,
 )
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD, G0
@@ -143,7 +145,8 @@ def position_labels(mounting: ArrayLike, angle_deg: ArrayLike) -> NDArray[np.str
         "%.9g", np.mod(ar, 360.0) + 0.0)), m, a)
 
 
-def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPositions:
+def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site, *,
+           type_b: Mapping[str, float] | None = None) -> StaticPositions:
     """The table holding the gyro at every table angle of every mounting, as a motion.
 
     Parameters
@@ -154,6 +157,8 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
         Table angles theta [deg] (the same encoder angles for every mounting).
     site : Site
         Latitude (the polar axis) and local gravity.
+    type_b : mapping of str to float, optional
+        The table's Type-B errors [SI] (:data:`TYPE_B`); none for the nominal table.
 
     Returns
     -------
@@ -162,8 +167,7 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
         order given, angles in the order given; attitude ``C_ni`` with columns I, O, S in ENU
         (:func:`instrument_axes_enu` transposed). Its inputs: Earth rate and ``+g`` up on
         I, O, S, so ``f_i / g`` follows the table of the module docstring and ``omega_i[:, 0]``
-        vanishes (the input axis stays in the equatorial plane). Inside
-        :func:`~inertest.equipment.type_b.errors_applied` the :data:`TYPE_B` errors apply.
+        vanishes (the input axis stays in the equatorial plane, on the nominal table).
 
     Raises
     ------
@@ -172,11 +176,11 @@ def motion(mountings: ArrayLike, angles_deg: ArrayLike, site: Site) -> StaticPos
     """
     angles = np.atleast_1d(np.asarray(angles_deg, dtype=float))
     # Type-B errors (zero unless applied): the labels stay the nominal angles.
-    offset = current_error("angle")
+    offset = type_b_error(type_b, "angle")
     p, east = polar_axis_enu(site.latitude_rad), np.array([1.0, 0.0, 0.0])
-    common = tilt_rotation(current_error(component_error("tilt", "meridian"))) @ \
-        axis_tilt_rotation(current_error(component_error("tilt", "east-west")), p, east)
-    square = current_error("squareness")
+    common = tilt_rotation(type_b_error(type_b, component_error("tilt", "meridian"))) @ \
+        axis_tilt_rotation(type_b_error(type_b, component_error("tilt", "east-west")), p, east)
+    square = type_b_error(type_b, "squareness")
     attitudes: dict[str, NDArray[np.float64]] = {}
     for m in np.atleast_1d(np.asarray(mountings).astype(str)):
         axes = instrument_axes_enu(str(m), angles * DEG_TO_RAD + offset, site.latitude_rad)

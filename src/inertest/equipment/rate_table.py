@@ -21,7 +21,7 @@ the window is spent at rest in the start (= end) attitude.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -30,8 +30,8 @@ from scipy.spatial.transform import Rotation
 
 from inertest.earth import DIRECTIONS_ENU, Site, earth_rate_enu, specific_force_enu
 from inertest.equipment.directions import triad_axes
-from inertest.equipment.motion import Inputs
-from inertest.equipment.type_b import TypeBSource, current_error, tilt_rotation
+from inertest.equipment.motion import Inputs, StaticPositions
+from inertest.equipment.type_b import TypeBSource, tilt_rotation, type_b_error
 from inertest.errors import InputError
 from inertest.units import DEG_TO_RAD
 
@@ -389,12 +389,16 @@ class ConstantRates:
     C_ni0 : ndarray (3, 3) or None
         Instrument attitude at ``t = 0``; default: instrument x (an SDF gyro's input axis I)
         along the table axis.
+    type_b : mapping of str to float
+        The table's Type-B errors [SI] (:data:`TYPE_B`: rate scale, axis tilt); empty for the
+        nominal table.
     """
 
     site: Site
     axis_enu: NDArray[np.float64]
     rates_rad_s: tuple[float, ...]
     C_ni0: NDArray[np.float64] | None = None
+    type_b: Mapping[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         a = direction_vector(tuple(np.asarray(self.axis_enu, dtype=float)))
@@ -427,9 +431,9 @@ class ConstantRates:
     def inputs_at_rate(self, rate_rad_s: float, t: ArrayLike = 0.0) -> Inputs:
         """Inputs at table rate ``rate_rad_s`` [rad/s] and times ``t`` [s]."""
         tt = np.atleast_1d(np.asarray(t, dtype=float)).ravel()
-        # Type-B errors (zero unless applied): rate scale, and the axis tilted with the mount.
-        rate_rad_s = rate_rad_s * (1.0 + current_error("rate"))
-        tilt = tilt_rotation(current_error("tilt"), self.axis_enu)
+        # Type-B errors (zero on the nominal table): rate scale, the axis tilted with the mount.
+        rate_rad_s = rate_rad_s * (1.0 + type_b_error(self.type_b, "rate"))
+        tilt = tilt_rotation(type_b_error(self.type_b, "tilt"), self.axis_enu)
         axis = tilt @ self.axis_enu
         C0 = tilt @ np.asarray(self.C_ni0, dtype=float)
         R = Rotation.from_rotvec(np.outer(rate_rad_s * tt, axis)).as_matrix()
@@ -507,3 +511,53 @@ class Turns:
         tr = self.turn(segment)
         return body_angle(tr.C_nb0, tr.axis, tr.direction, self.profile, window_s,
                           self.site.latitude_rad)
+
+
+#: The ``axis`` of a counting window in which the table holds the triad still.
+STATIC = "static"
+
+
+@dataclass(frozen=True)
+class TurnTable:
+    """A two-axis table that turns a triad through whole turns about its body axes.
+
+    The 360-degree rotation test (seed ``003_f374f866dfe7c99f.txt``) counts each gyro over a
+    window holding one whole turn (:class:`Turns`) or over a static window in one attitude.
+
+    Attributes
+    ----------
+    site : Site
+    profile : TurnProfile
+        The table's rotation profile (:class:`RotationProfile`).
+    """
+
+    site: Site
+    profile: TurnProfile
+
+    def window_angle(self, attitude: str, axis: str, direction: float, window_s: float
+                     ) -> NDArray[np.float64]:
+        """Integral of the body rate over a counting window [rad], shape (3,).
+
+        Parameters
+        ----------
+        attitude : str
+            Start attitude, direction letters of x, y, z (``"UEN"``, :func:`triad_attitude`).
+        axis : str
+            Body axis turned about (``"x"``, ``"y"``, ``"z"``), or :data:`STATIC`.
+        direction : float
+            +1 or -1 (the sense of the turn about ``axis``); 0 for a static window.
+        window_s : float
+            Window length [s].
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            A turn: the table angle plus the Earth-rate angle of the profile
+            (:meth:`Turns.body_angle`); static: the Earth rate times the window.
+        """
+        C = triad_attitude(attitude)
+        if axis == STATIC:
+            rest = StaticPositions({attitude: C}, self.site)
+            return rest.inputs(attitude).omega_i[0] * window_s
+        turns = Turns(self.site, {"turn": (C, axis_index(axis), int(direction))}, self.profile)
+        return turns.body_angle("turn", window_s)

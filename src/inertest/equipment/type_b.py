@@ -3,12 +3,13 @@
 A lab equipment file states the standard uncertainties (k = 1) of a table, dividing head or
 centrifuge (``rate_ppm``, ``tilt_urad``, ``angle_arcsec``, ``radius_um``, see
 :mod:`inertest.lab`). Each equipment module declares, in its ``TYPE_B`` tuple of
-:class:`TypeBSource`, which of them it accepts and how the error enters its kinematics; its motion
-constructor reads the error currently applied (:func:`current_error`, zero unless a caller is
-inside :func:`errors_applied`). So the uncertainty budget (:mod:`inertest.budget`) can simulate a
-test on a machine with a given error and fit it with the nominal machine, without any procedure
-knowing about Type-B sources (JCGM 100:2008, GUM 5.1.3: the sensitivity coefficient as the change
-of the output estimate for a change of one input estimate).
+:class:`TypeBSource`, which of them it accepts and how the error enters its kinematics; its
+motion takes the errors it carries as an argument (``type_b``: ``{source name: error [SI]}``,
+read with :func:`type_b_error`; none for the nominal machine). So the uncertainty budget
+(:mod:`inertest.budget`) can simulate a test on a machine with a given error
+(:meth:`inertest.procedures.base.Procedure.motion`) and fit it with the nominal machine, without
+any procedure knowing about Type-B sources (JCGM 100:2008, GUM 5.1.3: the sensitivity coefficient
+as the change of the output estimate for a change of one input estimate).
 
 Every source is applied as one systematic error common to all positions and runs of the test
 (an index zero error, a rate-scale error, a tilt of the table axis), the error a calibration
@@ -17,9 +18,7 @@ certificate states.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
-from contextvars import ContextVar
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,30 +62,9 @@ def component_error(name: str, component: str) -> str:
     return f"{name}.{component}"
 
 
-_ERRORS: ContextVar[Mapping[str, float] | None] = ContextVar("inertest_equipment_errors",
-                                                             default=None)
-
-
-@contextmanager
-def errors_applied(errors: Mapping[str, float]) -> Iterator[None]:
-    """Motions built inside the block carry the given equipment errors [SI].
-
-    Parameters
-    ----------
-    errors : mapping of str to float
-        ``{source name: error in SI}``, e.g. ``{"angle": 9.7e-6}`` [rad].
-    """
-    token = _ERRORS.set(dict(errors))
-    try:
-        yield
-    finally:
-        _ERRORS.reset(token)
-
-
-def current_error(name: str) -> float:
-    """The error ``name`` applied now [SI]; 0.0 outside :func:`errors_applied`."""
-    errors = _ERRORS.get()
-    return 0.0 if errors is None else float(errors.get(name, 0.0))
+def type_b_error(type_b: Mapping[str, float] | None, name: str) -> float:
+    """The Type-B error ``name`` a machine carries [SI]: 0.0 when ``type_b`` does not name it."""
+    return 0.0 if type_b is None else float(type_b.get(name, 0.0))
 
 
 def tilt_rotation(

@@ -20,7 +20,7 @@ from inertest.plan import (
     read_test_table,
     toml_table,
 )
-from inertest.procedures import procedure_module
+from inertest.procedures import procedure
 
 
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
@@ -75,7 +75,7 @@ def plan_from_mapping(doc: Mapping[str, Any], *, source: str = "plan") -> Plan:
         raise PlanError(f"{source}: [procedure] needs kind (e.g. \"polar-tumble\")")
     if not isinstance(kind, str):
         raise PlanError(f"{source}: [procedure] kind must be text, got {kind!r}")
-    spec = procedure_module(kind).SPEC.from_mapping(proc_t)
+    spec = procedure(kind).spec.from_mapping(proc_t)
     test = (read_test_table(doc["test"], f"{source}: [test]") if "test" in doc else None)
     return Plan(site=site, instrument=instrument, procedure=spec, test=test)
 

@@ -16,6 +16,11 @@ procedure (rate table, triad rotations, navigation-mode calibration):
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import NDArray
+
 from inertest.errors import PlanError
 from inertest.models import triad
 from inertest.plan import Instrument
@@ -56,3 +61,14 @@ def check_gyro(instrument: Instrument, kind: str) -> None:
             f'{kind} tests a gyro, but [instrument] kind is "{instrument.kind}"; use one of '
             f"{', '.join(GYRO_KINDS)}"
         )
+
+
+def triad_from_truth(truth: Mapping[str, float], output_unit: str
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``A`` [raw SI per rad/s] and ``b`` [raw SI rate] of a virtual gyro triad's truth.
+
+    ``K_x..K_z`` [K unit, :func:`scale_unit`; default 1 for rate outputs], ``M_ij`` [urad],
+    ``B_x..B_z`` [deg/h] (:func:`inertest.models.triad.model_from_truth`).
+    """
+    return triad.model_from_truth(truth, "gyroscope",
+                                  triad.scale_unit(raw_rate_unit(output_unit), "gyroscope"))

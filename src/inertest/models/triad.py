@@ -350,6 +350,23 @@ def parameters_from_engineering(
     return stack_parameters(S, S @ B, S @ (G * DEG_PER_H_PER_G_TO_RAD_PER_S_PER_M_PER_S2))
 
 
+def model_from_truth(truth: Mapping[str, float], sensor: str, scale: ScaleUnit
+                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``S = K (I + M)`` [raw SI per SI] and ``b`` [raw SI] of a virtual triad's truth.
+
+    ``truth`` names ``K_x..K_z`` [scale unit; default the nominal], ``M_ij`` [urad], ``B_i``
+    [mg or deg/h, input-referred: ``b = S B``] (:func:`parameters_from_engineering`); any other
+    name is an error naming the known ones.
+    """
+    names = parameter_names(False)
+    unknown = sorted(set(truth) - set(names))
+    if unknown:
+        raise PlanError(f"truth for {'an' if sensor[0] in 'aeiou' else 'a'} {sensor} triad has "
+                        f"unknown name(s) {', '.join(unknown)}; known: {', '.join(names)}")
+    p = parameters_from_engineering(truth, sensor, scale)
+    return p[:9].reshape(3, 3), p[9:12]
+
+
 def reversed_axes(p: ArrayLike) -> tuple[int, ...]:
     """Indices of the sensors with a negative scale factor (``S_ii < 0``)."""
     d = np.diag(np.asarray(p, dtype=float)[:9].reshape(3, 3))

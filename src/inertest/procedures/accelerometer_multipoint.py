@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import dividing_head as head
-from inertest.equipment.motion import StaticPositions
+from inertest.equipment.motion import Fixture, StaticPositions
 from inertest.errors import (
     DataError,
     IdentifiabilityError,
@@ -44,10 +44,11 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model, identify
+from inertest.estimation.identify import NOISE_MODELS, identify
 from inertest.estimation.least_squares import LinearFit
 from inertest.models import pendulous_accelerometer as model
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Combination, Estimate, Identification, LinearTestResult
 from inertest.units import G0
@@ -115,7 +116,6 @@ FIELDS = (
 )
 
 
-SPEC = AccelerometerMultipointSpec
 
 
 @dataclass(frozen=True)
@@ -151,87 +151,133 @@ class AccelerometerMultipointResult(LinearTestResult):
         return d
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-    noise_model: str | None = None,
-) -> AccelerometerMultipointResult:
-    """Identify the pendulous-accelerometer model from dividing-head readings.
+@dataclass(frozen=True)
+class HeadObservations:
+    """Dividing-head readings with the specific force of each row from the head.
 
-    Parameters
-    ----------
-    plan : Plan
-        Site (local gravity), ``accelerometer`` instrument and an
-        :class:`AccelerometerMultipointSpec`.
-    data : mapping
-        Columns ``mounting``, ``angle_deg`` [deg], ``output`` [output unit], in time order;
-        rows with the same mounting and angle are one position (the unit of independence).
-    sigma : float, optional
-        Known white noise per reading [output unit]; from the residuals when omitted.
-    noise_model : str, optional
-        Overrides the plan's ``noise_model``.
+    ``mounting``, ``angle_deg``, ``positions`` (labels), ``output`` (n,) [output unit] and
+    ``specific_force_g`` (n, 3) = (aI, aP, aO) [g0].
+    """
 
-    Raises
-    ------
-    IdentifiabilityError
-        K1 cannot be found (no mounting with IA in the vertical plane, or too few positions to
-        separate K1 from K3).
-    DataError
-        K1 comes out negative (IA reversed or output sign inverted).
+    mounting: NDArray
+    angle_deg: NDArray[np.float64]
+    positions: NDArray
+    output: NDArray[np.float64]
+    specific_force_g: NDArray[np.float64]
 
-    Notes
-    -----
+
+class AccelerometerMultipoint(Procedure[AccelerometerMultipointSpec, HeadObservations,
+                                        AccelerometerMultipointResult]):
+    """Pendulous accelerometer on a dividing head (seed 000, ch. 3; IEEE Std 1293 multipoint).
+
+    Data columns ``mounting``, ``angle_deg`` [deg], ``output`` [output unit], in time order;
+    rows with the same mounting and angle are one position (the unit of independence).
+
     A mounting label swapped between IA-PA and IA-OA, or a head turning the other way, cannot be
     seen in the data (the S1/S2 terms just move between dO/KIP and dP/KIO, or change sign): the
     labels in the data file are trusted.
     """
-    _check_instrument(plan)
-    cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
-    try:
-        mounting = np.array([head.check_mounting(m) for m in cols["mounting"]])
-    except InputError as exc:
-        raise InputError(f"column mounting: {exc}") from None
-    gamma = plan.site.gravity_g
-    positions = head.position_labels(mounting, cols["angle_deg"])
-    a = _specific_force(head.motion(np.unique(mounting), np.unique(cols["angle_deg"]), plan.site),
-                        positions)
-    A = model.regressors(a)
-    y = cols["output"]
-    unit = plan.instrument.output_unit
-    if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
-        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-    if sigma is None and len(y) <= np.linalg.matrix_rank(A):
-        raise IdentifiabilityError(
-            f"{len(y)} readings leave no degree of freedom for the noise: record more "
-            "positions or readings, or give --sigma")
-    spec: AccelerometerMultipointSpec = plan.procedure
-    noise = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    lsq, theta_ident = _identify(A, y, sigma, unit, _explainer(tuple(np.unique(mounting)), gamma),
-                                 positions, noise)
-    if not lsq.identifiable[NAMES.index("K1")]:
-        raise IdentifiabilityError(_k1_message(mounting, cols["angle_deg"]))
-    if lsq.x[NAMES.index("K1")] <= 0:
-        raise DataError(
-            f"the output falls as IA turns up (K1 = {lsq.x[NAMES.index('K1')]:.6g} {unit}/g): "
-            "IA is mounted reversed or the output sign is inverted; negate the output column or "
-            "check the mounting (head angle 0 must put IA up)")
-    ident = _engineering(lsq, theta_ident, unit)
-    messages = _spacing_messages(mounting, cols["angle_deg"])
-    for m in messages:
-        warnings.warn(m, InertestWarning, stacklevel=2)
-    return AccelerometerMultipointResult(
-        site_latitude_deg=plan.site.latitude_deg,
-        site_gravity_m_s2=plan.site.gravity_m_s2,
-        identification=ident,
-        fourier=fourier_analysis(mounting, cols["angle_deg"], y, gamma, unit=unit),
-        mounting=mounting,
-        angle_deg=cols["angle_deg"],
-        output=y,
-        fitted=y - lsq.residuals,
-        specific_force_g=a,
-        residual_output=lsq.residuals,
-        output_unit=unit,
-        messages=tuple(messages),
-    )
+
+    kind = KIND
+    title = "Pendulous accelerometer, dividing head"
+    spec = AccelerometerMultipointSpec
+    model = "inertest.models.pendulous_accelerometer"
+    method = "weighted least squares under a noise model; Fourier closed forms per mounting"
+    machines = (head,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.accelerometer:multipoint_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> Fixture:
+        """The dividing head at the plan's site (with its Type-B errors)."""
+        return Fixture(head.motion, plan.site, dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: Fixture
+               ) -> HeadObservations:
+        """Each row's mounting, head angle and specific force (aI, aP, aO)."""
+        _check_instrument(plan)
+        cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
+        try:
+            mounting = np.array([head.check_mounting(m) for m in cols["mounting"]])
+        except InputError as exc:
+            raise InputError(f"column mounting: {exc}") from None
+        positions = head.position_labels(mounting, cols["angle_deg"])
+        a = _specific_force(motion.positions(np.unique(mounting), np.unique(cols["angle_deg"])),
+                            positions)
+        return HeadObservations(mounting, cols["angle_deg"], positions, cols["output"], a)
+
+    def identify(self, plan: Plan, obs: HeadObservations, *, sigma: float | None,
+                 noise_model: str | None) -> AccelerometerMultipointResult:
+        """The pendulous-accelerometer model by least squares, and the Fourier closed forms.
+
+        Raises
+        ------
+        IdentifiabilityError
+            K1 cannot be found (no mounting with IA in the vertical plane, or too few positions
+            to separate K1 from K3).
+        DataError
+            K1 comes out negative (IA reversed or output sign inverted).
+        """
+        mounting, a, y = obs.mounting, obs.specific_force_g, obs.output
+        gamma = plan.site.gravity_g
+        A = model.regressors(a)
+        unit = plan.instrument.output_unit
+        if sigma is not None and not (np.isfinite(sigma) and sigma > 0):
+            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+        if sigma is None and len(y) <= np.linalg.matrix_rank(A):
+            raise IdentifiabilityError(
+                f"{len(y)} readings leave no degree of freedom for the noise: record more "
+                "positions or readings, or give --sigma")
+        lsq, theta_ident = _identify(A, y, sigma, unit,
+                                     _explainer(tuple(np.unique(mounting)), gamma),
+                                     obs.positions, str(noise_model))
+        if not lsq.identifiable[NAMES.index("K1")]:
+            raise IdentifiabilityError(_k1_message(mounting, obs.angle_deg))
+        if lsq.x[NAMES.index("K1")] <= 0:
+            raise DataError(
+                f"the output falls as IA turns up (K1 = {lsq.x[NAMES.index('K1')]:.6g} "
+                f"{unit}/g): IA is mounted reversed or the output sign is inverted; negate the "
+                "output column or check the mounting (head angle 0 must put IA up)")
+        ident = _engineering(lsq, theta_ident, unit)
+        messages = _spacing_messages(mounting, obs.angle_deg)
+        for m in messages:
+            warnings.warn(m, InertestWarning, stacklevel=3)
+        return AccelerometerMultipointResult(
+            site_latitude_deg=plan.site.latitude_deg,
+            site_gravity_m_s2=plan.site.gravity_m_s2,
+            identification=ident,
+            fourier=fourier_analysis(mounting, obs.angle_deg, y, gamma, unit=unit),
+            mounting=mounting,
+            angle_deg=obs.angle_deg,
+            output=y,
+            fitted=y - lsq.residuals,
+            specific_force_g=a,
+            residual_output=lsq.residuals,
+            output_unit=unit,
+            messages=tuple(messages),
+        )
+
+    def synthesize(self, plan: Plan, motion: Fixture, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Columns ``mounting``, ``angle_deg``, ``output`` of the plan's dividing-head positions.
+
+        ``truth``: ``K1`` [output unit/g], ``K0`` [ug], ``K2`` [ug/g^2], ``K3`` [ug/g^3],
+        ``KIP``, ``KIO``, ``KPO``, ``KPP``, ``KOO`` [ug/g^2], ``dO``, ``dP`` [urad]; missing
+        names are 0 (``K1`` required). ``noise`` per reading [output unit].
+        """
+        _check_instrument(plan)
+        spec: AccelerometerMultipointSpec = plan.procedure
+        angles = head.equally_spaced(spec.positions)
+        reps = spec.samples_per_position
+        mounting = np.repeat(np.array(spec.mountings), angles.size * reps)
+        angle = np.tile(np.repeat(angles, reps), len(spec.mountings))
+        a = _specific_force(motion.positions(spec.mountings, angles),
+                            head.position_labels(mounting, angle))
+        try:
+            e = model.output(a, truth)
+        except InputError as exc:
+            raise PlanError(f"truth: {exc}") from None
+        e = e + noise_samples(e.size, noise, rng)
+        return {"mounting": mounting, "angle_deg": angle, "output": e}
 
 
 def _identify(
@@ -397,34 +443,3 @@ def _closed_form(m: str, h: Mapping[str, float], g: float, unit: str) -> dict[st
         f"K2 - K{other}": {"value": 2 * h["C2"] / (k1 * g**2) / u, "unit": "ug/g^2"},
     }
     return {"coefficients": coeff, "combinations": combos}
-
-
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Readings of a virtual pendulous accelerometer on the plan's dividing-head positions.
-
-    ``truth``: ``K1`` [output unit/g], ``K0`` [ug], ``K2`` [ug/g^2], ``K3`` [ug/g^3], ``KIP``,
-    ``KIO``, ``KPO``, ``KPP``, ``KOO`` [ug/g^2], ``dO``, ``dP`` [urad]; missing names are 0
-    (``K1`` required). ``noise`` per reading [output unit].
-
-    Returns columns ``mounting``, ``angle_deg``, ``output``.
-    """
-    _check_instrument(plan)
-    spec: AccelerometerMultipointSpec = plan.procedure
-    angles = head.equally_spaced(spec.positions)
-    reps = spec.samples_per_position
-    mounting = np.repeat(np.array(spec.mountings), angles.size * reps)
-    angle = np.tile(np.repeat(angles, reps), len(spec.mountings))
-    a = _specific_force(head.motion(spec.mountings, angles, plan.site),
-                        head.position_labels(mounting, angle))
-    try:
-        e = model.output(a, truth)
-    except InputError as exc:
-        raise PlanError(f"truth: {exc}") from None
-    e = e + noise_samples(e.size, noise, rng)
-    return {"mounting": mounting, "angle_deg": angle, "output": e}

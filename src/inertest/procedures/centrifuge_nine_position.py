@@ -56,6 +56,7 @@ from inertest.models.sdf_gyro import (
     drift_regressors,
 )
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0
@@ -207,7 +208,6 @@ FIELDS = (
           doc="noise model behind the uncertainties (the run is the unit of independence)"),
 )
 
-SPEC = CentrifugeNinePositionSpec
 
 
 @dataclass(frozen=True)
@@ -259,123 +259,141 @@ class CentrifugeNinePositionResult(LinearTestResult):
         return d
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-    noise_model: str | None = None,
-) -> CentrifugeNinePositionResult:
-    """Identify the ten drift coefficients from nine-position centrifuge data.
+@dataclass(frozen=True)
+class CentrifugeObservations:
+    """Centrifuge samples reduced to whole-revolution run means, with their coverage notes."""
 
-    The inputs are the exact ones of the error-free machine with Earth rotation
-    (:func:`machine_motion` with the plan's radius, heading and site, no machine error);
-    machine errors are the business of the centrifuge study.
+    runs: RunMeans
+    messages: list[str]
 
-    Parameters
-    ----------
-    plan : Plan
-        Site, instrument and a :class:`CentrifugeNinePositionSpec`.
-    data : mapping
-        Columns ``position`` (1..9), ``omega`` (nominal signed main-axis rate of the run, rad/s,
-        positive counter-clockwise and negative clockwise seen from above: the same value on
-        every sample of a run, since runs are told apart by it), ``t`` (time since
-        the arm passed ``x_P``, s; each run may have its own clock) and ``output`` [instrument
-        output unit], one row per sample.
-    sigma : float, optional
-        Known white noise per sample [output unit]; estimated otherwise (see ``noise_model``
-        of :func:`fit_inputs`).
-    noise_model : str, optional
-        Overrides the plan's ``noise_model`` (``auto``, ``white``, ``position-offsets``,
-        ``random-walk``, ``flicker``), see :func:`fit_inputs`. The result names the model used
-        (``identification.noise_model``), its components and its checks.
+
+class CentrifugeNinePosition(Procedure[CentrifugeNinePositionSpec, CentrifugeObservations,
+                                       CentrifugeNinePositionResult]):
+    """Floated gyro on a dual-axis centrifuge, nine-position method (seed 004).
+
+    Data columns ``position`` (1..9), ``omega`` (nominal signed main-axis rate of the run, rad/s,
+    positive counter-clockwise and negative clockwise seen from above: the same value on every
+    sample of a run, since runs are told apart by it), ``t`` (time since the arm passed
+    ``x_P``, s; each run may have its own clock) and ``output`` [instrument output unit], one
+    row per sample. A known ``sigma`` is the white noise per sample [output unit]; estimated
+    otherwise (see ``noise_model`` of :func:`fit_inputs`). The result names the noise model
+    used (``identification.noise_model``), its components and its checks.
+
+    The inputs are the exact ones of the error-free machine with Earth rotation (the plan's
+    radius, heading and site, no machine error); machine errors are the business of the
+    centrifuge study.
     """
-    cols = require_columns(data, ("position", "omega", "t", "output"), (), procedure=KIND)
-    spec: CentrifugeNinePositionSpec = plan.procedure
-    site, inst = plan.site, plan.instrument
-    pos = _positions(cols["position"])
-    omega = cols["omega"]
-    f, w_ios = machine_inputs(plan, pos, omega, cols["t"])
-    runs = run_means(pos, omega, cols["t"], inst.output_to_rate(cols["output"]), f, w_ios)
-    messages = _coverage_messages(runs)
-    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    lsq, ident = _identify_runs(runs, known_sigma(sigma, inst.rad_s_per_output_unit), model)
-    lost = [n for n in COEFFICIENTS if n not in ident.coefficients]
-    missing = sorted(set(machine.POSITIONS) - {int(p) for p in runs.position})
-    if missing:
-        messages.append(
-            f"positions {', '.join(map(str, missing))} not measured; "
-            + (f"{', '.join(lost)} are then not individually identifiable (see 'not determined')"
-               if lost else "all ten coefficients are still identifiable from the runs given")
+
+    kind = KIND
+    title = "Floated gyro, dual-axis centrifuge"
+    spec = CentrifugeNinePositionSpec
+    model = "inertest.models.sdf_gyro"
+    method = "whole-revolution run means, weighted least squares under a noise model"
+    machines = (machine,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.centrifuge:nine_position_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> machine.Centrifuge:
+        """The plan's centrifuge (radius, platform heading, site), with its Type-B errors."""
+        spec: CentrifugeNinePositionSpec = plan.procedure
+        return machine.Centrifuge(spec.radius_m, plan.site,
+                                  float(np.radians(spec.platform_heading_deg)),
+                                  dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: machine.Centrifuge
+               ) -> CentrifugeObservations:
+        """Whole-revolution means of every run (position, rate) with the machine's inputs."""
+        cols = require_columns(data, ("position", "omega", "t", "output"), (), procedure=KIND)
+        pos = _positions(cols["position"])
+        omega = cols["omega"]
+        f, w_ios = machine_inputs(motion, pos, omega, cols["t"])
+        runs = run_means(pos, omega, cols["t"], plan.instrument.output_to_rate(cols["output"]),
+                         f, w_ios)
+        return CentrifugeObservations(runs, _coverage_messages(runs))
+
+    def identify(self, plan: Plan, obs: CentrifugeObservations, *, sigma: float | None,
+                 noise_model: str | None) -> CentrifugeNinePositionResult:
+        """The ten drift coefficients from the run means (:func:`fit_inputs`'s rule)."""
+        spec: CentrifugeNinePositionSpec = plan.procedure
+        site, inst, runs = plan.site, plan.instrument, obs.runs
+        messages = list(obs.messages)
+        lsq, ident = _identify_runs(runs, known_sigma(sigma, inst.rad_s_per_output_unit),
+                                    str(noise_model))
+        lost = [n for n in COEFFICIENTS if n not in ident.coefficients]
+        missing = sorted(set(machine.POSITIONS) - {int(p) for p in runs.position})
+        if missing:
+            messages.append(
+                f"positions {', '.join(map(str, missing))} not measured; "
+                + (f"{', '.join(lost)} are then not individually identifiable (see 'not "
+                   "determined')" if lost
+                   else "all ten coefficients are still identifiable from the runs given")
+            )
+        for msg in messages:
+            warnings.warn(msg, InertestWarning, stacklevel=3)
+        k = DEG_PER_H_TO_RAD_PER_S
+        return CentrifugeNinePositionResult(
+            site_latitude_deg=site.latitude_deg,
+            site_gravity_m_s2=site.gravity_m_s2,
+            identification=ident,
+            radius_m=spec.radius_m,
+            platform_heading_deg=spec.platform_heading_deg,
+            run_position=runs.position,
+            run_omega=runs.omega,
+            run_revolutions=runs.revolutions,
+            run_samples=runs.n_samples,
+            drift_deg_h=runs.drift_rad_s / k,
+            fitted_deg_h=(runs.drift_rad_s - lsq.residuals) / k,
+            earth_rate_deg_h=runs.input_rate_rad_s / k,
+            residual_output=inst.rate_to_output(lsq.residuals),
+            output_unit=inst.output_unit,
+            messages=tuple(messages),
         )
-    for msg in messages:
-        warnings.warn(msg, InertestWarning, stacklevel=2)
-    k = DEG_PER_H_TO_RAD_PER_S
-    return CentrifugeNinePositionResult(
-        site_latitude_deg=site.latitude_deg,
-        site_gravity_m_s2=site.gravity_m_s2,
-        identification=ident,
-        radius_m=spec.radius_m,
-        platform_heading_deg=spec.platform_heading_deg,
-        run_position=runs.position,
-        run_omega=runs.omega,
-        run_revolutions=runs.revolutions,
-        run_samples=runs.n_samples,
-        drift_deg_h=runs.drift_rad_s / k,
-        fitted_deg_h=(runs.drift_rad_s - lsq.residuals) / k,
-        earth_rate_deg_h=runs.input_rate_rad_s / k,
-        residual_output=inst.rate_to_output(lsq.residuals),
-        output_unit=inst.output_unit,
-        messages=tuple(messages),
-    )
 
+    def synthesize(self, plan: Plan, motion: machine.Centrifuge, truth: Mapping[str, float],
+                   *, noise: float, rng: np.random.Generator | int | None
+                   ) -> dict[str, NDArray]:
+        """Samples of a virtual gyro on the centrifuge: every position at every rate.
 
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Samples of a virtual gyro on the error-free centrifuge: every position at every rate.
+        Each run starts with the arm on ``x_P`` at ``t = 0`` and is sampled at
+        ``sample_rate_hz`` from ``t = 0`` up to and including the first sample at or after the
+        end of the last revolution (:func:`~inertest.equipment.centrifuge.run_times`), so that
+        the run spans ``revolutions`` whole revolutions by the rule of
+        :func:`~inertest.estimation.reduction.whole_cycle_mask`. Inputs from
+        :func:`machine_inputs` (exact, Earth rotation included); output rate = input rate on I
+        (Earth rate) + drift. ``truth`` maps coefficient names to deg/h, deg/h/g, deg/h/g^2;
+        missing names are 0.
 
-    Each run starts with the arm on ``x_P`` at ``t = 0`` and is sampled at ``sample_rate_hz``
-    from ``t = 0`` up to and including the first sample at or after the end of the last
-    revolution (:func:`~inertest.equipment.centrifuge.run_times`), so that the run spans
-    ``revolutions`` whole revolutions by the rule of
-    :func:`~inertest.estimation.reduction.whole_cycle_mask`. Inputs from :func:`machine_inputs`
-    (exact, Earth rotation included); output rate = input rate on I (Earth rate) + drift.
-
-    ``truth`` maps coefficient names to deg/h, deg/h/g, deg/h/g^2; missing names are 0.
-
-    Returns columns ``position``, ``omega`` [rad/s], ``t`` [s], ``output`` [output unit].
-    """
-    spec: CentrifugeNinePositionSpec = plan.procedure
-    coef = coefficients_from_deg_h(truth)
-    pos_l, w_l, t_l = [], [], []
-    for p in spec.positions:
-        for w in spec.omegas_rad_s:
-            t = machine.run_times(w, spec.sample_rate_hz, spec.revolutions)
-            pos_l.append(np.full(t.size, p, dtype=np.int64))
-            w_l.append(np.full(t.size, w))
-            t_l.append(t)
-    pos, omega, t = np.concatenate(pos_l), np.concatenate(w_l), np.concatenate(t_l)
-    f, w_ios = machine_inputs(plan, pos, omega, t)
-    rate = w_ios[:, 0] + drift_regressors(f / G0) @ coef
-    output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
-    return {"position": pos, "omega": omega, "t": t, "output": output}
+        Returns columns ``position``, ``omega`` [rad/s], ``t`` [s], ``output`` [output unit].
+        """
+        spec: CentrifugeNinePositionSpec = plan.procedure
+        coef = coefficients_from_deg_h(truth)
+        pos_l, w_l, t_l = [], [], []
+        for p in spec.positions:
+            for w in spec.omegas_rad_s:
+                t = machine.run_times(w, spec.sample_rate_hz, spec.revolutions)
+                pos_l.append(np.full(t.size, p, dtype=np.int64))
+                w_l.append(np.full(t.size, w))
+                t_l.append(t)
+        pos, omega, t = np.concatenate(pos_l), np.concatenate(w_l), np.concatenate(t_l)
+        f, w_ios = machine_inputs(motion, pos, omega, t)
+        rate = w_ios[:, 0] + drift_regressors(f / G0) @ coef
+        output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+        return {"position": pos, "omega": omega, "t": t, "output": output}
 
 
 def machine_inputs(
-    plan: Plan, position: ArrayLike, omega: ArrayLike, t: ArrayLike
+    centrifuge: machine.Centrifuge, position: ArrayLike, omega: ArrayLike, t: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Exact inputs of the error-free machine for every sample, Earth rotation included.
+    """Exact inputs of the machine for every sample, Earth rotation included.
 
     The inputs of :func:`machine_motion` (one evaluation of
     :func:`inertest.equipment.centrifuge.centrifuge_motion` per run: distinct position and
-    signed rate) with the plan's radius, platform heading, latitude and gravity.
+    signed rate).
 
     Parameters
     ----------
-    plan : Plan
-        Site and a :class:`CentrifugeNinePositionSpec`.
+    centrifuge : Centrifuge
+        The machine (radius, platform heading, site; :meth:`CentrifugeNinePosition.motion`).
     position, omega, t : array_like, shape (n,)
         Position 1..9, signed main-axis rate [rad/s] (positive counter-clockwise seen from
         above) and time since the arm passed ``x_P`` [s] of every sample.
@@ -387,19 +405,19 @@ def machine_inputs(
         inertial angular rate [rad/s] on I, O, S.
     """
     labels = machine.run_labels(position, omega)
-    inputs = machine_motion(plan, position, omega).inputs_of_rows(labels, t)
+    inputs = machine_motion(centrifuge, position, omega).inputs_of_rows(labels, t)
     return inputs.f_i, inputs.omega_i
 
 
 def machine_motion(
-    plan: Plan, position: ArrayLike, omega: ArrayLike
+    centrifuge: machine.Centrifuge, position: ArrayLike, omega: ArrayLike
 ) -> machine.CentrifugeRuns:
-    """The error-free machine of the plan (radius, platform heading, site) as a motion.
+    """The machine running every distinct (position, rate) of the samples, as a motion.
 
     Parameters
     ----------
-    plan : Plan
-        Site and a :class:`CentrifugeNinePositionSpec`.
+    centrifuge : Centrifuge
+        The machine (:meth:`CentrifugeNinePosition.motion`).
     position, omega : array_like, shape (n,)
         Position 1..9 and signed main-axis rate [rad/s] of every sample (or of every run).
 
@@ -409,12 +427,8 @@ def machine_motion(
         One segment per distinct (position, rate), labelled as by
         :func:`inertest.equipment.centrifuge.run_labels`.
     """
-    spec: CentrifugeNinePositionSpec = plan.procedure
     groups = group_rows(np.asarray(position), np.asarray(omega, dtype=float))
-    runs = tuple((int(p), float(w)) for p, w in zip(*groups.keys, strict=True))
-    return machine.CentrifugeRuns(
-        runs, radius_m=spec.radius_m, site=plan.site,
-        platform_heading_rad=float(np.radians(spec.platform_heading_deg)))
+    return centrifuge.runs(tuple((int(p), float(w)) for p, w in zip(*groups.keys, strict=True)))
 
 
 def _coverage_messages(runs: RunMeans) -> list[str]:

@@ -127,10 +127,9 @@ import scipy.special
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
-from inertest.earth import OMEGA_IE, Site, earth_rate_enu
+from inertest.earth import OMEGA_IE, earth_rate_enu
 from inertest.equipment import ferraris_session as session
-from inertest.equipment.motion import Inputs, StaticPositions, run_starts
-from inertest.equipment.rate_table import Turns
+from inertest.equipment.motion import Inputs, run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.identify import CHECK_ALPHA
 from inertest.estimation.identify import solve as identify_solve
@@ -138,6 +137,7 @@ from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.triad import AXES, TriadCalibration
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import require_columns
 from inertest.results import Estimate, Identification, ModelChecks, Outlier
 from inertest.results.triad import TriadEstimates, TriadResult
@@ -275,7 +275,6 @@ FIELDS = (
     Field("turn_duration_s", default=4.0, positive=True, unit="s", doc="duration of a turn"),
     Field("rest_s", default=1.0, minimum=0.0, unit="s", doc="rest before and after a turn"),
 )
-SPEC = FerrarisSpec
 
 
 @dataclass(frozen=True)
@@ -575,19 +574,20 @@ def _parameters(
 
 
 @functools.lru_cache(maxsize=32)
-def _kinematics(site: Site, spec: FerrarisSpec) -> tuple[NDArray, NDArray, float]:
+def _kinematics(motion: session.FerrarisSession, earth_rate: bool
+                ) -> tuple[NDArray, NDArray, float]:
     """Specific-force span of each face pair, signed turn angles [rad], vertical Earth rate.
 
     From the session's motions: ``f_j(j_p) - f_j(j_a) = 2 g`` [m/s^2], each turn's signed
     table angle, the Earth rate on the up axis of a face [rad/s] (0 without ``earth_rate``).
-    Cached per site and plan (the same for every fit of a plan; arrays read-only).
+    Cached per session (the same for every fit of a plan; arrays read-only).
     """
-    faces, turns = _motions(site, spec, spec.rest_s)
+    faces, turns = motion.faces, motion.turns
     f_face = np.array([faces.inputs(label).f_i[0] for label in session.FACE_LABELS])
     span = np.array([f_face[2 * j, j] - f_face[2 * j + 1, j] for j in range(3)])
     theta = np.array([turns.starts[label][2] * turns.profile.angle_rad
                       for label in session.TURN_LABELS])
-    omega_up = float(faces.inputs("z_p").omega_i[0, 2]) if spec.earth_rate else 0.0
+    omega_up = float(faces.inputs("z_p").omega_i[0, 2]) if earth_rate else 0.0
     span.flags.writeable = False
     theta.flags.writeable = False
     return span, theta, omega_up
@@ -598,213 +598,317 @@ def _pack(s: FaceStats) -> NDArray[np.float64]:
                            s.turn_gyr_integral.ravel(), s.turn_acc_integral.ravel()])
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-        noise_model: str | None = None) -> FerrarisResult:
-    """Calibrate the accelerometer and gyro triads from a Ferraris session.
+@dataclass(frozen=True)
+class SessionObservations:
+    """A Ferraris session reduced: face means and turn integrals, with the session's kinematics.
 
-    Parameters
-    ----------
-    plan : Plan
-        ``[site] gravity`` (or normal gravity at the latitude) and a :class:`FerrarisSpec`.
-    data : mapping
-        Columns ``part``, ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit].
-    sigma : None
-        Not used: the noise of every axis is estimated from the static faces.
-    noise_model : str, optional
-        Overrides the plan's ``noise_model`` (:data:`NOISE_MODELS`).
+    ``data`` (the columns, for the noise model's per-sample statistics), ``stats`` (per face
+    and turn), ``span`` (3,) specific-force span of each face pair [m/s^2], ``theta`` (3,)
+    signed turn angles [rad], ``omega_up`` Earth rate on the up axis of a face [rad/s].
     """
-    if sigma is not None:
-        raise PlanError(
-            "ferraris estimates the noise of every axis from the static faces; do not give sigma"
-        )
-    spec: FerrarisSpec = plan.procedure
-    model = noise_model if noise_model is not None else spec.noise_model
-    if model not in NOISE_MODELS:
-        raise PlanError(f"noise_model must be one of {', '.join(NOISE_MODELS)}, got {model!r}")
-    g = plan.site.gravity_m_s2
-    stats = part_stats(data, spec)
-    _check_labels(stats, spec)
-    fs = spec.sample_rate_hz
-    turn_s = stats.n_turn / fs
-    with_g = spec.g_sensitivity
-    # Kinematics from the session's motions: the specific-force span of each face pair
-    # (f_j(j_p) - f_j(j_a) = 2 g), each turn's signed table angle, and the vertical Earth rate
-    # (on the up axis of a face). The vertical during a hand turn comes from the accelerometers.
-    span, theta, omega_up = _kinematics(plan.site, spec)
 
-    def solve(x: NDArray[np.float64]) -> tuple[NDArray, ...]:
-        return _solve(x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:45].reshape(3, 3),
-                      x[45:54].reshape(3, 3), turn_s, span, theta, with_g, omega_up)
+    data: Mapping[str, object]
+    stats: FaceStats
+    span: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    omega_up: float
 
-    x0 = _pack(stats)
-    A_a, b_a, A_g, b_g, G, E, _ = solve(x0)
-    cal_a = np.linalg.inv(A_a)
 
-    # Input covariance of the noise (face means, turn integrals) under the noise model.
-    cov, components, notes = _noise_covariance(data, stats, spec, model)
-    # Redundancy: the six off-axis pair sums of each sensor (face tilt disagreement, and under
-    # position-offsets the offsets of the faces), linear in the face means.
-    L_a, L_g = _pair_sums(0), _pair_sums(18)
-    resid_raw = L_a @ x0
-    var_d = np.einsum("ij,jk,ik->i", L_a, cov, L_a)  # their variance under the noise model
-    half_sum = ((stats.acc_mean[0::2] + stats.acc_mean[1::2]) / 2 - b_a) @ cal_a.T
-    d_off = np.array([half_sum[i, k] for i, k in _OFF])  # [m/s^2]
-    if model == "position-offsets":
-        # E[d^2] = sigma_o^2 + noise: an offset of each part (IMU re-set) in every channel;
-        # horizontal face tilts act like offsets, so they are counted in it (tau = 0).
-        tau2 = 0.0
-        d_g = L_g @ x0
-        var_dg = np.einsum("ij,jk,ik->i", L_g, cov, L_g)
-        s2o = (max(0.0, float(np.mean(resid_raw**2 - var_d))),
-               max(0.0, float(np.mean(d_g**2 - var_dg))))
-        for (means, turns), s2 in (((0, 45), s2o[0]), ((18, 36), s2o[1])):  # acc, gyro
-            i_face = means + np.arange(18)
-            i_turn = turns + np.arange(9)
-            cov[i_face, i_face] += s2  # a mean offset per face and channel
-            cov[i_turn, i_turn] += s2 * np.repeat(turn_s, 3) ** 2  # an offset x T per turn
-        components["accelerometer"]["position offset"] = float(np.sqrt(s2o[0]))
-        components["gyroscope"]["position offset"] = float(np.sqrt(s2o[1]))
-    else:
-        # Tilts only where the pair sums exceed the noise (chi-square of the six against their
-        # covariance under the noise model, level TILT_ALPHA): a variance from six values,
-        # clipped at zero, would otherwise add a spurious tilt to the misalignments' std.
-        kk = np.array([A_a[k, k] for _, k in _OFF])
-        C_d = L_a @ cov @ L_a.T
-        chi2 = float(resid_raw @ np.linalg.lstsq(C_d, resid_raw, rcond=1e-12)[0])
-        tau2 = 0.0
-        if scipy.special.chdtrc(len(_OFF), chi2) < TILT_ALPHA:  # chi-square survival
-            tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - var_d / kk**2)) / g**2)
-    # Second order of the face tilts: a face tilted by t reads g cos t on its vertical axis, so
-    # a pair spans 2 g (1 - tau^2) on average and the scale factors come out low by tau^2.
-    tilt2, var_tilt2 = (_tilt_second_order(d_off, var_d, A_a, g) if spec.tilt_correction
-                        else (0.0, 0.0))
-    span0 = span
-    span = span0 * (1.0 - tilt2)  # read by solve() and outputs() below
-    A_a, b_a, A_g, b_g, G, E, acc_int = solve(x0)
-    cal_a = np.linalg.inv(A_a)
-    fitted_offsets = int(model == "position-offsets") * sum(
-        components[k].get("position offset", 0.0) > 0 for k in components)
-    cov_noise = cov.copy()  # the noise model alone, for the model checks
-    # Face tilts (on the acc means, first order on the horizontal axes).
-    cov += _tilt_covariance(A_a, g, tau2)
+class Ferraris(Procedure[FerrarisSpec, SessionObservations, FerrarisResult]):
+    """IMU, Ferraris session (Ferraris et al. 1995): both triads from six faces and three turns.
 
-    sa, sg = spec.acc_scale, spec.gyr_scale
-    n_a = 12
+    Data columns ``part``, ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit]. No known
+    ``sigma``: the noise of every axis is estimated from the static faces.
+    """
 
-    def outputs(x: NDArray[np.float64], spans: NDArray[np.float64] | None = None
-                ) -> NDArray[np.float64]:
-        """Engineering values of both triads, then the turns' |a| - g [m/s^2] (batched).
+    kind = KIND
+    title = "IMU, Ferraris session"
+    spec = FerrarisSpec
+    model = "inertest.models.imu"
+    method = "closed form (face sums and differences, turn integrals); covariance by a " \
+        "central-difference Jacobian over every input"
+    noise_models = NOISE_MODELS
+    sigma_note = "estimates the noise of every axis from the static faces"
+    report = "inertest.report.ferraris:ferraris_sections"
 
-        ``spans`` (..., 3): the face-pair spans of each input (default ``span``).
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None
+               ) -> session.FerrarisSession:
+        """The session: six level faces at heading 0 and three raised-cosine turns."""
+        spec: FerrarisSpec = plan.procedure
+        fs = spec.sample_rate_hz
+        # The rests a whole number of samples, as the simulated session records them.
+        return session.FerrarisSession(plan.site, spec.rotation_deg * DEG_TO_RAD,
+                                       spec.turn_duration_s, int(round(spec.rest_s * fs)) / fs)
+
+    def reduce(self, plan: Plan, data: Mapping[str, object],
+               motion: session.FerrarisSession) -> SessionObservations:
+        """Face means and turn integrals of each part, checked, and the session's kinematics.
+
+        The kinematics: the specific-force span of each face pair (f_j(j_p) - f_j(j_a) = 2 g),
+        each turn's signed table angle and the vertical Earth rate (on the up axis of a face).
+        The vertical during a hand turn comes from the accelerometers.
         """
-        bx = x.shape[:-1]
-        A_a_, b_a_, A_g_, b_g_, G_, _, acc_int = _solve(
-            x[..., :18].reshape(*bx, 6, 3), x[..., 18:36].reshape(*bx, 6, 3),
-            x[..., 36:45].reshape(*bx, 3, 3), x[..., 45:54].reshape(*bx, 3, 3),
-            turn_s, span if spans is None else spans[..., None, :], theta, with_g, omega_up)
-        return np.concatenate([
-            _engineering(A_a_, b_a_, None, "accelerometer", sa),
-            _engineering(A_g_, b_g_, G_ if with_g else None, "gyroscope", sg),
-            np.linalg.norm(acc_int, axis=-1) / turn_s - g], axis=-1)
+        spec: FerrarisSpec = plan.procedure
+        stats = part_stats(data, spec)
+        _check_labels(stats, spec)
+        span, theta, omega_up = _kinematics(motion, spec.earth_rate)
+        return SessionObservations(data, stats, span, theta, omega_up)
 
-    # Values as the closed form gives them; their covariance (both triads, cross terms kept:
-    # the gyro uses the acc) by a central-difference Jacobian over every input at once.
-    p0 = np.concatenate(_parameters(A_a, b_a, A_g, b_g, G, with_g, spec))
-    v_a = triad.engineering(p0[:n_a], "accelerometer", sa)
-    v_g = triad.engineering(p0[n_a:], "gyroscope", sg)
-    values = np.concatenate([v_a, v_g])
-    f0, J = _jacobian(outputs, x0, np.sqrt(np.diag(cov)))
-    cov_all = J @ cov @ J.T
-    if var_tilt2 > 0:  # the uncertainty of the tilt correction (its six pair sums)
-        h = 1e-3 * np.sqrt(var_tilt2)
-        lo, hi = outputs(np.stack([x0, x0]),
-                         np.stack([span0 * (1.0 - tilt2 - h), span0 * (1.0 - tilt2 + h)]))
-        j_t = (lo - hi) / (2 * h)
-        cov_all += var_tilt2 * np.outer(j_t, j_t)
-    n_v = values.size
-    cov_out = cov_all[:n_v, :n_v]
-    std = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
-    triads = (
-        TriadEstimates.from_engineering(v_a, cov_out[:n_a, :n_a], sensor="accelerometer",
-                                        scale=sa),
-        TriadEstimates.from_engineering(v_g, cov_out[n_a:, n_a:], sensor="gyroscope", scale=sg),
-    )
-    turn_gravity = f0[n_v:]
-    checks = _model_checks(
-        pair_acc=resid_raw, pair_gyr=L_g @ x0, turn_gravity=turn_gravity,
-        cov_pairs=(L_a @ cov_noise @ L_a.T, L_g @ cov_noise @ L_g.T), cov_turn=cov_all[n_v:, n_v:],
-        A_a=A_a, A_g=A_g, g=g, latitude_rad=plan.site.latitude_rad, spec=spec, model=model,
-        fitted_offsets=fitted_offsets)
+    def identify(self, plan: Plan, obs: SessionObservations, *, sigma: float | None,
+                 noise_model: str | None) -> FerrarisResult:
+        """Calibrate the accelerometer and gyro triads (closed form) with their covariance."""
+        spec: FerrarisSpec = plan.procedure
+        model = str(noise_model)
+        data, stats = obs.data, obs.stats
+        g = plan.site.gravity_m_s2
+        fs = spec.sample_rate_hz
+        turn_s = stats.n_turn / fs
+        with_g = spec.g_sensitivity
+        span, theta, omega_up = obs.span, obs.theta, obs.omega_up
 
-    names = ACC_NAMES + GYR_NAMES + (G_NAMES if with_g else ())
-    ua, ug = triad.units_of("accelerometer", sa), triad.units_of("gyroscope", sg, with_g)
-    units = tuple(ua.values()) + tuple(ug.values())
-    coefficients = {
-        nm: Estimate(nm, float(v), float(s), u)
-        for nm, v, s, u in zip(names, values, std, units, strict=True)
-    }
-    not_sep: tuple[str, ...] = (
-        "accelerometer misalignments Ma_ij vs. face tilts: half the difference of the off-axis "
-        "tilts of each up/down face pair enters like a misalignment (six faces cannot separate "
-        "them); the misalignments refer to the faces as set, and the tilt scatter "
-        f"({np.degrees(np.sqrt(tau2)):.2g} deg from the pair disagreement) is in their std",
-    )
-    if not with_g:
-        not_sep += ("gyro g-sensitivity: not estimated (set g_sensitivity = true to estimate it "
-                    "from the up/down faces)",)
-    # The residuals of the design are the six off-axis pair sums (face tilt disagreement).
-    resid_rms = float(np.sqrt(np.mean(resid_raw**2)))
-    ident = Identification(
-        coefficients=coefficients, combinations=(), not_separable=not_sep,
-        covariance=cov_out, names=names, noise_sigma=resid_rms, noise_unit=spec.acc_unit,
-        sigma_from_residuals=True, dof=6, rank=len(names), residuals=resid_raw,
-        noise_model=model, noise_components=dict(components["accelerometer"]),
-        checks=checks,
-    )
-    if not checks.fits:
-        warnings.warn(str(checks.message), InertestWarning, stacklevel=2)
+        def solve(x: NDArray[np.float64]) -> tuple[NDArray, ...]:
+            return _solve(x[:18].reshape(6, 3), x[18:36].reshape(6, 3), x[36:45].reshape(3, 3),
+                          x[45:54].reshape(3, 3), turn_s, span, theta, with_g, omega_up)
 
-    cal_g = np.linalg.inv(A_g)
-    calibration = ImuCalibration(
-        accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
-        gyroscope=TriadCalibration(cal_g, b_g, unit="rad/s",
-                                   raw_unit=spec.gyr_unit, g_sensitivity=G if with_g else None),
-    )  # in the recorded raw units: the same as triad.calibration_from_parameters
-    face_acc = (stats.acc_mean - b_a) @ cal_a.T
-    face_err = np.linalg.norm(face_acc, axis=1) - g
-    W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T  # acc_int: solve()
-    turn_angle = (W @ cal_g.T - E) / DEG_TO_RAD  # the turn without Earth rate
-    messages = list(notes)
-    for m, sensor, col in ((p0[:n_a], "accelerometer", "acc_{}"),
-                           (p0[n_a:], "gyroscope", "gyr_{}")):
-        msg = triad.reversed_axes_message(m, sensor, col)
-        if msg is not None:
-            messages.append(msg + (" (for an accelerometer, swapped _p/_a face labels look the "
-                                   "same)" if sensor == "accelerometer" else ""))
-    bad = np.flatnonzero(np.abs(face_err) > FACE_GRAVITY_TOLERANCE_M_S2)
-    for f in bad:
-        messages.append(
-            f"face {session.FACE_LABELS[f]}: calibrated |a| misses g by "
-            f"{face_err[f] / MILLI_G_TO_M_PER_S2:.3g} mg (more than "
-            f"{FACE_GRAVITY_TOLERANCE_M_S2 / MILLI_G_TO_M_PER_S2:g} mg): did the IMU move on it?"
+        x0 = _pack(stats)
+        A_a, b_a, A_g, b_g, G, E, _ = solve(x0)
+        cal_a = np.linalg.inv(A_a)
+
+        # Input covariance of the noise (face means, turn integrals) under the noise model.
+        cov, components, notes = _noise_covariance(data, stats, spec, model)
+        # Redundancy: the six off-axis pair sums of each sensor (face tilt disagreement, and under
+        # position-offsets the offsets of the faces), linear in the face means.
+        L_a, L_g = _pair_sums(0), _pair_sums(18)
+        resid_raw = L_a @ x0
+        var_d = np.einsum("ij,jk,ik->i", L_a, cov, L_a)  # their variance under the noise model
+        half_sum = ((stats.acc_mean[0::2] + stats.acc_mean[1::2]) / 2 - b_a) @ cal_a.T
+        d_off = np.array([half_sum[i, k] for i, k in _OFF])  # [m/s^2]
+        if model == "position-offsets":
+            # E[d^2] = sigma_o^2 + noise: an offset of each part (IMU re-set) in every channel;
+            # horizontal face tilts act like offsets, so they are counted in it (tau = 0).
+            tau2 = 0.0
+            d_g = L_g @ x0
+            var_dg = np.einsum("ij,jk,ik->i", L_g, cov, L_g)
+            s2o = (max(0.0, float(np.mean(resid_raw**2 - var_d))),
+                   max(0.0, float(np.mean(d_g**2 - var_dg))))
+            for (means, turns), s2 in (((0, 45), s2o[0]), ((18, 36), s2o[1])):  # acc, gyro
+                i_face = means + np.arange(18)
+                i_turn = turns + np.arange(9)
+                cov[i_face, i_face] += s2  # a mean offset per face and channel
+                cov[i_turn, i_turn] += s2 * np.repeat(turn_s, 3) ** 2  # an offset x T per turn
+            components["accelerometer"]["position offset"] = float(np.sqrt(s2o[0]))
+            components["gyroscope"]["position offset"] = float(np.sqrt(s2o[1]))
+        else:
+            # Tilts only where the pair sums exceed the noise (chi-square of the six against their
+            # covariance under the noise model, level TILT_ALPHA): a variance from six values,
+            # clipped at zero, would otherwise add a spurious tilt to the misalignments' std.
+            kk = np.array([A_a[k, k] for _, k in _OFF])
+            C_d = L_a @ cov @ L_a.T
+            chi2 = float(resid_raw @ np.linalg.lstsq(C_d, resid_raw, rcond=1e-12)[0])
+            tau2 = 0.0
+            if scipy.special.chdtrc(len(_OFF), chi2) < TILT_ALPHA:  # chi-square survival
+                tau2 = max(0.0, float(2.0 * np.mean(d_off**2 - var_d / kk**2)) / g**2)
+        # Second order of the face tilts: a face tilted by t reads g cos t on its vertical axis, so
+        # a pair spans 2 g (1 - tau^2) on average and the scale factors come out low by tau^2.
+        tilt2, var_tilt2 = (_tilt_second_order(d_off, var_d, A_a, g) if spec.tilt_correction
+                            else (0.0, 0.0))
+        span0 = span
+        span = span0 * (1.0 - tilt2)  # read by solve() and outputs() below
+        A_a, b_a, A_g, b_g, G, E, acc_int = solve(x0)
+        cal_a = np.linalg.inv(A_a)
+        fitted_offsets = int(model == "position-offsets") * sum(
+            components[k].get("position offset", 0.0) > 0 for k in components)
+        cov_noise = cov.copy()  # the noise model alone, for the model checks
+        # Face tilts (on the acc means, first order on the horizontal axes).
+        cov += _tilt_covariance(A_a, g, tau2)
+
+        sa, sg = spec.acc_scale, spec.gyr_scale
+        n_a = 12
+
+        def outputs(x: NDArray[np.float64], spans: NDArray[np.float64] | None = None
+                    ) -> NDArray[np.float64]:
+            """Engineering values of both triads, then the turns' |a| - g [m/s^2] (batched).
+
+            ``spans`` (..., 3): the face-pair spans of each input (default ``span``).
+            """
+            bx = x.shape[:-1]
+            A_a_, b_a_, A_g_, b_g_, G_, _, acc_int = _solve(
+                x[..., :18].reshape(*bx, 6, 3), x[..., 18:36].reshape(*bx, 6, 3),
+                x[..., 36:45].reshape(*bx, 3, 3), x[..., 45:54].reshape(*bx, 3, 3),
+                turn_s, span if spans is None else spans[..., None, :], theta, with_g, omega_up)
+            return np.concatenate([
+                _engineering(A_a_, b_a_, None, "accelerometer", sa),
+                _engineering(A_g_, b_g_, G_ if with_g else None, "gyroscope", sg),
+                np.linalg.norm(acc_int, axis=-1) / turn_s - g], axis=-1)
+
+        # Values as the closed form gives them; their covariance (both triads, cross terms kept:
+        # the gyro uses the acc) by a central-difference Jacobian over every input at once.
+        p0 = np.concatenate(_parameters(A_a, b_a, A_g, b_g, G, with_g, spec))
+        v_a = triad.engineering(p0[:n_a], "accelerometer", sa)
+        v_g = triad.engineering(p0[n_a:], "gyroscope", sg)
+        values = np.concatenate([v_a, v_g])
+        f0, J = _jacobian(outputs, x0, np.sqrt(np.diag(cov)))
+        cov_all = J @ cov @ J.T
+        if var_tilt2 > 0:  # the uncertainty of the tilt correction (its six pair sums)
+            h = 1e-3 * np.sqrt(var_tilt2)
+            lo, hi = outputs(np.stack([x0, x0]),
+                             np.stack([span0 * (1.0 - tilt2 - h), span0 * (1.0 - tilt2 + h)]))
+            j_t = (lo - hi) / (2 * h)
+            cov_all += var_tilt2 * np.outer(j_t, j_t)
+        n_v = values.size
+        cov_out = cov_all[:n_v, :n_v]
+        std = np.sqrt(np.clip(np.diag(cov_out), 0.0, None))
+        triads = (
+            TriadEstimates.from_engineering(v_a, cov_out[:n_a, :n_a], sensor="accelerometer",
+                                            scale=sa),
+            TriadEstimates.from_engineering(v_g, cov_out[n_a:, n_a:], sensor="gyroscope", scale=sg),
         )
-    return FerrarisResult(
-        site_latitude_deg=plan.site.latitude_deg,
-        site_gravity_m_s2=g,
-        identification=ident,
-        calibration=calibration,
-        triads=triads,
-        stats=stats,
-        face_gravity_error_m_s2=face_err,
-        turn_angle_deg=turn_angle,
-        tilt_scatter_deg=float(np.sqrt(tau2) / DEG_TO_RAD),
-        noise_components=components,
-        stats_units=(spec.acc_unit, spec.gyr_unit),
-        rotation_deg=spec.rotation_deg,
-        residual_output=resid_raw,
-        output_unit=spec.acc_unit,
-        messages=tuple(messages),
-    )
+        turn_gravity = f0[n_v:]
+        checks = _model_checks(
+            pair_acc=resid_raw, pair_gyr=L_g @ x0, turn_gravity=turn_gravity,
+            cov_pairs=(L_a @ cov_noise @ L_a.T, L_g @ cov_noise @ L_g.T),
+            cov_turn=cov_all[n_v:, n_v:],
+            A_a=A_a, A_g=A_g, g=g, latitude_rad=plan.site.latitude_rad, spec=spec, model=model,
+            fitted_offsets=fitted_offsets)
+
+        names = ACC_NAMES + GYR_NAMES + (G_NAMES if with_g else ())
+        ua, ug = triad.units_of("accelerometer", sa), triad.units_of("gyroscope", sg, with_g)
+        units = tuple(ua.values()) + tuple(ug.values())
+        coefficients = {
+            nm: Estimate(nm, float(v), float(s), u)
+            for nm, v, s, u in zip(names, values, std, units, strict=True)
+        }
+        not_sep: tuple[str, ...] = (
+            "accelerometer misalignments Ma_ij vs. face tilts: half the difference of the off-axis "
+            "tilts of each up/down face pair enters like a misalignment (six faces cannot separate "
+            "them); the misalignments refer to the faces as set, and the tilt scatter "
+            f"({np.degrees(np.sqrt(tau2)):.2g} deg from the pair disagreement) is in their std",
+        )
+        if not with_g:
+            not_sep += ("gyro g-sensitivity: not estimated (set g_sensitivity = true to "
+                        "estimate it from the up/down faces)",)
+        # The residuals of the design are the six off-axis pair sums (face tilt disagreement).
+        resid_rms = float(np.sqrt(np.mean(resid_raw**2)))
+        ident = Identification(
+            coefficients=coefficients, combinations=(), not_separable=not_sep,
+            covariance=cov_out, names=names, noise_sigma=resid_rms, noise_unit=spec.acc_unit,
+            sigma_from_residuals=True, dof=6, rank=len(names), residuals=resid_raw,
+            noise_model=model, noise_components=dict(components["accelerometer"]),
+            checks=checks,
+        )
+        if not checks.fits:
+            warnings.warn(str(checks.message), InertestWarning, stacklevel=3)
+
+        cal_g = np.linalg.inv(A_g)
+        calibration = ImuCalibration(
+            accelerometer=TriadCalibration(cal_a, b_a, unit="m/s^2", raw_unit=spec.acc_unit),
+            gyroscope=TriadCalibration(cal_g, b_g, unit="rad/s",
+                                       raw_unit=spec.gyr_unit, g_sensitivity=G if with_g else None),
+        )  # in the recorded raw units: the same as triad.calibration_from_parameters
+        face_acc = (stats.acc_mean - b_a) @ cal_a.T
+        face_err = np.linalg.norm(face_acc, axis=1) - g
+        W = stats.turn_gyr_integral - turn_s[:, None] * b_g - acc_int @ G.T  # acc_int: solve()
+        turn_angle = (W @ cal_g.T - E) / DEG_TO_RAD  # the turn without Earth rate
+        messages = list(notes)
+        for m, sensor, col in ((p0[:n_a], "accelerometer", "acc_{}"),
+                               (p0[n_a:], "gyroscope", "gyr_{}")):
+            msg = triad.reversed_axes_message(m, sensor, col)
+            if msg is not None:
+                messages.append(msg + (" (for an accelerometer, swapped _p/_a face labels look the "
+                                       "same)" if sensor == "accelerometer" else ""))
+        bad = np.flatnonzero(np.abs(face_err) > FACE_GRAVITY_TOLERANCE_M_S2)
+        for f in bad:
+            messages.append(
+                f"face {session.FACE_LABELS[f]}: calibrated |a| misses g by "
+                f"{face_err[f] / MILLI_G_TO_M_PER_S2:.3g} mg (more than "
+                f"{FACE_GRAVITY_TOLERANCE_M_S2 / MILLI_G_TO_M_PER_S2:g} mg): did the IMU move on "
+                "it?"
+            )
+        return FerrarisResult(
+            site_latitude_deg=plan.site.latitude_deg,
+            site_gravity_m_s2=g,
+            identification=ident,
+            calibration=calibration,
+            triads=triads,
+            stats=stats,
+            face_gravity_error_m_s2=face_err,
+            turn_angle_deg=turn_angle,
+            tilt_scatter_deg=float(np.sqrt(tau2) / DEG_TO_RAD),
+            noise_components=components,
+            stats_units=(spec.acc_unit, spec.gyr_unit),
+            rotation_deg=spec.rotation_deg,
+            residual_output=resid_raw,
+            output_unit=spec.acc_unit,
+            messages=tuple(messages),
+        )
+
+    def synthesize(self, plan: Plan, motion: session.FerrarisSession,
+                   truth: Mapping[str, float], *, noise: float,
+                   rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """A virtual Ferraris session: six faces (random tilts if asked), three turns.
+
+        ``truth``: ``Ka_*`` [count/(m/s^2) or 1], ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``
+        [count/(deg/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], ``Gg_ij`` [deg/h/g] (the units
+        of the fit's result), and ``face_tilt_deg`` (std of each face's random tilt about each
+        horizontal axis, default 0), ``acc_noise``, ``gyr_noise`` (white noise per sample in the
+        raw units; default ``noise``, which must then not be given). Scale factors may be left
+        out when the raw unit is not ``count`` (nominal scale 1). With ``earth_rate`` (plan),
+        the Earth rate at the site is included (faces at heading 0).
+
+        Returns columns ``part``, ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
+        """
+        spec: FerrarisSpec = plan.procedure
+        gen = np.random.default_rng(rng)
+        A_a, b_a, A_g, b_g, G = _model_from_truth(truth, spec)
+        fs = spec.sample_rate_hz
+        tilt = float(truth.get("face_tilt_deg", 0.0)) * DEG_TO_RAD
+        if noise and ("acc_noise" in truth or "gyr_noise" in truth):
+            raise PlanError(
+                "the truth gives acc_noise/gyr_noise and a noise level was given as well; "
+                "give it in one place only"
+            )
+        s_a = float(truth.get("acc_noise", noise))
+        s_g = float(truth.get("gyr_noise", noise))
+        if min(s_a, s_g, tilt) < 0:
+            raise PlanError("noise levels and face_tilt_deg must be >= 0")
+        n_face = int(round(spec.face_duration_s * fs))
+        n_turn, n_rest = _turn_samples(spec)
+        faces, turns = motion.faces, motion.turns
+        w_ie = earth_rate_enu(plan.site.latitude_rad)
+        parts, f_all, w_all = [], [], []
+        for label, axis, _ in session.FACES:
+            inp = faces.inputs(label, np.zeros(n_face))
+            f = inp.f_i
+            if tilt > 0:  # a hand-set face: tilted by a small random angle about horizontal axes
+                t = gen.normal(0.0, tilt, 3)
+                t[axis] = 0.0
+                f = Rotation.from_rotvec(t).apply(f)
+            parts += [label] * n_face
+            f_all.append(f)
+            w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
+        t_turn = np.arange(n_turn + 2 * n_rest) / fs
+        for label in session.TURN_LABELS:
+            # The continuous motion sampled at the sample times: the raised-cosine rate about the
+            # vertical axis, the Earth rate turning the other way in the body (exact attitude).
+            inp = turns.inputs(label, t_turn)
+            parts += [label] * t_turn.size
+            f_all.append(inp.f_i)
+            w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
+        f_b = np.vstack(f_all)
+        w_b = np.vstack(w_all)
+        n = len(parts)
+        acc = f_b @ A_a.T + b_a
+        gyr = w_b @ A_g.T + b_g + f_b @ G.T
+        if s_a > 0:
+            acc = acc + gen.normal(0.0, s_a, acc.shape)
+        if s_g > 0:
+            gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
+        out: dict[str, NDArray] = {"part": np.array(parts), "t_s": np.arange(n) / fs}
+        for k in range(3):
+            out[ACC_COLUMNS[k]] = acc[:, k]
+        for k in range(3):
+            out[GYR_COLUMNS[k]] = gyr[:, k]
+        return out
 
 
 def _tilt_second_order(d_off: NDArray[np.float64], var_d: NDArray[np.float64],
@@ -1089,88 +1193,6 @@ def _turn_samples(spec: FerrarisSpec) -> tuple[int, int]:
     return n_turn, int(round(spec.rest_s * fs))
 
 
-def _motions(site: Site, spec: FerrarisSpec, rest_s: float
-             ) -> tuple[StaticPositions, Turns]:
-    """The session as motions: the six level faces and the three turns (faces at heading 0)."""
-    return session.faces_motion(site), session.turns_motion(
-        site, spec.rotation_deg * DEG_TO_RAD, spec.turn_duration_s, rest_s)
-
-
 def _without_earth(inp: Inputs, w_ie: NDArray[np.float64]) -> NDArray[np.float64]:
     """``omega_i`` of a motion less the Earth rate ``C_ni^T W_ie_n`` (``earth_rate = false``)."""
     return inp.omega_i - np.einsum("kji,j->ki", inp.C_ni, w_ie)
-
-
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """A virtual Ferraris session: six faces (random tilts if asked), three turns.
-
-    ``truth``: ``Ka_*`` [count/(m/s^2) or 1], ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``
-    [count/(deg/s) or 1], ``Mg_ij`` [urad], ``Bg_*`` [deg/h], ``Gg_ij`` [deg/h/g] (the units of
-    the fit's result), and
-    ``face_tilt_deg`` (std of each face's random tilt about each horizontal axis, default 0),
-    ``acc_noise``, ``gyr_noise`` (white noise per sample in the raw units; default ``noise``,
-    which must then not be given).
-    Scale factors may be left out when the raw unit is not ``count`` (nominal scale 1).
-    With ``earth_rate`` (plan), the Earth rate at the site is included (faces at heading 0).
-
-    Returns columns ``part``, ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
-    """
-    spec: FerrarisSpec = plan.procedure
-    gen = np.random.default_rng(rng)
-    A_a, b_a, A_g, b_g, G = _model_from_truth(truth, spec)
-    fs = spec.sample_rate_hz
-    tilt = float(truth.get("face_tilt_deg", 0.0)) * DEG_TO_RAD
-    if noise and ("acc_noise" in truth or "gyr_noise" in truth):
-        raise PlanError(
-            "the truth gives acc_noise/gyr_noise and a noise level was given as well; "
-            "give it in one place only"
-        )
-    s_a = float(truth.get("acc_noise", noise))
-    s_g = float(truth.get("gyr_noise", noise))
-    if min(s_a, s_g, tilt) < 0:
-        raise PlanError("noise levels and face_tilt_deg must be >= 0")
-    n_face = int(round(spec.face_duration_s * fs))
-    n_turn, n_rest = _turn_samples(spec)
-    faces, turns = _motions(plan.site, spec, n_rest / fs)
-    w_ie = earth_rate_enu(plan.site.latitude_rad)
-    parts, f_all, w_all = [], [], []
-    for label, axis, _ in session.FACES:
-        inp = faces.inputs(label, np.zeros(n_face))
-        f = inp.f_i
-        if tilt > 0:  # a hand-set face: tilted by a small random angle about horizontal axes
-            t = gen.normal(0.0, tilt, 3)
-            t[axis] = 0.0
-            f = Rotation.from_rotvec(t).apply(f)
-        parts += [label] * n_face
-        f_all.append(f)
-        w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
-    t_turn = np.arange(n_turn + 2 * n_rest) / fs
-    for label in session.TURN_LABELS:
-        # The continuous motion sampled at the sample times: the raised-cosine rate about the
-        # vertical axis, the Earth rate turning the other way in the body (exact attitude).
-        inp = turns.inputs(label, t_turn)
-        parts += [label] * t_turn.size
-        f_all.append(inp.f_i)
-        w_all.append(inp.omega_i if spec.earth_rate else _without_earth(inp, w_ie))
-    f_b = np.vstack(f_all)
-    w_b = np.vstack(w_all)
-    n = len(parts)
-    acc = f_b @ A_a.T + b_a
-    gyr = w_b @ A_g.T + b_g + f_b @ G.T
-    if s_a > 0:
-        acc = acc + gen.normal(0.0, s_a, acc.shape)
-    if s_g > 0:
-        gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
-    out: dict[str, NDArray] = {"part": np.array(parts), "t_s": np.arange(n) / fs}
-    for k in range(3):
-        out[ACC_COLUMNS[k]] = acc[:, k]
-    for k in range(3):
-        out[GYR_COLUMNS[k]] = gyr[:, k]
-    return out
-

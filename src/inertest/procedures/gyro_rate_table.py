@@ -45,13 +45,13 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from inertest.earth import Site
 from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model, solve
+from inertest.estimation.identify import NOISE_MODELS, solve
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import rate_gyro, triad
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, RATE_UNITS
@@ -96,11 +96,6 @@ class GyroRateTableSpec:
         """Unit vector of the table axis in ENU."""
         return table.direction_vector(self.table_axis)
 
-    def motion(self, site: Site) -> table.ConstantRates:
-        """The plan's rate table as a motion: the gyro's input axis (x) along the table axis."""
-        return table.ConstantRates(site, self.axis_enu,
-                                   tuple(np.asarray(self.rates_deg_s) * DEG_TO_RAD))
-
     @classmethod
     def from_mapping(cls, params: Mapping[str, object]) -> GyroRateTableSpec:
         """Build from the ``[procedure]`` table of a plan file (:data:`FIELDS`).
@@ -123,7 +118,6 @@ FIELDS = (
     Field("fit_k2", "bool", default=False, doc="fit the second-order scale factor K2"),
     Field("noise_model", "text", default="auto", choices=NOISE_MODELS),
 )
-SPEC = GyroRateTableSpec
 
 
 @dataclass(frozen=True)
@@ -178,22 +172,27 @@ class GyroRateTableResult(LinearTestResult):
         return d
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-        noise_model: str | None = None) -> GyroRateTableResult:
-    """Scale factor, bias, asymmetry and nonlinearity from rate-table readings.
+@dataclass(frozen=True)
+class RateObservations:
+    """Rate-table readings with the rate on the gyro's input axis from the table.
 
-    Parameters
-    ----------
-    plan : Plan
-        Site (latitude), instrument (a gyro) and a :class:`GyroRateTableSpec` (table axis).
-    data : mapping
-        Columns ``rate_deg_s`` (commanded table rate [deg/s], signed) and ``output`` (mean
-        output at that rate [output unit; count/s for pulse outputs]), in time order; the
-        readings at one rate are one run (the unit of independence of the noise model).
-    sigma : float, optional
-        Known white noise per reading [output unit]; estimated from the residuals when omitted.
-    noise_model : str, optional
-        Overrides the plan's ``noise_model``.
+    ``rate_deg_s`` (n,) commanded table rate [deg/s], ``output`` (n,) [output unit],
+    ``input_rate_rad_s`` (n,) table rate plus the Earth rate along the input axis [rad/s],
+    ``earth_rate_rad_s`` the Earth rate along it [rad/s].
+    """
+
+    rate_deg_s: NDArray[np.float64]
+    output: NDArray[np.float64]
+    input_rate_rad_s: NDArray[np.float64]
+    earth_rate_rad_s: float
+
+
+class GyroRateTable(Procedure[GyroRateTableSpec, RateObservations, GyroRateTableResult]):
+    """Rate gyro on a rate table (IEEE Std 952 scale-factor test): K, B, asymmetry, linearity.
+
+    Data columns ``rate_deg_s`` (commanded table rate [deg/s], signed) and ``output`` (mean
+    output at that rate [output unit; count/s for pulse outputs]), in time order; the readings
+    at one rate are one run (the unit of independence of the noise model).
 
     Raises
     ------
@@ -201,128 +200,205 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         All rates have one sign ("add negative rates"), no non-zero rate, too few distinct rates
         for what was asked.
     """
-    rate_gyro.check_gyro(plan.instrument, KIND)
-    spec: GyroRateTableSpec = plan.procedure
-    cols = require_columns(data, ("rate_deg_s", "output"), (), procedure=KIND)
-    inst = plan.instrument
-    rate_t = cols["rate_deg_s"] * DEG_TO_RAD
-    per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
-    y = cols["output"] / per_si  # rad/s for rate outputs, raw otherwise
-    sig = None if sigma is None else known_sigma(sigma, 1.0 / per_si)
-    _check_rates(cols["rate_deg_s"])
-    w_in, w_e = _input_rate(spec.motion(plan.site), rate_t)
-    k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
-    distinct = np.unique(cols["rate_deg_s"])
-    messages: list[str] = []
-    not_sep: list[str] = []
 
-    # Straight line E = K w_in + c (IEEE 952): nonlinearity is measured from it.
-    line = weighted_least_squares(np.column_stack([w_in, np.ones_like(w_in)]), y, sigma=1.0)
-    runs = np.char.mod("rate %.9g deg/s", cols["rate_deg_s"])
-    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    if spec.fit_k2 and distinct.size < 3:
-        raise IdentifiabilityError(
-            f"K2 needs at least three distinct table rates, got {distinct.size} "
-            f"({', '.join(f'{r:g}' for r in distinct)} deg/s); add rates (e.g. a larger "
-            "and a smaller magnitude) or set fit_k2 = false"
-        )
-    # Full model: E = K+ w_t [w_t > 0] + K- w_t [w_t < 0] [+ c2 w_t^2] + c, with
-    # K = (K+ + K-)/2, B = c/K - W_ie.a and K2 = c2/K. When the rates do not separate K+ from
-    # K-, the symmetric model E = K w_in [+ c2 w_t^2] + c stands in (no asymmetry).
-    quad = [rate_t**2] if spec.fit_k2 else []
-    one = np.ones_like(rate_t)
-    A_as = np.column_stack([np.where(rate_t > 0, rate_t, 0.0), np.where(rate_t < 0, rate_t, 0.0),
-                            *quad, one])
-    asymmetric = bool(np.linalg.matrix_rank(A_as) == A_as.shape[1])
-    names = ["K", "B", *(["K2"] if spec.fit_k2 else [])]
-    if asymmetric:
-        names += ["K_pos", "K_neg", "asymmetry"]
-        design = A_as
-    else:
-        design = np.column_stack([rate_t, *quad, one])
-        need = "a third rate of one sign" if spec.fit_k2 else "a second rate of each sign"
-        not_sep.append(
-            "asymmetry (K_pos, K_neg): the rates run do not separate the two directions' scale "
-            f"factors from the bias{' and K2' if spec.fit_k2 else ''}; add {need} or a "
-            "zero-rate reading"
-        )
+    kind = KIND
+    title = "Rate gyro on a rate table"
+    spec = GyroRateTableSpec
+    model = "inertest.models.rate_gyro"
+    method = "weighted least squares under a noise model; closed forms from rate pairs"
+    machines = (table,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.gyro_triad:rate_table_sections"
 
-    def engineering(x: NDArray) -> NDArray:
-        kp, kn = (x[0], x[1]) if asymmetric else (x[0], x[0])
-        k = 0.5 * (kp + kn)
-        out = [k / k_si, (x[-1] / k - w_e) / DEG_PER_H_TO_RAD_PER_S]
-        if spec.fit_k2:
-            out.append(x[-2] / k * DEG_TO_RAD / PPM)  # 1/(rad/s) -> ppm/(deg/s)
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None
+               ) -> table.ConstantRates:
+        """The plan's rate table: the gyro's input axis (x) along the table axis."""
+        spec: GyroRateTableSpec = plan.procedure
+        return table.ConstantRates(plan.site, spec.axis_enu,
+                                   tuple(np.asarray(spec.rates_deg_s) * DEG_TO_RAD),
+                                   type_b=dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: table.ConstantRates
+               ) -> RateObservations:
+        """The commanded rates checked, and the rate on the input axis of each reading."""
+        rate_gyro.check_gyro(plan.instrument, KIND)
+        cols = require_columns(data, ("rate_deg_s", "output"), (), procedure=KIND)
+        _check_rates(cols["rate_deg_s"])
+        w_in, w_e = _input_rate(motion, cols["rate_deg_s"] * DEG_TO_RAD)
+        return RateObservations(cols["rate_deg_s"], cols["output"], w_in, w_e)
+
+    def identify(self, plan: Plan, obs: RateObservations, *, sigma: float | None,
+                 noise_model: str | None) -> GyroRateTableResult:
+        """Scale factor, bias, asymmetry and nonlinearity by least squares."""
+        spec: GyroRateTableSpec = plan.procedure
+        cols = {"rate_deg_s": obs.rate_deg_s, "output": obs.output}
+        inst = plan.instrument
+        rate_t = cols["rate_deg_s"] * DEG_TO_RAD
+        per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
+        y = cols["output"] / per_si  # rad/s for rate outputs, raw otherwise
+        sig = None if sigma is None else known_sigma(sigma, 1.0 / per_si)
+        w_in, w_e = obs.input_rate_rad_s, obs.earth_rate_rad_s
+        k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
+        distinct = np.unique(cols["rate_deg_s"])
+        messages: list[str] = []
+        not_sep: list[str] = []
+
+        # Straight line E = K w_in + c (IEEE 952): nonlinearity is measured from it.
+        line = weighted_least_squares(np.column_stack([w_in, np.ones_like(w_in)]), y, sigma=1.0)
+        runs = np.char.mod("rate %.9g deg/s", cols["rate_deg_s"])
+        model = str(noise_model)
+        if spec.fit_k2 and distinct.size < 3:
+            raise IdentifiabilityError(
+                f"K2 needs at least three distinct table rates, got {distinct.size} "
+                f"({', '.join(f'{r:g}' for r in distinct)} deg/s); add rates (e.g. a larger "
+                "and a smaller magnitude) or set fit_k2 = false"
+            )
+        # Full model: E = K+ w_t [w_t > 0] + K- w_t [w_t < 0] [+ c2 w_t^2] + c, with
+        # K = (K+ + K-)/2, B = c/K - W_ie.a and K2 = c2/K. When the rates do not separate K+ from
+        # K-, the symmetric model E = K w_in [+ c2 w_t^2] + c stands in (no asymmetry).
+        quad = [rate_t**2] if spec.fit_k2 else []
+        one = np.ones_like(rate_t)
+        A_as = np.column_stack([np.where(rate_t > 0, rate_t, 0.0),
+                                np.where(rate_t < 0, rate_t, 0.0), *quad, one])
+        asymmetric = bool(np.linalg.matrix_rank(A_as) == A_as.shape[1])
+        names = ["K", "B", *(["K2"] if spec.fit_k2 else [])]
         if asymmetric:
-            out += [kp / k_si, kn / k_si, (kp - kn) / k / PPM]
-        return np.array(out)
+            names += ["K_pos", "K_neg", "asymmetry"]
+            design = A_as
+        else:
+            design = np.column_stack([rate_t, *quad, one])
+            need = "a third rate of one sign" if spec.fit_k2 else "a second rate of each sign"
+            not_sep.append(
+                "asymmetry (K_pos, K_neg): the rates run do not separate the two directions' scale "
+                f"factors from the bias{' and K2' if spec.fit_k2 else ''}; add {need} or a "
+                "zero-rate reading"
+            )
 
-    main, noise = solve(design, y, sigma_si=sig, groups=runs, noise_model=model)
-    values, J = triad.complex_step_jacobian(engineering, main.x)
-    cov = J @ main.covariance @ J.T
-    std = np.sqrt(np.diag(cov))
-    k_of = {"K": k_unit, "K_pos": k_unit, "K_neg": k_unit}
-    units = {**k_of, "B": "deg/h", "K2": "ppm/(deg/s)", "asymmetry": "ppm"}
-    coefficients = {
-        n: Estimate(n, float(values[i]), float(std[i]), units[n]) for i, n in enumerate(names)
-    }
-    K = values[0] * k_si
+        def engineering(x: NDArray) -> NDArray:
+            kp, kn = (x[0], x[1]) if asymmetric else (x[0], x[0])
+            k = 0.5 * (kp + kn)
+            out = [k / k_si, (x[-1] / k - w_e) / DEG_PER_H_TO_RAD_PER_S]
+            if spec.fit_k2:
+                out.append(x[-2] / k * DEG_TO_RAD / PPM)  # 1/(rad/s) -> ppm/(deg/s)
+            if asymmetric:
+                out += [kp / k_si, kn / k_si, (kp - kn) / k / PPM]
+            return np.array(out)
 
-    # Nonlinearity: per-rate mean residual of the straight line, ppm of full-scale output.
-    fitted = y - main.residuals
-    nl = nl_noise = None
-    if distinct.size >= 3:
-        inv = np.unique(cols["rate_deg_s"], return_inverse=True)[1]
-        counts = np.bincount(inv)
-        mean_res = np.bincount(inv, line.residuals) / counts
-        fs = abs(K) * np.max(np.abs(rate_t))
-        worst = int(np.argmax(np.abs(mean_res)))
-        nl = float(np.max(np.abs(mean_res)) / fs / PPM)
-        # Noise of that rate's mean under the noise model (its run's variance).
-        var_unit = noise.unit_covariance
-        var_unit = var_unit if var_unit.ndim == 1 else np.diag(var_unit)
-        row = int(np.flatnonzero(inv == worst)[0])
-        nl_noise = float(np.sqrt(var_unit[noise.unit_index[row]]) / fs / PPM)
-    else:
-        not_sep.append(
-            "nonlinearity: a straight line through two distinct rates leaves no deviation to "
-            "measure; add at least one more rate"
+        main, noise = solve(design, y, sigma_si=sig, groups=runs, noise_model=model)
+        values, J = triad.complex_step_jacobian(engineering, main.x)
+        cov = J @ main.covariance @ J.T
+        std = np.sqrt(np.diag(cov))
+        k_of = {"K": k_unit, "K_pos": k_unit, "K_neg": k_unit}
+        units = {**k_of, "B": "deg/h", "K2": "ppm/(deg/s)", "asymmetry": "ppm"}
+        coefficients = {
+            n: Estimate(n, float(values[i]), float(std[i]), units[n]) for i, n in enumerate(names)
+        }
+        K = values[0] * k_si
+
+        # Nonlinearity: per-rate mean residual of the straight line, ppm of full-scale output.
+        fitted = y - main.residuals
+        nl = nl_noise = None
+        if distinct.size >= 3:
+            inv = np.unique(cols["rate_deg_s"], return_inverse=True)[1]
+            counts = np.bincount(inv)
+            mean_res = np.bincount(inv, line.residuals) / counts
+            fs = abs(K) * np.max(np.abs(rate_t))
+            worst = int(np.argmax(np.abs(mean_res)))
+            nl = float(np.max(np.abs(mean_res)) / fs / PPM)
+            # Noise of that rate's mean under the noise model (its run's variance).
+            var_unit = noise.unit_covariance
+            var_unit = var_unit if var_unit.ndim == 1 else np.diag(var_unit)
+            row = int(np.flatnonzero(inv == worst)[0])
+            nl_noise = float(np.sqrt(var_unit[noise.unit_index[row]]) / fs / PPM)
+        else:
+            not_sep.append(
+                "nonlinearity: a straight line through two distinct rates leaves no deviation to "
+                "measure; add at least one more rate"
+            )
+
+        pairs = _closed_form_pairs(cols["rate_deg_s"], y, w_e, k_si)
+        ident = Identification(
+            coefficients=coefficients,
+            combinations=(),
+            not_separable=tuple(not_sep),
+            covariance=cov,
+            names=tuple(names),
+            noise_sigma=float(noise.white_sigma * per_si),
+            noise_unit=rate_gyro.raw_rate_unit(inst.output_unit),
+            sigma_from_residuals=sigma is None,
+            dof=int(main.dof),
+            rank=int(main.rank),
+            residuals=main.residuals * per_si,
+            noise_model=noise.model,
+            noise_components={k: v * per_si for k, v in noise.components.items()},
+            checks=noise.checks,
+        )
+        return GyroRateTableResult(
+            site_latitude_deg=plan.site.latitude_deg,
+            site_gravity_m_s2=plan.site.gravity_m_s2,
+            identification=ident,
+            nonlinearity_ppm=nl,
+            nonlinearity_noise_ppm=nl_noise,
+            pairs=pairs,
+            scale_unit=k_unit,
+            rate_deg_s=cols["rate_deg_s"],
+            output=cols["output"],
+            fitted=fitted * per_si,
+            line_deviation=line.residuals * per_si,
+            earth_rate_deg_h=w_e / DEG_PER_H_TO_RAD_PER_S,
+            residual_output=main.residuals * per_si,
+            output_unit=rate_gyro.raw_rate_unit(inst.output_unit),
+            messages=tuple(messages),
         )
 
-    pairs = _closed_form_pairs(cols["rate_deg_s"], y, w_e, k_si)
-    ident = Identification(
-        coefficients=coefficients,
-        combinations=(),
-        not_separable=tuple(not_sep),
-        covariance=cov,
-        names=tuple(names),
-        noise_sigma=float(noise.white_sigma * per_si),
-        noise_unit=rate_gyro.raw_rate_unit(inst.output_unit),
-        sigma_from_residuals=sigma is None,
-        dof=int(main.dof),
-        rank=int(main.rank),
-        residuals=main.residuals * per_si,
-        noise_model=noise.model,
-        noise_components={k: v * per_si for k, v in noise.components.items()},
-        checks=noise.checks,
-    )
-    return GyroRateTableResult(
-        site_latitude_deg=plan.site.latitude_deg,
-        site_gravity_m_s2=plan.site.gravity_m_s2,
-        identification=ident,
-        nonlinearity_ppm=nl,
-        nonlinearity_noise_ppm=nl_noise,
-        pairs=pairs,
-        scale_unit=k_unit,
-        rate_deg_s=cols["rate_deg_s"],
-        output=cols["output"],
-        fitted=fitted * per_si,
-        line_deviation=line.residuals * per_si,
-        earth_rate_deg_h=w_e / DEG_PER_H_TO_RAD_PER_S,
-        residual_output=main.residuals * per_si,
-        output_unit=rate_gyro.raw_rate_unit(inst.output_unit),
-        messages=tuple(messages),
-    )
+    def truth_quantities(self, truth: Mapping[str, float]) -> dict[str, float]:
+        """Truth with the one-direction scale factors the result reports.
+
+        ``K_pos = K (1 + a/2)``, ``K_neg = K (1 - a/2)`` with ``a`` the asymmetry [ppm] (the
+        model :meth:`synthesize` uses).
+        """
+        out = {k: float(v) for k, v in truth.items()}
+        k, a = out.get("K", 1.0), out.get("asymmetry", 0.0) * 1e-6
+        out.update(K_pos=k * (1 + a / 2), K_neg=k * (1 - a / 2))
+        return out
+
+    def synthesize(self, plan: Plan, motion: table.ConstantRates, truth: Mapping[str, float],
+                   *, noise: float, rng: np.random.Generator | int | None
+                   ) -> dict[str, NDArray]:
+        """Columns ``rate_deg_s`` and ``output`` [output unit; count/s for pulses].
+
+        ``truth``: ``K`` [K unit; default 1 for rate outputs, else required], ``B`` [deg/h],
+        ``asymmetry`` [ppm] (K+ = K (1 + a/2), K- = K (1 - a/2)), ``K2`` [ppm/(deg/s)]. The
+        Earth rate is included.
+        """
+        rate_gyro.check_gyro(plan.instrument, KIND)
+        unknown = sorted(set(truth) - set(TRUTH_NAMES))
+        if unknown:
+            raise PlanError(
+                f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
+                f"{', '.join(TRUTH_NAMES)}"
+            )
+        spec: GyroRateTableSpec = plan.procedure
+        inst = plan.instrument
+        k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
+        if "K" not in truth and inst.output_unit not in RATE_UNITS:
+            raise PlanError(f"truth needs the scale factor K in {k_unit} for a "
+                            f"{inst.output_unit} output")
+        K = float(truth.get("K", 1.0)) * k_si
+        B = float(truth.get("B", 0.0)) * DEG_PER_H_TO_RAD_PER_S
+        a = float(truth.get("asymmetry", 0.0)) * PPM
+        k2 = float(truth.get("K2", 0.0)) * PPM / DEG_TO_RAD
+        rates = np.repeat(np.asarray(spec.rates_deg_s, dtype=float), spec.samples_per_rate)
+        w_t = rates * DEG_TO_RAD
+        # The table rate on the input axis from the motion (which carries Type-B rate/tilt
+        # errors when the uncertainty budget applies them); equal to w_t on the nominal table.
+        w_in, w_e = _input_rate(motion, w_t)
+        w_tab = w_in - w_e
+        k_dir = K * (1 + np.sign(w_t) * a / 2)
+        out_si = k_dir * w_tab + K * (w_e + B + k2 * w_tab**2)
+        per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
+        output = out_si * per_si + noise_samples(rates.size, noise, rng)
+        return {"rate_deg_s": rates, "output": output}
 
 
 def _input_rate(
@@ -372,60 +448,3 @@ def _closed_form_pairs(
         out.append({"rate_deg_s": float(r), "K": float(K / k_si),
                     "B": float(B / DEG_PER_H_TO_RAD_PER_S)})
     return tuple(out)
-
-
-def truth_quantities(truth: Mapping[str, float]) -> dict[str, float]:
-    """Truth with the one-direction scale factors the result reports.
-
-    ``K_pos = K (1 + a/2)``, ``K_neg = K (1 - a/2)`` with ``a`` the asymmetry [ppm] (the model
-    :func:`simulate` uses).
-    """
-    out = {k: float(v) for k, v in truth.items()}
-    k, a = out.get("K", 1.0), out.get("asymmetry", 0.0) * 1e-6
-    out.update(K_pos=k * (1 + a / 2), K_neg=k * (1 - a / 2))
-    return out
-
-
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Readings of a virtual gyro on the plan's rate table (Earth rate included).
-
-    ``truth``: ``K`` [K unit; default 1 for rate outputs, else required], ``B`` [deg/h],
-    ``asymmetry`` [ppm] (K+ = K (1 + a/2), K- = K (1 - a/2)), ``K2`` [ppm/(deg/s)].
-
-    Returns columns ``rate_deg_s`` and ``output`` [output unit; count/s for pulses].
-    """
-    rate_gyro.check_gyro(plan.instrument, KIND)
-    unknown = sorted(set(truth) - set(TRUTH_NAMES))
-    if unknown:
-        raise PlanError(
-            f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
-            f"{', '.join(TRUTH_NAMES)}"
-        )
-    spec: GyroRateTableSpec = plan.procedure
-    inst = plan.instrument
-    k_unit, k_si = rate_gyro.scale_unit(inst.output_unit)
-    if "K" not in truth and inst.output_unit not in RATE_UNITS:
-        raise PlanError(f"truth needs the scale factor K in {k_unit} for a {inst.output_unit} "
-                        "output")
-    K = float(truth.get("K", 1.0)) * k_si
-    B = float(truth.get("B", 0.0)) * DEG_PER_H_TO_RAD_PER_S
-    a = float(truth.get("asymmetry", 0.0)) * PPM
-    k2 = float(truth.get("K2", 0.0)) * PPM / DEG_TO_RAD
-    rates = np.repeat(np.asarray(spec.rates_deg_s, dtype=float), spec.samples_per_rate)
-    w_t = rates * DEG_TO_RAD
-    # The table rate on the input axis from the motion (which carries Type-B rate/tilt errors
-    # when the uncertainty budget applies them); equal to w_t on the nominal table.
-    w_in, w_e = _input_rate(spec.motion(plan.site), w_t)
-    w_tab = w_in - w_e
-    k_dir = K * (1 + np.sign(w_t) * a / 2)
-    out_si = k_dir * w_tab + K * (w_e + B + k2 * w_tab**2)
-    per_si = rate_gyro.raw_rate_per_si(inst.output_unit)
-    output = out_si * per_si + noise_samples(rates.size, noise, rng)
-    return {"rate_deg_s": rates, "output": output}
-

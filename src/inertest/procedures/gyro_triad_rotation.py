@@ -68,9 +68,7 @@ import numpy as np
 import scipy.optimize
 from numpy.typing import NDArray
 
-from inertest.earth import Site
 from inertest.equipment import rate_table as table
-from inertest.equipment.motion import StaticPositions
 from inertest.errors import (
     DataError,
     IdentifiabilityError,
@@ -80,7 +78,6 @@ from inertest.errors import (
 )
 from inertest.estimation.identify import (
     NOISE_MODELS,
-    check_noise_model,
     common_noise_model,
     model_checks,
     selection_spread,
@@ -88,9 +85,15 @@ from inertest.estimation.identify import (
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.imu import ImuCalibration
-from inertest.models.rate_gyro import check_gyro, raw_rate_per_si, raw_rate_unit
+from inertest.models.rate_gyro import (
+    check_gyro,
+    raw_rate_per_si,
+    raw_rate_unit,
+    triad_from_truth,
+)
 from inertest.models.triad import AXES
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import noise_samples, require_columns
 from inertest.results import Estimate, Identification, LinearTestResult, ModelChecks
 from inertest.units import DEG_TO_RAD
@@ -100,7 +103,7 @@ KIND = "gyro-triad-rotation"
 NAMES = triad.parameter_names()
 #: Attitude with each axis up, used to suggest the missing rotation.
 _UP_ATTITUDE = {"x": "UEN", "y": "NUE", "z": "ENU"}
-_STATIC = "static"
+_STATIC = table.STATIC
 #: How a window's white count noise depends on its length (GyroTriadRotationSpec.window_noise).
 WINDOW_NOISES = ("constant", "sqrt-window")
 
@@ -233,7 +236,6 @@ FIELDS = (
     Field("noise_model", "text", default="white", choices=NOISE_MODELS,
           doc="drift of the rate bias behind the uncertainties"),
 )
-SPEC = GyroTriadRotationSpec
 
 
 @dataclass(frozen=True)
@@ -340,13 +342,12 @@ def _read(data: Mapping[str, object]) -> _Rows:
 
 
 def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.float64],
-                duration_s: NDArray[np.float64], spec: GyroTriadRotationSpec,
-                site: Site) -> NDArray[np.float64]:
+                duration_s: NDArray[np.float64], turns: table.TurnTable) -> NDArray[np.float64]:
     """``Theta`` [rad], shape (n, 3): the integral of the body rate over each window.
 
-    The table's motion gives it: a whole turn (:class:`~inertest.equipment.rate_table.Turns`,
-    table angle plus the Earth-rate angle of the profile) or a static window
-    (:class:`~inertest.equipment.motion.StaticPositions`, Earth rate times the window).
+    The table gives it (:meth:`~inertest.equipment.rate_table.TurnTable.window_angle`): a
+    whole turn (table angle plus the Earth-rate angle of the profile) or a static window
+    (Earth rate times the window); once per distinct window.
     """
     out = np.empty((axis.size, 3))
     cache: dict[tuple[str, str, float, float], NDArray[np.float64]] = {}
@@ -354,14 +355,7 @@ def body_angles(rows_attitude: NDArray, axis: NDArray, direction: NDArray[np.flo
         key = (str(rows_attitude[i]), str(axis[i]), float(direction[i]), float(duration_s[i]))
         if key not in cache:
             try:
-                C = table.triad_attitude(key[0])
-                if key[1] == _STATIC:
-                    rest = StaticPositions({key[0]: C}, site)
-                    cache[key] = rest.inputs(key[0]).omega_i[0] * key[3]
-                else:
-                    turn = table.Turns(site, {"turn": (C, table.axis_index(key[1]), int(key[2]))},
-                                       spec.profile)
-                    cache[key] = turn.body_angle("turn", key[3])
+                cache[key] = turns.window_angle(*key)
             except InputError as exc:
                 raise DataError(f"data row {i + 1}: {exc}") from None
         out[i] = cache[key]
@@ -414,23 +408,22 @@ def _check_excitation(rows: _Rows) -> None:
             )
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-        noise_model: str | None = None) -> GyroTriadRotationResult:
-    """Scale factors, misalignment and bias of a gyro triad from 360-degree rotations.
+@dataclass(frozen=True)
+class WindowObservations:
+    """The counting windows, checked, with the body angle of each from the table [rad]."""
 
-    Parameters
-    ----------
-    plan : Plan
-        Site (latitude), instrument (a gyro triad) and a :class:`GyroTriadRotationSpec` (table
-        rate and acceleration, used for the Earth-rate angle during a turn).
-    data : mapping
-        Columns listed in the module docstring, one row per counting window.
-    sigma : float, optional
-        Known white noise of a window's count [output unit (x s)], per sqrt(s) with
-        ``window_noise = "sqrt-window"``; from the residuals when omitted (separately for each
-        gyro).
-    noise_model : str, optional
-        Overrides the plan's ``noise_model`` (drift of the rate bias, module docstring).
+    rows: _Rows
+    body_angle_rad: NDArray[np.float64]
+
+
+class GyroTriadRotation(Procedure[GyroTriadRotationSpec, WindowObservations,
+                                  GyroTriadRotationResult]):
+    """Gyro triad, 360-degree rotations on a two-axis table (seed 003, sec. 1.2): K, M, B.
+
+    Data: the columns listed in the module docstring, one row per counting window. A known
+    ``sigma`` is the white noise of a window's count [output unit (x s)], per sqrt(s) with
+    ``window_noise = "sqrt-window"``; from the residuals when omitted (separately for each
+    gyro). ``noise_model``: the drift of the rate bias (module docstring).
 
     Notes
     -----
@@ -449,97 +442,155 @@ def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
         An axis never rotated about, one direction only without static windows, too few rows.
     DataError
         Missing or bad columns, mislabelled axis or direction.
+
+    Raises
+    ------
+    IdentifiabilityError
+        An axis never rotated about, one direction only without static windows, too few rows.
+    DataError
+        Missing or bad columns, mislabelled axis or direction.
     """
-    check_gyro(plan.instrument, KIND)
-    spec: GyroTriadRotationSpec = plan.procedure
-    inst = plan.instrument
-    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    rows = _read(data)
-    _check_labels(rows)
-    _check_excitation(rows)
-    per_si = raw_rate_per_si(inst.output_unit)
-    theta = body_angles(rows.attitude, rows.axis, rows.direction, rows.duration, spec,
-                        plan.site)
-    X = np.column_stack([theta, rows.duration])
-    Y = rows.counts / per_si  # raw SI: count, or rad for rate outputs
-    n = X.shape[0]
-    white = rows.duration if spec.window_noise == "sqrt-window" else np.ones(n)  # variance shape
-    rel = np.sqrt(white)
-    if weighted_least_squares(X / rel[:, None], Y[:, 0] / rel, sigma=1.0).rank < 4:
-        raise IdentifiabilityError(
-            "the windows do not separate the scale factors, misalignments and biases (the design "
-            "is singular); run every axis in both directions and add static positions"
+
+    kind = KIND
+    title = "Gyro triad, 360-degree rotations"
+    spec = GyroTriadRotationSpec
+    model = "inertest.models.triad"
+    method = "generalised least squares per gyro, drift component by REML"
+    noise_models = NOISE_MODELS
+    report = "inertest.report.gyro_triad:rotation_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> table.TurnTable:
+        """The two-axis table with the plan's rotation profile, at the plan's site."""
+        spec: GyroTriadRotationSpec = plan.procedure
+        return table.TurnTable(plan.site, spec.profile)
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: table.TurnTable
+               ) -> WindowObservations:
+        """The windows read and checked, and the body angle of each."""
+        check_gyro(plan.instrument, KIND)
+        rows = _read(data)
+        _check_labels(rows)
+        _check_excitation(rows)
+        theta = body_angles(rows.attitude, rows.axis, rows.direction, rows.duration, motion)
+        return WindowObservations(rows, theta)
+
+    def identify(self, plan: Plan, obs: WindowObservations, *, sigma: float | None,
+                 noise_model: str | None) -> GyroTriadRotationResult:
+        """Scale factors, misalignment and bias, each gyro by GLS under its noise model."""
+        spec: GyroTriadRotationSpec = plan.procedure
+        inst = plan.instrument
+        model = str(noise_model)
+        rows, theta = obs.rows, obs.body_angle_rad
+        per_si = raw_rate_per_si(inst.output_unit)
+        X = np.column_stack([theta, rows.duration])
+        Y = rows.counts / per_si  # raw SI: count, or rad for rate outputs
+        n = X.shape[0]
+        # The variance shape of the windows' white noise.
+        white = rows.duration if spec.window_noise == "sqrt-window" else np.ones(n)
+        rel = np.sqrt(white)
+        if weighted_least_squares(X / rel[:, None], Y[:, 0] / rel, sigma=1.0).rank < 4:
+            raise IdentifiabilityError(
+                "the windows do not separate the scale factors, misalignments and biases (the "
+                "design is singular); run every axis in both directions and add static positions"
+            )
+        if sigma is None and n <= 4:
+            raise IdentifiabilityError(
+                f"{n} windows leave no degree of freedom to estimate the noise (4 unknowns per "
+                "gyro); add rotations or static windows, or give the noise level (--sigma)"
+            )
+        if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
+            raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
+        sig_si = None if sigma is None else sigma / per_si
+        fits, weights = _fit_gyros(X, Y, white, rows, model, sig_si)
+        coef = np.column_stack([f.x for f in fits])  # (4, 3): column i = [A_ix, A_iy, A_iz, b_i]
+        resid = Y - X @ coef
+        sig = np.array([f.components["white"] for f in fits])
+        # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k); the gyros' noises are
+        # independent. Reorder to the triad model's p = [A.ravel(), b].
+        cov_i = np.zeros((12, 12))
+        for i, f in enumerate(fits):
+            cov_i[4 * i:4 * i + 4, 4 * i:4 * i + 4] = f.covariance
+        order = [4 * i + j for i in range(3) for j in range(3)] + [4 * i + 3 for i in range(3)]
+        A = coef[:3].T
+        b = coef[3]
+        p = triad.stack_parameters(A, b)
+        raw_unit = raw_rate_unit(inst.output_unit)
+        su = triad.scale_unit(raw_unit, "gyroscope")
+        values, cov = triad.propagate(p, cov_i[np.ix_(order, order)], "gyroscope", su)
+        std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        units = triad.units_of("gyroscope", su)
+        coefficients = {
+            nm: Estimate(nm, float(values[i]), float(std[i]), units[nm])
+            for i, nm in enumerate(NAMES)
+        }
+        gyro = triad.calibration_from_parameters(p, sensor="gyroscope", scale=su,
+                                                 raw_unit=raw_unit)
+        ident = Identification(
+            coefficients=coefficients,
+            combinations=(),
+            not_separable=(),
+            covariance=cov,
+            names=NAMES,
+            noise_sigma=float(np.sqrt(np.mean(sig**2)) * per_si),
+            noise_unit=_count_unit(inst.output_unit) + (
+                "/sqrt(s)" if spec.window_noise == "sqrt-window" else ""),
+            sigma_from_residuals=sigma is None,
+            dof=int(n - 4),
+            rank=4,
+            residuals=resid.reshape(-1) * per_si,
+            noise_model=fits[0].model,
+            noise_components={k: float(np.sqrt(np.mean([f.components[k] ** 2 for f in fits])))
+                              * per_si for k in fits[0].components},
+            checks=_checks(X, resid, fits, rows, sigma is not None),
+            noise_model_weights=weights,
         )
-    if sigma is None and n <= 4:
-        raise IdentifiabilityError(
-            f"{n} windows leave no degree of freedom to estimate the noise (4 unknowns per gyro); "
-            "add rotations or static windows, or give the noise level (--sigma)"
+        return GyroTriadRotationResult(
+            site_latitude_deg=plan.site.latitude_deg,
+            site_gravity_m_s2=plan.site.gravity_m_s2,
+            identification=ident,
+            calibration=ImuCalibration(gyroscope=gyro),
+            forward=A * per_si,
+            offset=b * per_si,
+            scale_unit=su.unit,
+            raw_unit=raw_unit,
+            part=rows.part,
+            axis=rows.axis,
+            direction=rows.direction,
+            duration_s=rows.duration,
+            body_angle_rad=theta,
+            counts=rows.counts,
+            fitted_counts=(X @ coef) * per_si,
+            closed_form_scale=_closed_form_scale(rows, su.si_per_unit * per_si),
+            residual_output=resid * per_si,
+            output_unit=_count_unit(inst.output_unit),
+            messages=(),
         )
-    if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
-        raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-    sig_si = None if sigma is None else sigma / per_si
-    fits, weights = _fit_gyros(X, Y, white, rows, model, sig_si)
-    coef = np.column_stack([f.x for f in fits])  # (4, 3): column i = [A_ix, A_iy, A_iz, b_i]
-    resid = Y - X @ coef
-    sig = np.array([f.components["white"] for f in fits])
-    # Per gyro i the unknowns are A_ix, A_iy, A_iz, b_i (index 4 i + k); the gyros' noises are
-    # independent. Reorder to the triad model's p = [A.ravel(), b].
-    cov_i = np.zeros((12, 12))
-    for i, f in enumerate(fits):
-        cov_i[4 * i:4 * i + 4, 4 * i:4 * i + 4] = f.covariance
-    order = [4 * i + j for i in range(3) for j in range(3)] + [4 * i + 3 for i in range(3)]
-    A = coef[:3].T
-    b = coef[3]
-    p = triad.stack_parameters(A, b)
-    raw_unit = raw_rate_unit(inst.output_unit)
-    su = triad.scale_unit(raw_unit, "gyroscope")
-    values, cov = triad.propagate(p, cov_i[np.ix_(order, order)], "gyroscope", su)
-    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    units = triad.units_of("gyroscope", su)
-    coefficients = {
-        nm: Estimate(nm, float(values[i]), float(std[i]), units[nm]) for i, nm in enumerate(NAMES)
-    }
-    gyro = triad.calibration_from_parameters(p, sensor="gyroscope", scale=su, raw_unit=raw_unit)
-    ident = Identification(
-        coefficients=coefficients,
-        combinations=(),
-        not_separable=(),
-        covariance=cov,
-        names=NAMES,
-        noise_sigma=float(np.sqrt(np.mean(sig**2)) * per_si),
-        noise_unit=_count_unit(inst.output_unit) + (
-            "/sqrt(s)" if spec.window_noise == "sqrt-window" else ""),
-        sigma_from_residuals=sigma is None,
-        dof=int(n - 4),
-        rank=4,
-        residuals=resid.reshape(-1) * per_si,
-        noise_model=fits[0].model,
-        noise_components={k: float(np.sqrt(np.mean([f.components[k] ** 2 for f in fits])))
-                          * per_si for k in fits[0].components},
-        checks=_checks(X, resid, fits, rows, sigma is not None),
-        noise_model_weights=weights,
-    )
-    return GyroTriadRotationResult(
-        site_latitude_deg=plan.site.latitude_deg,
-        site_gravity_m_s2=plan.site.gravity_m_s2,
-        identification=ident,
-        calibration=ImuCalibration(gyroscope=gyro),
-        forward=A * per_si,
-        offset=b * per_si,
-        scale_unit=su.unit,
-        raw_unit=raw_unit,
-        part=rows.part,
-        axis=rows.axis,
-        direction=rows.direction,
-        duration_s=rows.duration,
-        body_angle_rad=theta,
-        counts=rows.counts,
-        fitted_counts=(X @ coef) * per_si,
-        closed_form_scale=_closed_form_scale(rows, su.si_per_unit * per_si),
-        residual_output=resid * per_si,
-        output_unit=_count_unit(inst.output_unit),
-        messages=(),
-    )
+
+    def synthesize(self, plan: Plan, motion: table.TurnTable, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Counts of a virtual gyro triad over the plan's rotations and static windows.
+
+        ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [urad], ``B_i``
+        [deg/h]. ``noise``: white noise of each window's count [count], or [count/sqrt(s)]
+        times the square root of the window with ``window_noise = "sqrt-window"``. The windows
+        run back to back (column ``start_s``).
+        """
+        check_gyro(plan.instrument, KIND)
+        spec: GyroTriadRotationSpec = plan.procedure
+        per_si = raw_rate_per_si(plan.instrument.output_unit)
+        A, b = triad_from_truth(truth, plan.instrument.output_unit)
+        cols = plan_rows(spec)
+        theta = body_angles(cols["attitude"], cols["axis"], cols["direction"],
+                            cols["duration_s"], motion)
+        counts = (theta @ A.T + np.outer(cols["duration_s"], b)) * per_si
+        gen = np.random.default_rng(rng)
+        rel = np.sqrt(cols["duration_s"]) if spec.window_noise == "sqrt-window" else 1.0
+        counts = counts + noise_samples(counts.size, noise, gen).reshape(
+            counts.shape) * np.reshape(rel, (-1, 1))
+        for j, a in enumerate(AXES):
+            cols[f"counts_{a}"] = counts[:, j]
+        cols["start_s"] = np.r_[0.0, np.cumsum(cols["duration_s"][:-1])]
+        return cols
 
 
 #: Name of each drift component in the result, and its unit per count unit of the output.
@@ -776,24 +827,6 @@ def _closed_form_scale(rows: _Rows, k_per_count: float) -> dict[str, float]:
     return out
 
 
-def truth_model(truth: Mapping[str, float], output_unit: str
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``A`` [raw SI per rad/s] and ``b`` [raw SI rate] from truth names in engineering units.
-
-    ``K_x..K_z`` [K unit; default 1 for rate outputs], ``M_ij`` [urad], ``B_x..B_z`` [deg/h]
-    (:func:`inertest.models.triad.parameters_from_engineering`).
-    """
-    unknown = sorted(set(truth) - set(NAMES))
-    if unknown:
-        raise PlanError(
-            f"truth for a gyro triad has unknown name(s) {', '.join(unknown)}; known: "
-            f"{', '.join(NAMES)}"
-        )
-    su = triad.scale_unit(raw_rate_unit(output_unit), "gyroscope")
-    p = triad.parameters_from_engineering(truth, "gyroscope", su)
-    return p[:9].reshape(3, 3), p[9:12]
-
-
 def plan_rows(spec: GyroTriadRotationSpec) -> dict[str, NDArray]:
     """The label columns of the plan's windows, in the order they are run."""
     part, att, axis, direction, dur = [], [], [], [], []
@@ -813,35 +846,3 @@ def plan_rows(spec: GyroTriadRotationSpec) -> dict[str, NDArray]:
             dur.append(spec.static_window_s)
     return {"part": np.array(part), "attitude": np.array(att), "axis": np.array(axis),
             "direction": np.array(direction), "duration_s": np.array(dur)}
-
-
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Counts of a virtual gyro triad over the plan's rotations and static windows.
-
-    ``truth``: ``K_x, K_y, K_z`` [count/deg for pulse outputs], ``M_ij`` [urad], ``B_i``
-    [deg/h]. ``noise``: white noise of each window's count [count], or [count/sqrt(s)] times
-    the square root of the window with ``window_noise = "sqrt-window"``. The windows run back
-    to back (column ``start_s``).
-    """
-    check_gyro(plan.instrument, KIND)
-    spec: GyroTriadRotationSpec = plan.procedure
-    per_si = raw_rate_per_si(plan.instrument.output_unit)
-    A, b = truth_model(truth, plan.instrument.output_unit)
-    cols = plan_rows(spec)
-    theta = body_angles(cols["attitude"], cols["axis"], cols["direction"], cols["duration_s"],
-                        spec, plan.site)
-    counts = (theta @ A.T + np.outer(cols["duration_s"], b)) * per_si
-    gen = np.random.default_rng(rng)
-    rel = np.sqrt(cols["duration_s"]) if spec.window_noise == "sqrt-window" else 1.0
-    counts = counts + noise_samples(counts.size, noise, gen).reshape(counts.shape) * np.reshape(
-        rel, (-1, 1))
-    for j, a in enumerate(AXES):
-        cols[f"counts_{a}"] = counts[:, j]
-    cols["start_s"] = np.r_[0.0, np.cumsum(cols["duration_s"][:-1])]
-    return cols

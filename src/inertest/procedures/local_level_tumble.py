@@ -19,11 +19,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import level_fixture as fixture
+from inertest.equipment.motion import Fixture
 from inertest.errors import InertestWarning, PlanError
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model
+from inertest.estimation.identify import NOISE_MODELS
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.sdf_drift import identify_drift, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import LinearTestResult
@@ -88,7 +90,6 @@ FIELDS = (
 )
 
 
-SPEC = LocalLevelTumbleSpec
 
 
 @dataclass(frozen=True)
@@ -113,83 +114,99 @@ class LocalLevelTumbleResult(LinearTestResult):
     procedure: str = KIND
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-    noise_model: str | None = None,
-) -> LocalLevelTumbleResult:
-    """Identify what a local-level tumble determines of the static drift model.
+@dataclass(frozen=True)
+class LevelObservations:
+    """Local-level tumble data: the position of each row and its inputs from the fixture.
 
-    Parameters
-    ----------
-    plan : Plan
-        Site, instrument and a :class:`LocalLevelTumbleSpec`.
-    data : mapping
-        Columns ``I_dir``, ``O_dir``, ``S_dir`` (letters E, W, N, S, U, D; S = south) and
-        ``output`` [instrument output unit], in time order; rows with the same directions are one
-        position (the unit of independence of the noise model).
-    sigma : float, optional
-        Known white noise per row [output unit]; estimated from the residuals when omitted.
-    noise_model : str, optional
-        Overrides the plan's ``noise_model``.
+    ``labels`` (``"I O S"`` directions per row), ``f_ios_g`` (n, 3) [g0], ``earth_rate_rad_s``
+    (n,) on I [rad/s], ``drift_rad_s`` (n,) indicated minus true input rate [rad/s],
+    ``messages``: the axes never both up and down.
     """
-    cols = require_columns(data, ("output",), ("I_dir", "O_dir", "S_dir"), procedure=KIND)
-    site, inst = plan.site, plan.instrument
-    labels = fixture.position_labels(cols["I_dir"], cols["O_dir"], cols["S_dir"])
-    f, w_in = row_inputs(fixture.motion(np.unique(labels), site), labels)
-    drift = inst.output_to_rate(cols["output"]) - w_in
-    sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
-    messages = _balance_messages(labels)
-    for msg in messages:
-        warnings.warn(msg, InertestWarning, stacklevel=2)
-    spec: LocalLevelTumbleSpec = plan.procedure
-    lsq, _, ident = identify_drift(
-        f,
-        drift,
-        gravity_g=site.gravity_g,
-        sigma_rad_s=sigma_rad_s,
-        pivot_order=("DII", "DOO", "DSS", "DF"),
-        normalize_to="DF",
-        groups=labels,
-        noise_model=check_noise_model(
-            noise_model if noise_model is not None else spec.noise_model),
-    )
-    k = DEG_PER_H_TO_RAD_PER_S
-    return LocalLevelTumbleResult(
-        site_latitude_deg=site.latitude_deg,
-        site_gravity_m_s2=site.gravity_m_s2,
-        identification=ident,
-        position=labels,
-        drift_deg_h=drift / k,
-        fitted_deg_h=(drift - lsq.residuals) / k,
-        earth_rate_deg_h=w_in / k,
-        residual_output=inst.rate_to_output(lsq.residuals),
-        output_unit=inst.output_unit,
-        messages=tuple(messages),
-    )
+
+    labels: NDArray
+    f_ios_g: NDArray[np.float64]
+    earth_rate_rad_s: NDArray[np.float64]
+    drift_rad_s: NDArray[np.float64]
+    messages: list[str]
 
 
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Readings of a virtual gyro on the plan's local-level tumble (Earth rate included).
+class LocalLevelTumble(Procedure[LocalLevelTumbleSpec, LevelObservations,
+                                 LocalLevelTumbleResult]):
+    """Floated gyro, local-level tumble (seed 000, sec. 3): the static drift model from E/W/N/S/U/D.
 
-    ``truth`` maps coefficient names to values [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
-
-    Returns columns ``I_dir``, ``O_dir``, ``S_dir``, ``output`` [output unit].
+    Data columns ``I_dir``, ``O_dir``, ``S_dir`` (letters E, W, N, S, U, D; S = south) and
+    ``output`` [instrument output unit], in time order; rows with the same directions are one
+    position (the unit of independence of the noise model).
     """
-    spec: LocalLevelTumbleSpec = plan.procedure
-    reps = spec.samples_per_position
-    pos = [p for p in spec.positions for _ in range(reps)]
-    cols = [np.array([p[j] for p in pos]) for j in range(3)]
-    f, w_in = row_inputs(fixture.motion(spec.positions, plan.site),
-                         fixture.position_labels(*cols))
-    rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
-    output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
-    return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
+
+    kind = KIND
+    title = "Floated gyro, local-level tumble"
+    spec = LocalLevelTumbleSpec
+    model = "inertest.models.sdf_gyro"
+    method = "weighted least squares under a noise model"
+    machines = (fixture,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.tumble:local_level_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> Fixture:
+        """The level fixture at the plan's site (with its Type-B errors)."""
+        return Fixture(fixture.motion, plan.site, dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: Fixture
+               ) -> LevelObservations:
+        """Each row's position, its specific force and Earth rate, and the drift."""
+        cols = require_columns(data, ("output",), ("I_dir", "O_dir", "S_dir"), procedure=KIND)
+        labels = fixture.position_labels(cols["I_dir"], cols["O_dir"], cols["S_dir"])
+        f, w_in = row_inputs(motion.positions(np.unique(labels)), labels)
+        drift = plan.instrument.output_to_rate(cols["output"]) - w_in
+        messages = _balance_messages(labels)
+        for msg in messages:
+            warnings.warn(msg, InertestWarning, stacklevel=3)
+        return LevelObservations(labels, f, w_in, drift, messages)
+
+    def identify(self, plan: Plan, obs: LevelObservations, *, sigma: float | None,
+                 noise_model: str | None) -> LocalLevelTumbleResult:
+        """What a local-level tumble determines of the static drift model."""
+        site, inst = plan.site, plan.instrument
+        drift = obs.drift_rad_s
+        lsq, _, ident = identify_drift(
+            obs.f_ios_g,
+            drift,
+            gravity_g=site.gravity_g,
+            sigma_rad_s=known_sigma(sigma, inst.rad_s_per_output_unit),
+            pivot_order=("DII", "DOO", "DSS", "DF"),
+            normalize_to="DF",
+            groups=obs.labels,
+            noise_model=str(noise_model),
+        )
+        k = DEG_PER_H_TO_RAD_PER_S
+        return LocalLevelTumbleResult(
+            site_latitude_deg=site.latitude_deg,
+            site_gravity_m_s2=site.gravity_m_s2,
+            identification=ident,
+            position=obs.labels,
+            drift_deg_h=drift / k,
+            fitted_deg_h=(drift - lsq.residuals) / k,
+            earth_rate_deg_h=obs.earth_rate_rad_s / k,
+            residual_output=inst.rate_to_output(lsq.residuals),
+            output_unit=inst.output_unit,
+            messages=tuple(obs.messages),
+        )
+
+    def synthesize(self, plan: Plan, motion: Fixture, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Columns ``I_dir``, ``O_dir``, ``S_dir``, ``output`` [output unit], Earth rate included.
+
+        ``truth``: coefficients by name [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
+        """
+        spec: LocalLevelTumbleSpec = plan.procedure
+        reps = spec.samples_per_position
+        pos = [p for p in spec.positions for _ in range(reps)]
+        cols = [np.array([p[j] for p in pos]) for j in range(3)]
+        f, w_in = row_inputs(motion.positions(spec.positions), fixture.position_labels(*cols))
+        rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
+        output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+        return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
 
 
 def _balance_messages(labels: NDArray) -> list[str]:

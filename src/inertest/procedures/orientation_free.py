@@ -96,6 +96,7 @@ from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.triad import AXES
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure
 from inertest.procedures.spec import check_sample_rate, check_time_gaps, require_columns
 from inertest.results import Estimate, Identification
 from inertest.results.triad import TriadEstimates, TriadResult
@@ -229,7 +230,6 @@ FIELDS = (
     Field("static_s", default=4.0, positive=True, unit="s", doc="simulated time per attitude"),
     Field("motion_s", default=2.0, positive=True, unit="s", doc="simulated turn time"),
 )
-SPEC = OrientationFreeSpec
 
 
 @dataclass(frozen=True)
@@ -847,227 +847,256 @@ def _time_steps(data: Mapping[str, object], n: int, fs: float) -> NDArray[np.flo
     return np.full(n - 1, 1.0 / fs)
 
 
-def fit(plan: Plan, data: Mapping[str, object], *, sigma: float | None = None
-        ) -> OrientationFreeResult:
-    """Calibrate accelerometer and gyro triads from a hand-held multi-position recording.
+@dataclass(frozen=True)
+class RecordingObservations:
+    """A hand-held recording reduced to its static intervals.
 
-    Parameters
-    ----------
-    plan : Plan
-        ``[site]`` gravity (or normal gravity at its latitude) and an
-        :class:`OrientationFreeSpec`.
-    data : mapping
-        ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit], optional ``t_s`` [s].
-    sigma : None
-        Not used: the noise comes from the residuals.
+    ``acc``, ``gyr`` (n, 3) [raw SI], ``dt`` (n - 1,) sample steps [s], ``t`` (n,) times [s],
+    ``detection`` the static intervals found, ``threshold_search`` the candidates tried
+    (``threshold_factor = "auto"``), ``means``, ``gyro_means`` (m, 3) per interval [raw SI].
     """
-    if sigma is not None:
-        raise PlanError(f"{KIND} estimates the noise from the residuals; do not give sigma")
-    spec: OrientationFreeSpec = plan.procedure
-    g = plan.site.gravity_m_s2
-    cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, (), procedure=KIND)
-    sa, sg = spec.acc_scale, spec.gyr_scale
-    ra, rg = sa.raw_si_per_raw, sg.raw_si_per_raw
-    acc = np.column_stack([cols[c] for c in ACC_COLUMNS]) * ra
-    gyr = np.column_stack([cols[c] for c in GYR_COLUMNS]) * rg
-    n = acc.shape[0]
-    fs = spec.sample_rate_hz
-    dt = _time_steps(data, n, fs)
-    t = np.r_[0.0, np.cumsum(dt)] + (float(np.asarray(data["t_s"])[0]) if "t_s" in data else 0)
-    search: tuple[ThresholdCandidate, ...] = ()
-    if spec.threshold_factor == "auto":
-        det, search = choose_threshold(acc, spec, g, centre=spec.acc_bias_guess * ra)
-    else:
-        det = _detect(acc, spec, float(spec.threshold_factor))
-    iv = det.intervals
-    m = det.count
-    if m < MIN_ATTITUDES:
-        raise IdentifiabilityError(
-            f"found {m} static attitude(s) (threshold_factor {det.threshold_factor:g}, "
-            f"min_interval_s {spec.min_interval_s:g} s); the accelerometer's 9 parameters need "
-            f"at least {MIN_ATTITUDES} (Tedaldi recommend {RECOMMENDED_ATTITUDES}-50): record "
-            "more attitudes, each held still, or raise threshold_factor / lower "
-            "min_interval_s if the IMU was still longer than found")
-    means = np.array([acc[a:b].mean(axis=0) for a, b in iv])
-    gmeans = np.array([gyr[a:b].mean(axis=0) for a, b in iv])
-    p_a, _, r_a, _ = fit_accelerometer(means, g, spec.reference_axis,
-                                           centre=spec.acc_bias_guess * ra)
-    S_a, b_a = p_a[:9].reshape(3, 3), p_a[9:]
-    messages: list[str] = []
-    cov_msg = coverage_message(means, (S_a, b_a), spec.reference_axis)
-    if cov_msg is not None:
-        messages.append("poor coverage of the sphere, the estimates may be weak: " + cov_msg)
-    if m < RECOMMENDED_ATTITUDES:
-        messages.append(f"{m} static attitudes found; Tedaldi et al. recommend "
-                        f"{RECOMMENDED_ATTITUDES}-50 for a robust calibration")
 
-    # gyroscope: bias from the initial static period, S_g from the gravity transport
-    n_init = det.n_init
-    b_g = gyr[:n_init].mean(axis=0)
-    var_bg = gyr[:n_init].var(axis=0, ddof=1) / n_init
-    u_cal = np.linalg.solve(S_a, (means - b_a).T).T
-    up = u_cal / np.linalg.norm(u_cal, axis=1, keepdims=True)
-    spans = [(int(iv[k, 1] - 1), int(iv[k + 1, 0])) for k in range(m - 1)]
-    # nominal gyro: the plan's scale guess [count/(deg/s)] in raw SI, or 1 for a physical unit
-    k_g0 = 1.0 if spec.gyr_scale_guess is None else spec.gyr_scale_guess * sg.si_per_unit
-    S_g0 = np.eye(3) * k_g0
-    # noise: of each interval mean (white, from its own samples), of the initial-period gyro
-    # bias, and of each integrated motion (angle random walk of the calibrated rates)
-    var_means = np.array([acc[a:b].var(axis=0, ddof=1) / (b - a) for a, b in iv])
-    var_raw_g = gyr[:n_init].var(axis=0, ddof=1)
-    gf = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up)
-    S_g, r_g = gf.S_g, gf.residuals
-    Sg_inv = np.linalg.inv(S_g)
-    var_rate = float(np.trace(Sg_inv @ np.diag(var_raw_g) @ Sg_inv.T)) / 3  # per axis
-    var_rot = np.array([var_rate * _trapezoid_weight2(dt[i0:i1]) for i0, i1 in spans])
-    prop = joint_covariance(means, var_means, S_a, b_a, spec.reference_axis, r_a, gf,
-                            var_bg, var_rot)
-    cov_a = prop.covariance[:12, :12]
-    cov_g = prop.covariance[12:, 12:]
-    p_g = triad.stack_parameters(S_g, b_g)
-
-    # checks before/after
-    if spec.acc_scale_guess is not None:
-        k_a0 = spec.acc_scale_guess * sa.si_per_unit
-    else:  # one common scale that makes the mean |a| = g
-        k_a0 = float(np.mean(np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1))) / g
-    err_before = np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1) / k_a0 - g
-    err_after = np.linalg.norm(u_cal, axis=1) - g
-    ang_after = _angles_deg(r_g)
-    ang_before = _angles_deg(transport_residuals(S_g0, b_g, gyr, dt, spans, up))
-
-    # results in THE triad model's conventions
-    tri_a = TriadEstimates.from_parameters(p_a, cov_a, sensor="accelerometer", scale=sa)
-    tri_g = TriadEstimates.from_parameters(p_g, cov_g, sensor="gyroscope", scale=sg)
-    fixed = set(_FIXED_MIS[spec.reference_axis])
-    names_a = [nm for nm in triad.parameter_names() if nm not in fixed]
-    all_a = triad.parameter_names()
-    idx_a = [all_a.index(nm) for nm in names_a]
-    cov_ea = tri_a.covariance[np.ix_(idx_a, idx_a)]
-    coefficients: dict[str, Estimate] = {}
-    for tri, names, letter in ((tri_a, names_a, "a"), (tri_g, list(all_a), "g")):
-        for nm in names:
-            e = tri.all_estimates()[nm]
-            key = f"{nm[0]}{letter}{nm[1:]}"
-            coefficients[key] = Estimate(key, e.value, e.std, e.unit)
-    _, Je_a = triad.engineering_jacobian(p_a, "accelerometer", sa)
-    _, Je_g = triad.engineering_jacobian(p_g, "gyroscope", sg)
-    cross = (Je_a @ prop.covariance[:12, 12:] @ Je_g.T)[idx_a]
-    cov_out = np.block([[cov_ea, cross], [cross.T, tri_g.covariance]])
-    fixed_names = ", ".join(f"M{'a'}{nm[1:]}" for nm in _FIXED_MIS[spec.reference_axis])
-    frame = ("the z accelerometer defines the z axis and y lies in the y-z plane"
-             if spec.reference_axis == "z" else
-             "the x accelerometer defines the x axis and y lies in the x-y plane")
-    not_sep = (
-        f"accelerometer frame orientation: |a| = g determines the triad only up to a rotation "
-        f"of its reference frame; the gauge of Tedaldi et al. (reference_axis = "
-        f"{spec.reference_axis}: {frame}) sets {fixed_names} = 0 by definition, so they are "
-        "not estimates; the gyro misalignments Mg_ij refer to this same frame",
-    )
-    for msg in (triad.reversed_axes_message(p_a, "accelerometer", "acc_{}"),
-                triad.reversed_axes_message(p_g, "gyroscope", "gyr_{}")):
-        if msg is not None:
-            messages.append(msg)
-    rms_ang = float(np.sqrt(np.mean(np.square(ang_after)))) if ang_after.size else 0.0
-    if rms_ang >= TRANSPORT_TOLERANCE_DEG:
-        messages.append(f"check failed: the calibrated gyro carries gravity to the next attitude "
-                        f"with an rms error of {rms_ang:.3g} deg (tolerance "
-                        f"{TRANSPORT_TOLERANCE_DEG:g} deg): do not use the gyro calibration; "
-                        "look for gaps, saturation or a wrong sample rate in the recording")
-    ident = Identification(
-        coefficients=coefficients, combinations=(), not_separable=not_sep,
-        covariance=cov_out, names=tuple(coefficients), noise_sigma=float(
-            np.sqrt(r_a @ r_a / (m - 9))) if m > 9 else float("nan"),
-        noise_unit="m/s^2", sigma_from_residuals=True, dof=m - 9, rank=len(coefficients),
-        residuals=r_a,
-    )
-    calibration = ImuCalibration(
-        accelerometer=triad.calibration_from_parameters(p_a, sensor="accelerometer", scale=sa,
-                                                        raw_unit=spec.acc_unit),
-        gyroscope=triad.calibration_from_parameters(p_g, sensor="gyroscope", scale=sg,
-                                                    raw_unit=spec.gyr_unit),
-    )
-    intervals = tuple(
-        StaticInterval(float(t[a]), float(t[b - 1]), means[k] / ra, gmeans[k] / rg, int(b - a))
-        for k, (a, b) in enumerate(iv))
-    return OrientationFreeResult(
-        site_latitude_deg=plan.site.latitude_deg, site_gravity_m_s2=g, identification=ident,
-        calibration=calibration, triads=(tri_a, tri_g), residual_output=r_a,
-        output_unit="m/s^2", messages=tuple(messages), intervals=intervals, detection=det,
-        gravity_error_m_s2=err_after, gravity_error_before_m_s2=err_before,
-        transport_angle_deg=ang_after, transport_angle_before_deg=ang_before,
-        reference_axis=spec.reference_axis, noise_scales=(prop.acc_noise_scale,
-                                                          prop.gyro_noise_scale),
-        threshold_search=search,
-    )
+    acc: NDArray[np.float64]
+    gyr: NDArray[np.float64]
+    dt: NDArray[np.float64]
+    t: NDArray[np.float64]
+    detection: StaticDetection
+    threshold_search: tuple[ThresholdCandidate, ...]
+    means: NDArray[np.float64]
+    gyro_means: NDArray[np.float64]
 
 
-# ---------------------------------------------------------------------------------------------
-# simulation
+class OrientationFree(Procedure[OrientationFreeSpec, RecordingObservations,
+                                OrientationFreeResult]):
+    """IMU, multi-position without known orientations (Tedaldi et al., ICRA 2014).
 
-
-def simulate(
-    plan: Plan, truth: Mapping[str, float], *, noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """A virtual hand-held session with random attitudes and raised-cosine turns.
-
-    Still for ``init_duration_s``, then ``n_attitudes`` random attitudes held ``static_s``
-    each, reached by raised-cosine turns of ``motion_s`` about a fixed body axis (pure
-    rotation about the IMU; no Earth rate).
-
-    ``truth``: ``Ka_*``, ``Ma_ij`` [urad], ``Ba_*`` [mg], ``Kg_*``, ``Mg_ij`` [urad], ``Bg_*``
-    [deg/h] (the fit's units; scale factors required for count outputs), optional
-    ``acc_noise``, ``gyr_noise`` [raw unit per sample] (default ``noise``). Misalignments
-    outside the gauge rotate the frame: the fit then reports the rotated equivalent.
-    Returns columns ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
+    Data columns ``acc_x..acc_z`` [acc_unit], ``gyr_x..gyr_z`` [gyr_unit], optional ``t_s``
+    [s]. No known ``sigma``: the noise comes from the residuals. There is no machine: the
+    attitudes are found in the data (static detection), the accelerometer triad by |a| = g,
+    the gyro triad by carrying gravity from one attitude to the next.
     """
-    spec: OrientationFreeSpec = plan.procedure
-    gen = np.random.default_rng(rng)
-    known = set(_prefixed(triad.parameter_names(), "a") + _prefixed(triad.parameter_names(),
-                                                                    "g"))
-    unknown = sorted(set(truth) - known - {"acc_noise", "gyr_noise"})
-    if unknown:
-        raise PlanError(f"truth has unknown name(s) {', '.join(unknown)}; {KIND} knows Ka_x.., "
-                        "Ma_xy.. [urad], Ba_x.. [mg], Kg_x.., Mg_xy.., Bg_x.. [deg/h], "
-                        "acc_noise, gyr_noise")
-    sa, sg = spec.acc_scale, spec.gyr_scale
-    p_a = triad.parameters_from_engineering(truth, "accelerometer", sa, prefix="a")
-    p_g = triad.parameters_from_engineering(truth, "gyroscope", sg, prefix="g")
-    s_a = float(truth.get("acc_noise", noise))
-    s_g = float(truth.get("gyr_noise", noise))
-    g = plan.site.gravity_m_s2
-    fs = spec.sample_rate_hz
-    n_init = int(round(spec.init_duration_s * fs))
-    n_static = int(round(spec.static_s * fs))
-    n_move = int(round(spec.motion_s * fs))
-    att = Rotation.random(spec.n_attitudes + 1, random_state=gen)  # C_nb of each attitude
-    att = Rotation.concatenate([Rotation.identity(), att[1:]])
-    f_parts, w_parts = [], []
-    up = np.array([0.0, 0.0, g])
-    f_parts.append(np.tile(att[0].inv().apply(up), (n_init, 1)))
-    w_parts.append(np.zeros((n_init, 3)))
-    tau = (np.arange(n_move) + 0.5) / n_move  # sample mid-points of the turn
-    for k in range(spec.n_attitudes):
-        phi = (att[k].inv() * att[k + 1]).as_rotvec()  # body-frame turn C_k^T C_{k+1}
-        s = tau - np.sin(2 * np.pi * tau) / (2 * np.pi)
-        rate = (1 - np.cos(2 * np.pi * tau)) * fs / n_move
-        C = att[k] * Rotation.from_rotvec(np.outer(s, phi))
-        f_parts.append(C.inv().apply(up))
-        w_parts.append(np.outer(rate, phi))
-        f_parts.append(np.tile(att[k + 1].inv().apply(up), (n_static, 1)))
-        w_parts.append(np.zeros((n_static, 3)))
-    f = np.vstack(f_parts)
-    w = np.vstack(w_parts)
-    acc = triad.output(f, p_a[:9].reshape(3, 3), p_a[9:]) / sa.raw_si_per_raw
-    gyr = triad.output(w, p_g[:9].reshape(3, 3), p_g[9:]) / sg.raw_si_per_raw
-    if s_a > 0:
-        acc = acc + gen.normal(0.0, s_a, acc.shape)
-    if s_g > 0:
-        gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
-    out: dict[str, NDArray] = {"t_s": np.arange(len(f)) / fs}
-    for k in range(3):
-        out[ACC_COLUMNS[k]] = acc[:, k]
-    for k in range(3):
-        out[GYR_COLUMNS[k]] = gyr[:, k]
-    return out
+
+    kind = KIND
+    title = "IMU, multi-position without known orientations (Tedaldi)"
+    spec = OrientationFreeSpec
+    model = "inertest.models.imu"
+    method = "Levenberg-Marquardt (accelerometer: |a| = g; gyroscope: gravity transport)"
+    sigma_note = "estimates the noise from the residuals"
+    report = "inertest.report.orientation_free:orientation_free_sections"
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: None
+               ) -> RecordingObservations:
+        """The static intervals of the recording and their means."""
+        spec: OrientationFreeSpec = plan.procedure
+        g = plan.site.gravity_m_s2
+        cols = require_columns(data, ACC_COLUMNS + GYR_COLUMNS, (), procedure=KIND)
+        sa, sg = spec.acc_scale, spec.gyr_scale
+        ra, rg = sa.raw_si_per_raw, sg.raw_si_per_raw
+        acc = np.column_stack([cols[c] for c in ACC_COLUMNS]) * ra
+        gyr = np.column_stack([cols[c] for c in GYR_COLUMNS]) * rg
+        n = acc.shape[0]
+        fs = spec.sample_rate_hz
+        dt = _time_steps(data, n, fs)
+        t = np.r_[0.0, np.cumsum(dt)] + (float(np.asarray(data["t_s"])[0]) if "t_s" in data else 0)
+        search: tuple[ThresholdCandidate, ...] = ()
+        if spec.threshold_factor == "auto":
+            det, search = choose_threshold(acc, spec, g, centre=spec.acc_bias_guess * ra)
+        else:
+            det = _detect(acc, spec, float(spec.threshold_factor))
+        iv = det.intervals
+        m = det.count
+        if m < MIN_ATTITUDES:
+            raise IdentifiabilityError(
+                f"found {m} static attitude(s) (threshold_factor {det.threshold_factor:g}, "
+                f"min_interval_s {spec.min_interval_s:g} s); the accelerometer's 9 parameters need "
+                f"at least {MIN_ATTITUDES} (Tedaldi recommend {RECOMMENDED_ATTITUDES}-50): record "
+                "more attitudes, each held still, or raise threshold_factor / lower "
+                "min_interval_s if the IMU was still longer than found")
+        means = np.array([acc[a:b].mean(axis=0) for a, b in iv])
+        gmeans = np.array([gyr[a:b].mean(axis=0) for a, b in iv])
+        return RecordingObservations(acc, gyr, dt, t, det, search, means, gmeans)
+
+    def identify(self, plan: Plan, obs: RecordingObservations, *, sigma: float | None,
+                 noise_model: str | None) -> OrientationFreeResult:
+        """Calibrate the accelerometer and gyro triads from the static intervals."""
+        spec: OrientationFreeSpec = plan.procedure
+        g = plan.site.gravity_m_s2
+        sa, sg = spec.acc_scale, spec.gyr_scale
+        ra, rg = sa.raw_si_per_raw, sg.raw_si_per_raw
+        acc, gyr, dt, t, det = obs.acc, obs.gyr, obs.dt, obs.t, obs.detection
+        means, gmeans, search = obs.means, obs.gyro_means, obs.threshold_search
+        iv, m = det.intervals, det.count
+        p_a, _, r_a, _ = fit_accelerometer(means, g, spec.reference_axis,
+                                               centre=spec.acc_bias_guess * ra)
+        S_a, b_a = p_a[:9].reshape(3, 3), p_a[9:]
+        messages: list[str] = []
+        cov_msg = coverage_message(means, (S_a, b_a), spec.reference_axis)
+        if cov_msg is not None:
+            messages.append("poor coverage of the sphere, the estimates may be weak: " + cov_msg)
+        if m < RECOMMENDED_ATTITUDES:
+            messages.append(f"{m} static attitudes found; Tedaldi et al. recommend "
+                            f"{RECOMMENDED_ATTITUDES}-50 for a robust calibration")
+
+        # gyroscope: bias from the initial static period, S_g from the gravity transport
+        n_init = det.n_init
+        b_g = gyr[:n_init].mean(axis=0)
+        var_bg = gyr[:n_init].var(axis=0, ddof=1) / n_init
+        u_cal = np.linalg.solve(S_a, (means - b_a).T).T
+        up = u_cal / np.linalg.norm(u_cal, axis=1, keepdims=True)
+        spans = [(int(iv[k, 1] - 1), int(iv[k + 1, 0])) for k in range(m - 1)]
+        # nominal gyro: the plan's scale guess [count/(deg/s)] in raw SI, or 1 for a physical unit
+        k_g0 = 1.0 if spec.gyr_scale_guess is None else spec.gyr_scale_guess * sg.si_per_unit
+        S_g0 = np.eye(3) * k_g0
+        # noise: of each interval mean (white, from its own samples), of the initial-period gyro
+        # bias, and of each integrated motion (angle random walk of the calibrated rates)
+        var_means = np.array([acc[a:b].var(axis=0, ddof=1) / (b - a) for a, b in iv])
+        var_raw_g = gyr[:n_init].var(axis=0, ddof=1)
+        gf = fit_gyroscope(S_g0, b_g, gyr, dt, spans, up)
+        S_g, r_g = gf.S_g, gf.residuals
+        Sg_inv = np.linalg.inv(S_g)
+        var_rate = float(np.trace(Sg_inv @ np.diag(var_raw_g) @ Sg_inv.T)) / 3  # per axis
+        var_rot = np.array([var_rate * _trapezoid_weight2(dt[i0:i1]) for i0, i1 in spans])
+        prop = joint_covariance(means, var_means, S_a, b_a, spec.reference_axis, r_a, gf,
+                                var_bg, var_rot)
+        cov_a = prop.covariance[:12, :12]
+        cov_g = prop.covariance[12:, 12:]
+        p_g = triad.stack_parameters(S_g, b_g)
+
+        # checks before/after
+        if spec.acc_scale_guess is not None:
+            k_a0 = spec.acc_scale_guess * sa.si_per_unit
+        else:  # one common scale that makes the mean |a| = g
+            k_a0 = float(np.mean(np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1))) / g
+        err_before = np.linalg.norm(means - spec.acc_bias_guess * ra, axis=1) / k_a0 - g
+        err_after = np.linalg.norm(u_cal, axis=1) - g
+        ang_after = _angles_deg(r_g)
+        ang_before = _angles_deg(transport_residuals(S_g0, b_g, gyr, dt, spans, up))
+
+        # results in THE triad model's conventions
+        tri_a = TriadEstimates.from_parameters(p_a, cov_a, sensor="accelerometer", scale=sa)
+        tri_g = TriadEstimates.from_parameters(p_g, cov_g, sensor="gyroscope", scale=sg)
+        fixed = set(_FIXED_MIS[spec.reference_axis])
+        names_a = [nm for nm in triad.parameter_names() if nm not in fixed]
+        all_a = triad.parameter_names()
+        idx_a = [all_a.index(nm) for nm in names_a]
+        cov_ea = tri_a.covariance[np.ix_(idx_a, idx_a)]
+        coefficients: dict[str, Estimate] = {}
+        for tri, names, letter in ((tri_a, names_a, "a"), (tri_g, list(all_a), "g")):
+            for nm in names:
+                e = tri.all_estimates()[nm]
+                key = f"{nm[0]}{letter}{nm[1:]}"
+                coefficients[key] = Estimate(key, e.value, e.std, e.unit)
+        _, Je_a = triad.engineering_jacobian(p_a, "accelerometer", sa)
+        _, Je_g = triad.engineering_jacobian(p_g, "gyroscope", sg)
+        cross = (Je_a @ prop.covariance[:12, 12:] @ Je_g.T)[idx_a]
+        cov_out = np.block([[cov_ea, cross], [cross.T, tri_g.covariance]])
+        fixed_names = ", ".join(f"M{'a'}{nm[1:]}" for nm in _FIXED_MIS[spec.reference_axis])
+        frame = ("the z accelerometer defines the z axis and y lies in the y-z plane"
+                 if spec.reference_axis == "z" else
+                 "the x accelerometer defines the x axis and y lies in the x-y plane")
+        not_sep = (
+            f"accelerometer frame orientation: |a| = g determines the triad only up to a rotation "
+            f"of its reference frame; the gauge of Tedaldi et al. (reference_axis = "
+            f"{spec.reference_axis}: {frame}) sets {fixed_names} = 0 by definition, so they are "
+            "not estimates; the gyro misalignments Mg_ij refer to this same frame",
+        )
+        for msg in (triad.reversed_axes_message(p_a, "accelerometer", "acc_{}"),
+                    triad.reversed_axes_message(p_g, "gyroscope", "gyr_{}")):
+            if msg is not None:
+                messages.append(msg)
+        rms_ang = float(np.sqrt(np.mean(np.square(ang_after)))) if ang_after.size else 0.0
+        if rms_ang >= TRANSPORT_TOLERANCE_DEG:
+            messages.append(f"check failed: the calibrated gyro carries gravity to the next "
+                            f"attitude with an rms error of {rms_ang:.3g} deg (tolerance "
+                            f"{TRANSPORT_TOLERANCE_DEG:g} deg): do not use the gyro calibration; "
+                            "look for gaps, saturation or a wrong sample rate in the recording")
+        ident = Identification(
+            coefficients=coefficients, combinations=(), not_separable=not_sep,
+            covariance=cov_out, names=tuple(coefficients), noise_sigma=float(
+                np.sqrt(r_a @ r_a / (m - 9))) if m > 9 else float("nan"),
+            noise_unit="m/s^2", sigma_from_residuals=True, dof=m - 9, rank=len(coefficients),
+            residuals=r_a,
+        )
+        calibration = ImuCalibration(
+            accelerometer=triad.calibration_from_parameters(p_a, sensor="accelerometer", scale=sa,
+                                                            raw_unit=spec.acc_unit),
+            gyroscope=triad.calibration_from_parameters(p_g, sensor="gyroscope", scale=sg,
+                                                        raw_unit=spec.gyr_unit),
+        )
+        intervals = tuple(
+            StaticInterval(float(t[a]), float(t[b - 1]), means[k] / ra, gmeans[k] / rg, int(b - a))
+            for k, (a, b) in enumerate(iv))
+        return OrientationFreeResult(
+            site_latitude_deg=plan.site.latitude_deg, site_gravity_m_s2=g, identification=ident,
+            calibration=calibration, triads=(tri_a, tri_g), residual_output=r_a,
+            output_unit="m/s^2", messages=tuple(messages), intervals=intervals, detection=det,
+            gravity_error_m_s2=err_after, gravity_error_before_m_s2=err_before,
+            transport_angle_deg=ang_after, transport_angle_before_deg=ang_before,
+            reference_axis=spec.reference_axis, noise_scales=(prop.acc_noise_scale,
+                                                              prop.gyro_noise_scale),
+            threshold_search=search,
+        )
+
+    def synthesize(self, plan: Plan, motion: None, truth: Mapping[str, float], *, noise: float,
+                   rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """A virtual hand-held session with random attitudes and raised-cosine turns.
+
+        Still for ``init_duration_s``, then ``n_attitudes`` random attitudes held ``static_s``
+        each, reached by raised-cosine turns of ``motion_s`` about a fixed body axis (pure
+        rotation about the IMU; no Earth rate). ``truth``: ``Ka_*``, ``Ma_ij`` [urad],
+        ``Ba_*`` [mg], ``Kg_*``, ``Mg_ij`` [urad], ``Bg_*`` [deg/h] (the fit's units; scale
+        factors required for count outputs), optional ``acc_noise``, ``gyr_noise`` [raw unit
+        per sample] (default ``noise``). Misalignments outside the gauge rotate the frame: the
+        fit then reports the rotated equivalent.
+
+        Returns columns ``t_s``, ``acc_x..acc_z``, ``gyr_x..gyr_z``.
+        """
+        spec: OrientationFreeSpec = plan.procedure
+        gen = np.random.default_rng(rng)
+        known = set(_prefixed(triad.parameter_names(), "a") + _prefixed(triad.parameter_names(),
+                                                                        "g"))
+        unknown = sorted(set(truth) - known - {"acc_noise", "gyr_noise"})
+        if unknown:
+            raise PlanError(f"truth has unknown name(s) {', '.join(unknown)}; {KIND} knows Ka_x.., "
+                            "Ma_xy.. [urad], Ba_x.. [mg], Kg_x.., Mg_xy.., Bg_x.. [deg/h], "
+                            "acc_noise, gyr_noise")
+        sa, sg = spec.acc_scale, spec.gyr_scale
+        p_a = triad.parameters_from_engineering(truth, "accelerometer", sa, prefix="a")
+        p_g = triad.parameters_from_engineering(truth, "gyroscope", sg, prefix="g")
+        s_a = float(truth.get("acc_noise", noise))
+        s_g = float(truth.get("gyr_noise", noise))
+        g = plan.site.gravity_m_s2
+        fs = spec.sample_rate_hz
+        n_init = int(round(spec.init_duration_s * fs))
+        n_static = int(round(spec.static_s * fs))
+        n_move = int(round(spec.motion_s * fs))
+        att = Rotation.random(spec.n_attitudes + 1, random_state=gen)  # C_nb of each attitude
+        att = Rotation.concatenate([Rotation.identity(), att[1:]])
+        f_parts, w_parts = [], []
+        up = np.array([0.0, 0.0, g])
+        f_parts.append(np.tile(att[0].inv().apply(up), (n_init, 1)))
+        w_parts.append(np.zeros((n_init, 3)))
+        tau = (np.arange(n_move) + 0.5) / n_move  # sample mid-points of the turn
+        for k in range(spec.n_attitudes):
+            phi = (att[k].inv() * att[k + 1]).as_rotvec()  # body-frame turn C_k^T C_{k+1}
+            s = tau - np.sin(2 * np.pi * tau) / (2 * np.pi)
+            rate = (1 - np.cos(2 * np.pi * tau)) * fs / n_move
+            C = att[k] * Rotation.from_rotvec(np.outer(s, phi))
+            f_parts.append(C.inv().apply(up))
+            w_parts.append(np.outer(rate, phi))
+            f_parts.append(np.tile(att[k + 1].inv().apply(up), (n_static, 1)))
+            w_parts.append(np.zeros((n_static, 3)))
+        f = np.vstack(f_parts)
+        w = np.vstack(w_parts)
+        acc = triad.output(f, p_a[:9].reshape(3, 3), p_a[9:]) / sa.raw_si_per_raw
+        gyr = triad.output(w, p_g[:9].reshape(3, 3), p_g[9:]) / sg.raw_si_per_raw
+        if s_a > 0:
+            acc = acc + gen.normal(0.0, s_a, acc.shape)
+        if s_g > 0:
+            gyr = gyr + gen.normal(0.0, s_g, gyr.shape)
+        out: dict[str, NDArray] = {"t_s": np.arange(len(f)) / fs}
+        for k in range(3):
+            out[ACC_COLUMNS[k]] = acc[:, k]
+        for k in range(3):
+            out[GYR_COLUMNS[k]] = gyr[:, k]
+        return out

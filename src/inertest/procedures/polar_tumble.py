@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.equipment import polar_axis_table as table
-from inertest.equipment.motion import run_starts
+from inertest.equipment.motion import Fixture, run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
 from inertest.estimation.identify import (
@@ -38,13 +38,13 @@ from inertest.estimation.identify import (
     NOISE_MODELS,
     NoiseFit,
     check_bias_time_scale,
-    check_noise_model,
     combination_name,
 )
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.sdf_drift import identify_drift, position_inputs, row_inputs
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Combination, Estimate, LinearTestResult
@@ -116,7 +116,6 @@ FIELDS = (
           minimum=1.0, doc="time over which the constant terms are meant under flicker noise "
           "(e.g. calibration interval / test duration)"),
 )
-SPEC = PolarTumbleSpec
 
 
 @dataclass(frozen=True)
@@ -167,34 +166,48 @@ class PolarTumbleResult(LinearTestResult):
         return d
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-    noise_model: str | None = None,
-) -> PolarTumbleResult:
-    """Identify the static drift coefficients from polar-axis tumble data.
+@dataclass(frozen=True)
+class TumbleObservations:
+    """Polar-tumble data reduced to positions, with the inputs of each from the table.
 
-    Parameters
+    Attributes
     ----------
-    plan : Plan
-        Site, instrument (output unit, scale factor) and a :class:`PolarTumbleSpec`.
-    data : mapping
-        Columns ``mounting`` (str), ``angle_deg`` [deg] and ``output`` [instrument output unit];
-        one row per sample or per position average, in time order. Rows with the same mounting
-        and angle are one position (the unit of independence of the noise model).
-    sigma : float, optional
-        Known white noise per row [output unit]; estimated from the residuals when omitted.
-    noise_model : str, optional
-        Overrides the plan's ``noise_model`` (``auto``, ``white``, ``position-offsets``,
-        ``random-walk``, ``flicker``).
+    mounting, angle_deg : ndarray, shape (n,)
+        The data's mounting and table angle [deg] of each row.
+    starts : ndarray of int
+        First row of each run of equal (mounting, angle) rows.
+    present : list of str
+        Mountings in the data, in :data:`~inertest.equipment.polar_axis_table.MOUNTINGS` order.
+    labels : ndarray of str, shape (G,)
+        Position labels (sorted).
+    position : ndarray of int, shape (n,)
+        Position of each row (into ``labels``).
+    f_ios_g : ndarray, shape (G, 3)
+        Specific force on I, O, S at each position [g0].
+    drift_rad_s : ndarray, shape (n,)
+        Indicated rate minus the true input rate of each row [rad/s].
+    messages : list of str
+        Warnings about the plan's angles (spacing, count).
+    """
 
-    Returns
-    -------
-    PolarTumbleResult
-        With ``identification.checks``: the goodness of fit; a warning is issued when the model
-        does not fit the data (e.g. a mounting's angle read 180 deg off with all four mountings).
+    mounting: NDArray
+    angle_deg: NDArray[np.float64]
+    starts: NDArray[np.intp]
+    present: list[str]
+    labels: NDArray
+    position: NDArray[np.intp]
+    f_ios_g: NDArray[np.float64]
+    drift_rad_s: NDArray[np.float64]
+    messages: list[str]
 
-    Notes
-    -----
+
+class PolarTumble(Procedure[PolarTumbleSpec, TumbleObservations, PolarTumbleResult]):
+    """Floated gyro, polar-axis tumble (seed 000, sec. 2): static drift model by Fourier terms.
+
+    Data columns ``mounting`` (str), ``angle_deg`` [deg] and ``output`` [instrument output unit];
+    one row per sample or per position average, in time order. Rows with the same mounting and
+    angle are one position (the unit of independence of the noise model).
+
     Angle convention: ``angle_deg`` is the table angle theta of the seed's figures, the same
     encoder reading for every mounting: at theta = 0 the gyro's I axis is horizontal and the
     other in-plane axis (S for the O mountings, O for the S mountings) at its highest; theta
@@ -206,112 +219,117 @@ def fit(
     the design is exactly determined in S1 and C1 and the error cannot be seen (DI, DS, DIO,
     DOS come out wrong). Check the convention on the first position of each mounting.
     """
-    cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
-    mounting, angle_deg = cols["mounting"], cols["angle_deg"]
-    site, inst = plan.site, plan.instrument
-    _check_latitude(site.latitude_rad)
-    starts = run_starts(mounting, angle_deg)  # runs of equal (mounting, angle) rows
-    unknown = sorted(set(np.unique(mounting[starts]).tolist()) - set(table.MOUNTINGS))
-    if unknown:
-        raise DataError(
-            f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "
-            f"use {', '.join(table.MOUNTINGS)}"
+
+    kind = KIND
+    title = "Floated gyro, polar-axis tumble"
+    spec = PolarTumbleSpec
+    model = "inertest.models.sdf_gyro"
+    method = "weighted least squares under a noise model; Fourier terms per mounting and the " \
+        "seed's closed-form separation beside it"
+    machines = (table,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.tumble:polar_tumble_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> Fixture:
+        """The polar-axis table at the plan's site (with its Type-B errors)."""
+        _check_latitude(plan.site.latitude_rad)
+        return Fixture(table.motion, plan.site, dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: Fixture
+               ) -> TumbleObservations:
+        """Positions from the runs of equal (mounting, angle) rows, and their inputs."""
+        cols = require_columns(data, ("angle_deg", "output"), ("mounting",), procedure=KIND)
+        mounting, angle_deg = cols["mounting"], cols["angle_deg"]
+        starts = run_starts(mounting, angle_deg)  # runs of equal (mounting, angle) rows
+        unknown = sorted(set(np.unique(mounting[starts]).tolist()) - set(table.MOUNTINGS))
+        if unknown:
+            raise DataError(
+                f"mounting(s) {', '.join(unknown)} in the data are not polar-tumble mountings; "
+                f"use {', '.join(table.MOUNTINGS)}"
+            )
+        # Positions from the runs of equal (mounting, angle) rows: a label and the inputs per
+        # position, an integer position per row (no per-row strings, inputs or design).
+        run_mounting, run_angle = mounting[starts], angle_deg[starts]
+        present = [m for m in table.MOUNTINGS if np.any(run_mounting == m)]
+        labels, run_code = np.unique(table.position_labels(run_mounting, run_angle),
+                                     return_inverse=True)
+        position = np.repeat(run_code, np.diff(np.append(starts, mounting.shape[0])))
+        f, w_in = position_inputs(motion.positions(present, np.unique(run_angle)), labels)
+        drift = plan.instrument.output_to_rate(cols["output"])
+        if np.any(w_in):
+            drift -= w_in[position]
+        messages = _spacing_messages(run_mounting, run_angle, present)
+        for msg in messages:
+            warnings.warn(msg, InertestWarning, stacklevel=3)
+        return TumbleObservations(mounting, angle_deg, starts, present, labels, position, f,
+                                  drift, messages)
+
+    def identify(self, plan: Plan, obs: TumbleObservations, *, sigma: float | None,
+                 noise_model: str | None) -> PolarTumbleResult:
+        """The drift coefficients by least squares, and the Fourier terms of each mounting."""
+        site, inst = plan.site, plan.instrument
+        spec: PolarTumbleSpec = plan.procedure
+        sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
+        drift, mounting, angle_deg, starts = obs.drift_rad_s, obs.mounting, obs.angle_deg, \
+            obs.starts
+        messages = list(obs.messages)
+        lsq, noise, ident = identify_drift(
+            obs.f_ios_g, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s,
+            groups=obs.labels, noise_model=str(noise_model), position_index=obs.position,
+            bias_time_scale=spec.bias_time_scale,
         )
-    # Positions from the runs of equal (mounting, angle) rows: a label and the inputs per
-    # position, an integer position per row (no per-row strings, inputs or design).
-    run_mounting, run_angle = mounting[starts], angle_deg[starts]
-    present = [m for m in table.MOUNTINGS if np.any(run_mounting == m)]
-    labels, run_code = np.unique(table.position_labels(run_mounting, run_angle),
-                                 return_inverse=True)
-    position = np.repeat(run_code, np.diff(np.append(starts, mounting.shape[0])))
-    f, w_in = position_inputs(table.motion(present, np.unique(run_angle), site), labels)
-    drift = inst.output_to_rate(cols["output"])
-    if np.any(w_in):
-        drift -= w_in[position]
-    sigma_rad_s = known_sigma(sigma, inst.rad_s_per_output_unit)
-    messages = _spacing_messages(run_mounting, run_angle, present)
-    for msg in messages:
-        warnings.warn(msg, InertestWarning, stacklevel=2)
-    spec: PolarTumbleSpec = plan.procedure
-    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    lsq, noise, ident = identify_drift(
-        f, drift, gravity_g=site.gravity_g, sigma_rad_s=sigma_rad_s, groups=labels,
-        noise_model=model, position_index=position, bias_time_scale=spec.bias_time_scale,
-    )
-    del position  # noise.unit_index holds the positions from here on
-    k = DEG_PER_H_TO_RAD_PER_S
-    # Per-row results in place (each a new array of n rows otherwise): the same numbers.
-    fitted_deg_h = np.subtract(drift, lsq.residuals)
-    fitted_deg_h /= k
-    drift /= k
-    harmonics = {}
-    run_stop = np.append(starts[1:], mounting.shape[0])
-    for m in present:
-        runs = np.flatnonzero(run_mounting == m)
-        rows: slice | NDArray[np.bool_] = slice(starts[runs[0]], run_stop[runs[-1]])
-        if runs[-1] - runs[0] + 1 != runs.size:  # the mounting's rows are not one block
-            rows = mounting == m
-        try:
-            harmonics[m] = _harmonics(m, angle_deg[rows], drift[rows], rows, noise)
-        except IdentifiabilityError as exc:
-            # The general least squares above still says what the data determine.
-            messages.append(f"no Fourier terms for {exc}")
-            warnings.warn(messages[-1], InertestWarning, stacklevel=2)
-    closed = _closed_forms(harmonics, site.latitude_rad, site.gravity_g)
-    del noise
-    return PolarTumbleResult(
-        site_latitude_deg=site.latitude_deg,
-        site_gravity_m_s2=site.gravity_m_s2,
-        identification=ident,
-        harmonics=harmonics,
-        closed_form=closed,
-        mounting=mounting,
-        angle_deg=angle_deg,
-        drift_deg_h=drift,
-        fitted_deg_h=fitted_deg_h,
-        residual_output=inst.rate_to_output(lsq.residuals),
-        output_unit=inst.output_unit,
-        messages=tuple(messages),
-    )
+        k = DEG_PER_H_TO_RAD_PER_S
+        # Per-row results in place (each a new array of n rows otherwise): the same numbers.
+        fitted_deg_h = np.subtract(drift, lsq.residuals)
+        fitted_deg_h /= k
+        drift /= k
+        harmonics = {}
+        run_mounting = mounting[starts]
+        run_stop = np.append(starts[1:], mounting.shape[0])
+        for m in obs.present:
+            runs = np.flatnonzero(run_mounting == m)
+            rows: slice | NDArray[np.bool_] = slice(starts[runs[0]], run_stop[runs[-1]])
+            if runs[-1] - runs[0] + 1 != runs.size:  # the mounting's rows are not one block
+                rows = mounting == m
+            try:
+                harmonics[m] = _harmonics(m, angle_deg[rows], drift[rows], rows, noise)
+            except IdentifiabilityError as exc:
+                # The general least squares above still says what the data determine.
+                messages.append(f"no Fourier terms for {exc}")
+                warnings.warn(messages[-1], InertestWarning, stacklevel=3)
+        closed = _closed_forms(harmonics, site.latitude_rad, site.gravity_g)
+        del noise
+        return PolarTumbleResult(
+            site_latitude_deg=site.latitude_deg,
+            site_gravity_m_s2=site.gravity_m_s2,
+            identification=ident,
+            harmonics=harmonics,
+            closed_form=closed,
+            mounting=mounting,
+            angle_deg=angle_deg,
+            drift_deg_h=drift,
+            fitted_deg_h=fitted_deg_h,
+            residual_output=inst.rate_to_output(lsq.residuals),
+            output_unit=inst.output_unit,
+            messages=tuple(messages),
+        )
 
+    def synthesize(self, plan: Plan, motion: Fixture, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Columns ``mounting``, ``angle_deg``, ``output`` [output unit] of the plan's positions.
 
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Readings of a virtual gyro on the plan's polar-axis tumble.
-
-    Parameters
-    ----------
-    plan : Plan
-        With a :class:`PolarTumbleSpec`.
-    truth : mapping
-        True drift coefficients by name [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
-    noise : float
-        Standard deviation of white noise per reading [output unit].
-    rng : Generator, int or None
-        Random source for the noise.
-
-    Returns
-    -------
-    dict
-        Columns ``mounting``, ``angle_deg``, ``output`` [output unit].
-    """
-    spec: PolarTumbleSpec = plan.procedure
-    site = plan.site
-    _check_latitude(site.latitude_rad)
-    reps = spec.samples_per_position
-    ang = np.repeat(np.asarray(spec.angles_deg, dtype=float), reps)
-    mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
-    angle_deg = np.tile(ang, len(spec.mountings))
-    motion = table.motion(spec.mountings, spec.angles_deg, site)
-    f, w_in = row_inputs(motion, table.position_labels(mounting, angle_deg))
-    rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
-    output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
-    return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
+        ``truth``: drift coefficients by name [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
+        """
+        spec: PolarTumbleSpec = plan.procedure
+        reps = spec.samples_per_position
+        ang = np.repeat(np.asarray(spec.angles_deg, dtype=float), reps)
+        mounting = np.concatenate([np.full(ang.size, m) for m in spec.mountings])
+        angle_deg = np.tile(ang, len(spec.mountings))
+        positions = motion.positions(spec.mountings, spec.angles_deg)
+        f, w_in = row_inputs(positions, table.position_labels(mounting, angle_deg))
+        rate = w_in + model_drift(f, coefficients_from_deg_h(truth))
+        output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+        return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
 
 
 def _check_latitude(latitude_rad: float) -> None:

@@ -34,6 +34,7 @@ horizontal (fO = fS = 0): it gives ``DF + gamma^2 DII`` and, with I+ and I-, DI;
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -56,6 +57,7 @@ from inertest.models.sdf_gyro import (
 )
 from inertest.noise import oadev
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import require_columns
 from inertest.results import Estimate, LinearTestResult
 from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, DEG_TO_RAD, HOUR_TO_S
@@ -132,7 +134,6 @@ class ServoTableSpec:
         return cls(**v)
 
 
-SPEC = ServoTableSpec
 
 
 @dataclass(frozen=True)
@@ -257,180 +258,190 @@ def _check_revolution(table: ServoTable, duration_s: float, label: str) -> None:
             "revolution per mounting")
 
 
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Encoder readings of a servo table driven by a virtual gyro.
+@dataclass(frozen=True)
+class ServoObservations:
+    """Servo-table angle series as integrated-regressor rows (module docstring), per mounting.
 
-    Parameters
-    ----------
-    plan : Plan
-        With a :class:`ServoTableSpec`.
-    truth : mapping
-        True drift coefficients [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
-    noise : float
-        Encoder noise per reading [arcsec]; when 0 the plan's ``encoder_noise_arcsec``.
-    rng : Generator, int or None
-        Random source (encoder noise, random-walk drift).
-
-    Returns
-    -------
-    dict
-        Columns ``mounting``, ``time_s`` [s] (continuous over the mountings, run one after the
-        other) and ``table_angle_deg`` [deg] (cumulative, 0 at each mounting's start before
-        noise).
-
-    Notes
-    -----
-    The servo loop is integrated exactly (:meth:`ServoTable.servo_angle`); the random-walk drift
-    is generated at the reading times and interpolated linearly between them.
+    ``mounting``, ``t`` [s], ``theta`` (unwrapped angle [rad]) per reading; ``A``, ``y`` the
+    centred design and observation of each mounting's rows; ``table`` the servo table with the
+    data's mountings, ``parsed`` the mountings.
     """
-    spec: ServoTableSpec = plan.procedure
-    table = _table(plan)
-    if not np.isfinite(noise) or noise < 0:
-        raise PlanError(f"noise must be finite and >= 0 arcsec, got {noise}")
-    sigma = noise if noise > 0 else spec.encoder_noise_arcsec
-    gen = np.random.default_rng(rng)
-    c = coefficients_from_deg_h(truth)
-    dt = spec.sample_interval_s
-    t_local = np.arange(0.0, spec.duration_h * HOUR_TO_S + dt / 2, dt)
-    _check_revolution(table, t_local[-1] - t_local[0], spec.mountings[0])
-    n, nm = t_local.size, len(spec.mountings)
-    t_all = np.concatenate([t_local + k * (t_local[-1] + dt) for k in range(nm)])
-    k_rw = spec.drift_random_walk_deg_h_per_sqrt_h * _K / np.sqrt(HOUR_TO_S)
-    walk = None
-    if k_rw > 0:
-        steps = gen.normal(0.0, k_rw * np.sqrt(np.diff(t_all, prepend=t_all[0])))
-        walk = np.cumsum(steps)
-    angles = []
-    for k, m in enumerate(spec.mountings):
-        seg = slice(k * n, (k + 1) * n)
-        extra = None
-        if walk is not None:
-            ts, ws = t_local, walk[seg].copy()
 
-            def extra(tt: float, ts=ts, ws=ws) -> float:
-                return float(np.interp(tt, ts, ws))
-        angles.append(table.servo_angle(m, t_local, c, extra_drift=extra))
-    theta = np.concatenate(angles) / ARCSEC_TO_RAD
-    if sigma > 0:
-        theta = theta + gen.normal(0.0, sigma, theta.size)
-    q = spec.encoder_resolution_arcsec
-    if q > 0:
-        theta = q * np.round(theta / q)
-    mounting = np.repeat(np.array([table.mounting(m).label for m in spec.mountings]), n)
-    return {"mounting": mounting, "time_s": t_all, "table_angle_deg": theta / 3600.0}
+    mounting: NDArray
+    t: NDArray[np.float64]
+    theta: NDArray[np.float64]
+    A: NDArray[np.float64]
+    y: NDArray[np.float64]
+    labels: list[str]
+    table: ServoTable
+    parsed: Mapping[str, Mounting]
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-) -> ServoTableResult:
-    """Identify the drift coefficients from the encoder angle series of a servo-table test.
+class ServoTableDrift(Procedure[ServoTableSpec, ServoObservations, ServoTableResult]):
+    """Floated gyro on a servo table (seed 000; IEEE Std 517 long-term drift test).
 
-    Parameters
-    ----------
-    plan : Plan
-        Site and a :class:`ServoTableSpec` (table axis; the mountings are read from the data).
-    data : mapping
-        Columns ``mounting`` (str), ``time_s`` [s] and ``table_angle_deg`` [deg, cumulative,
-        right-handed about +a]; one row per encoder reading, in time order within a mounting.
-    sigma : float, optional
-        Known encoder noise per reading [arcsec]; estimated from the residuals when omitted.
+    Data columns ``mounting`` (str), ``time_s`` [s] and ``table_angle_deg`` [deg, cumulative,
+    right-handed about +a]; one row per encoder reading, in time order within a mounting; the
+    mountings are read from the data. A known ``sigma`` is the encoder noise per reading
+    [arcsec]; estimated from the residuals when omitted.
 
-    Returns
-    -------
-    ServoTableResult
-
-    Notes
-    -----
     The angle series is fitted with integrated regressors (module docstring), so the std of
     every estimate is honest for white encoder noise and quantisation. A random drift of the
     gyro (random walk, flicker) makes the angle residuals correlated: the model checks of the
     identification then say so, and the stability series shows it.
     """
-    cols = require_columns(data, ("time_s", "table_angle_deg"), ("mounting",), procedure=KIND)
-    spec: ServoTableSpec = plan.procedure
-    site = plan.site
-    mounting, t, ang = cols["mounting"], cols["time_s"], cols["table_angle_deg"]
-    labels = list(dict.fromkeys(mounting.tolist()))
-    try:
-        table = ServoTable(site, spec.table_axis, tuple(labels))
-        parsed = {m: table.mounting(m) for m in labels}
-    except InputError as exc:
-        raise DataError(f"{exc} (column mounting)") from None
-    if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
-        raise InputError(f"sigma must be a positive encoder noise in arcsec, got {sigma}")
-    wa = table.earth_rate_along_axis
-    n = t.size
-    A = np.zeros((n, len(COEFFICIENTS)))
-    y = np.zeros(n)
-    theta = np.zeros(n)
-    messages: list[str] = []
-    for m in labels:
-        sel = np.flatnonzero(mounting == m)
-        tm = t[sel]
-        bad = np.flatnonzero(np.diff(tm) <= 0)
-        if bad.size:
-            raise DataError(
-                f"mounting {m}: time_s does not increase at data row {sel[bad[0] + 1] + 1}; "
-                "sort the readings by time (one block per mounting)")
-        if sel.size < 8:
-            raise DataError(f"mounting {m} has {sel.size} readings; record at least 8")
-        _check_revolution(table, tm[-1] - tm[0], m)
-        th = np.unwrap(ang[sel] * DEG_TO_RAD)
-        theta[sel] = th
-        phi = drift_regressors(table.specific_force_g(m, th))
-        Phi = cumulative_simpson(phi, x=tm - tm[0], axis=0, initial=0.0)
-        s = parsed[m].sign
-        yy = th + wa * (tm - tm[0])
-        AA = -s * Phi
-        # Remove the unknown start angle (Frisch-Waugh): centre the mounting's rows.
-        y[sel] = yy - yy.mean()
-        A[sel] = AA - AA.mean(axis=0)
-    sigma_si = None if sigma is None else sigma * ARCSEC_TO_RAD
-    gamma = site.gravity_g
-    lsq, ident = identify(
-        A, y, names=COEFFICIENTS, units=ENGINEERING_UNIT,
-        si_per_unit={c: _K for c in COEFFICIENTS}, noise_unit="arcsec",
-        si_per_noise_unit=ARCSEC_TO_RAD, sigma_si=sigma_si,
-        pivot_order=("DF", "DOO", "DSS", "DII"), normalize_to="DF",
-        explain=lambda f, d: _explain(f, d, table, parsed, gamma), noise_model="white",
-    )
-    if ident.checks is not None and not ident.checks.fits:
-        # solve() has warned already; say what it most likely means here.
-        messages.append(
-            "the angle residuals are not white encoder noise (random drift of the gyro?); "
-            "the stds assume white encoder noise, see the drift-stability series")
-    harmonics = {m: _harmonic_terms(table, m, lsq) for m in labels}
-    curves, stability = {}, {}
-    for m in labels:
-        sel = np.flatnonzero(mounting == m)
-        s = parsed[m].sign
-        curves[m] = _curve(t[sel], theta[sel], s, wa, harmonics[m])
-        stab, msg = _stability(t[sel], lsq.residuals[sel], s, spec.stability_interval_h, m)
-        if stab is not None:
-            stability[m] = stab
-        if msg:
-            messages.append(msg)
-            warnings.warn(msg, InertestWarning, stacklevel=2)
-    return ServoTableResult(
-        site_latitude_deg=site.latitude_deg,
-        site_gravity_m_s2=site.gravity_m_s2,
-        identification=ident,
-        table_axis=spec.table_axis,
-        earth_rate_along_axis_deg_h=wa / _K,
-        harmonics=harmonics,
-        curves=curves,
-        stability=stability,
-        residual_output=lsq.residuals / ARCSEC_TO_RAD,
-        output_unit="arcsec",
-        messages=tuple(messages),
-        instrument=plan.instrument,
-    )
+
+    kind = KIND
+    title = "Floated gyro, servo-table drift test"
+    spec = ServoTableSpec
+    model = "inertest.models.sdf_gyro"
+    method = "least squares on the integrated angle series (white encoder noise)"
+    report = "inertest.report.servo_table:servo_table_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> ServoTable:
+        """The servo table at the plan's site with the plan's mountings."""
+        return _table(plan)
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: ServoTable
+               ) -> ServoObservations:
+        """Each mounting's angle series as integrated regressors, its start angle removed."""
+        cols = require_columns(data, ("time_s", "table_angle_deg"), ("mounting",), procedure=KIND)
+        mounting, t, ang = cols["mounting"], cols["time_s"], cols["table_angle_deg"]
+        labels = list(dict.fromkeys(mounting.tolist()))
+        try:
+            table = dataclasses.replace(motion, mountings=tuple(labels))
+            parsed = {m: table.mounting(m) for m in labels}
+        except InputError as exc:
+            raise DataError(f"{exc} (column mounting)") from None
+        wa = table.earth_rate_along_axis
+        n = t.size
+        A = np.zeros((n, len(COEFFICIENTS)))
+        y = np.zeros(n)
+        theta = np.zeros(n)
+        for m in labels:
+            sel = np.flatnonzero(mounting == m)
+            tm = t[sel]
+            bad = np.flatnonzero(np.diff(tm) <= 0)
+            if bad.size:
+                raise DataError(
+                    f"mounting {m}: time_s does not increase at data row {sel[bad[0] + 1] + 1}; "
+                    "sort the readings by time (one block per mounting)")
+            if sel.size < 8:
+                raise DataError(f"mounting {m} has {sel.size} readings; record at least 8")
+            _check_revolution(table, tm[-1] - tm[0], m)
+            th = np.unwrap(ang[sel] * DEG_TO_RAD)
+            theta[sel] = th
+            phi = drift_regressors(table.specific_force_g(m, th))
+            Phi = cumulative_simpson(phi, x=tm - tm[0], axis=0, initial=0.0)
+            s = parsed[m].sign
+            yy = th + wa * (tm - tm[0])
+            AA = -s * Phi
+            # Remove the unknown start angle (Frisch-Waugh): centre the mounting's rows.
+            y[sel] = yy - yy.mean()
+            A[sel] = AA - AA.mean(axis=0)
+        return ServoObservations(mounting, t, theta, A, y, labels, table, parsed)
+
+    def identify(self, plan: Plan, obs: ServoObservations, *, sigma: float | None,
+                 noise_model: str | None) -> ServoTableResult:
+        """The drift coefficients, the harmonics, drift curves and stability per mounting."""
+        if sigma is not None and (not np.isfinite(sigma) or sigma <= 0):
+            raise InputError(f"sigma must be a positive encoder noise in arcsec, got {sigma}")
+        spec: ServoTableSpec = plan.procedure
+        site = plan.site
+        mounting, t, theta, A, y = obs.mounting, obs.t, obs.theta, obs.A, obs.y
+        labels, table, parsed = obs.labels, obs.table, obs.parsed
+        wa = table.earth_rate_along_axis
+        messages: list[str] = []
+        sigma_si = None if sigma is None else sigma * ARCSEC_TO_RAD
+        gamma = site.gravity_g
+        lsq, ident = identify(
+            A, y, names=COEFFICIENTS, units=ENGINEERING_UNIT,
+            si_per_unit={c: _K for c in COEFFICIENTS}, noise_unit="arcsec",
+            si_per_noise_unit=ARCSEC_TO_RAD, sigma_si=sigma_si,
+            pivot_order=("DF", "DOO", "DSS", "DII"), normalize_to="DF",
+            explain=lambda f, d: _explain(f, d, table, parsed, gamma), noise_model="white",
+        )
+        if ident.checks is not None and not ident.checks.fits:
+            # solve() has warned already; say what it most likely means here.
+            messages.append(
+                "the angle residuals are not white encoder noise (random drift of the gyro?); "
+                "the stds assume white encoder noise, see the drift-stability series")
+        harmonics = {m: _harmonic_terms(table, m, lsq) for m in labels}
+        curves, stability = {}, {}
+        for m in labels:
+            sel = np.flatnonzero(mounting == m)
+            s = parsed[m].sign
+            curves[m] = _curve(t[sel], theta[sel], s, wa, harmonics[m])
+            stab, msg = _stability(t[sel], lsq.residuals[sel], s, spec.stability_interval_h, m)
+            if stab is not None:
+                stability[m] = stab
+            if msg:
+                messages.append(msg)
+                warnings.warn(msg, InertestWarning, stacklevel=3)
+        return ServoTableResult(
+            site_latitude_deg=site.latitude_deg,
+            site_gravity_m_s2=site.gravity_m_s2,
+            identification=ident,
+            table_axis=spec.table_axis,
+            earth_rate_along_axis_deg_h=wa / _K,
+            harmonics=harmonics,
+            curves=curves,
+            stability=stability,
+            residual_output=lsq.residuals / ARCSEC_TO_RAD,
+            output_unit="arcsec",
+            messages=tuple(messages),
+            instrument=plan.instrument,
+        )
+
+    def synthesize(self, plan: Plan, motion: ServoTable, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Encoder readings of a servo table driven by a virtual gyro.
+
+        ``truth``: drift coefficients [deg/h, deg/h/g, deg/h/g^2]; missing names are 0.
+        ``noise``: encoder noise per reading [arcsec]; when 0 the plan's
+        ``encoder_noise_arcsec``. ``rng``: random source (encoder noise, random-walk drift).
+
+        Returns columns ``mounting``, ``time_s`` [s] (continuous over the mountings, run one
+        after the other) and ``table_angle_deg`` [deg] (cumulative, 0 at each mounting's start
+        before noise). The servo loop is integrated exactly (:meth:`ServoTable.servo_angle`);
+        the random-walk drift is generated at the reading times and interpolated linearly
+        between them.
+        """
+        spec: ServoTableSpec = plan.procedure
+        table = motion
+        if not np.isfinite(noise) or noise < 0:
+            raise PlanError(f"noise must be finite and >= 0 arcsec, got {noise}")
+        sigma = noise if noise > 0 else spec.encoder_noise_arcsec
+        gen = np.random.default_rng(rng)
+        c = coefficients_from_deg_h(truth)
+        dt = spec.sample_interval_s
+        t_local = np.arange(0.0, spec.duration_h * HOUR_TO_S + dt / 2, dt)
+        _check_revolution(table, t_local[-1] - t_local[0], spec.mountings[0])
+        n, nm = t_local.size, len(spec.mountings)
+        t_all = np.concatenate([t_local + k * (t_local[-1] + dt) for k in range(nm)])
+        k_rw = spec.drift_random_walk_deg_h_per_sqrt_h * _K / np.sqrt(HOUR_TO_S)
+        walk = None
+        if k_rw > 0:
+            steps = gen.normal(0.0, k_rw * np.sqrt(np.diff(t_all, prepend=t_all[0])))
+            walk = np.cumsum(steps)
+        angles = []
+        for k, m in enumerate(spec.mountings):
+            seg = slice(k * n, (k + 1) * n)
+            extra = None
+            if walk is not None:
+                ts, ws = t_local, walk[seg].copy()
+
+                def extra(tt: float, ts=ts, ws=ws) -> float:
+                    return float(np.interp(tt, ts, ws))
+            angles.append(table.servo_angle(m, t_local, c, extra_drift=extra))
+        theta = np.concatenate(angles) / ARCSEC_TO_RAD
+        if sigma > 0:
+            theta = theta + gen.normal(0.0, sigma, theta.size)
+        q = spec.encoder_resolution_arcsec
+        if q > 0:
+            theta = q * np.round(theta / q)
+        mounting = np.repeat(np.array([table.mounting(m).label for m in spec.mountings]), n)
+        return {"mounting": mounting, "time_s": t_all, "table_angle_deg": theta / 3600.0}
 
 
 def _harmonic_terms(table: ServoTable, m: str, lsq: LinearFit) -> tuple[Estimate, ...]:

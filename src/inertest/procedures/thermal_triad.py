@@ -45,7 +45,7 @@ from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.thermal import check_model_header
 from inertest.plan import Plan
-from inertest.procedures import triad_multiposition as tmp
+from inertest.procedures.triad_multiposition import TriadMultiposition
 from inertest.results import envelope
 
 KIND = "thermal-triad"
@@ -54,6 +54,8 @@ MODEL_KIND = "thermal-triad-model"
 MODEL_FORMAT_VERSION = 1
 #: Rows corrected at a time by :meth:`TriadThermalModel.compensate` (bounds the temporaries).
 CHUNK_ROWS = 16384
+#: The multi-position calibration run at each chamber step (the one composition of procedures).
+_MULTIPOSITION = TriadMultiposition()
 BRANCHES = ("heating", "cooling")
 #: Temperature jump between consecutive rows that starts a new step [degC].
 STEP_JUMP_C = 1.0
@@ -634,7 +636,7 @@ def fit_triad_thermal(
         r_step[k] = 0.0 if rate_col is None else float(np.mean(rate_col[sel]))
         b_step[k] = branch[sel][0]
         try:
-            res = tmp.fit(plan, {c: v[sel] for c, v in cols.items()}, sigma=sigma)
+            res = _MULTIPOSITION.fit(plan, {c: v[sel] for c, v in cols.items()}, sigma=sigma)
         except (DataError, IdentifiabilityError) as exc:
             raise type(exc)(f"temperature step {k + 1} ({b_step[k]}, {t_step[k]:.1f} degC): "
                             f"{exc}") from None
@@ -745,7 +747,7 @@ def simulate_triad_thermal(
         for T in temps if b == "heating" else temps[::-1]:
             truth = {n: float(np.polyval(np.asarray(c, dtype=float)[::-1], T - t_ref_c))
                      for n, c in laws.items()}
-            d = tmp.simulate(plan, truth, noise=noise, rng=gen)
+            d = _MULTIPOSITION.simulate(plan, truth, noise=noise, rng=gen)
             n = len(d["position"])
             parts.append({"step": np.full(n, len(parts)), "temperature_c": np.full(n, T),
                           "branch": np.full(n, b), **d})

@@ -31,26 +31,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment import multiposition as mp
+from inertest.equipment.motion import Fixture
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
-from inertest.estimation.identify import (
-    NOISE_MODELS,
-    NoiseFit,
-    check_noise_model,
-    solve_outputs,
-)
+from inertest.estimation.identify import NOISE_MODELS, NoiseFit, solve_outputs
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.triad import (
     AXES,
-    BIAS_NAMES,
-    MISALIGNMENT_NAMES,
-    SCALE_NAMES,
     ScaleUnit,
     calibration_from_parameters,
     stack_parameters,
 )
 from inertest.plan import Field, Plan, read_fields
+from inertest.procedures.base import Procedure, TypeBErrors
 from inertest.procedures.spec import known_sigma, noise_samples, require_columns
 from inertest.results import Identification
 from inertest.results.triad import TriadResult, triad_identification
@@ -114,7 +108,6 @@ FIELDS = (
     Field("noise_model", "text", default="auto", choices=NOISE_MODELS,
           doc="noise model behind the uncertainties"),
 )
-SPEC = TriadMultipositionSpec
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -271,25 +264,27 @@ def position_visits(labels: ArrayLike) -> NDArray:
     return np.asarray(names)[np.cumsum(start) - 1]
 
 
-def fit(
-    plan: Plan, data: Mapping[str, object], *, sigma: float | None = None,
-    noise_model: str | None = None,
-) -> TriadMultipositionResult:
-    """Bias, scale factors and misalignment of an accelerometer triad from static positions.
+@dataclass(frozen=True)
+class CubeObservations:
+    """Triad readings with the specific force of each row from the fixture's positions.
 
-    Parameters
-    ----------
-    plan : Plan
-        Site (local gravity), instrument (``accelerometer-triad``) and a
-        :class:`TriadMultipositionSpec`.
-    data : mapping
-        Columns ``position``, ``output_x``, ``output_y``, ``output_z`` [output unit], rows in
-        time order.
-    sigma : float, optional
-        Known white noise per reading [output unit], same for each axis; else from the
-        residuals (the scatter within positions when positions hold several readings).
-    noise_model : str, optional
-        Overrides the plan's ``noise_model``.
+    ``labels`` (n,) position labels, ``f`` (n, 3) specific force on the reference axes
+    [m/s^2], ``output`` (n, 3) [output unit].
+    """
+
+    labels: NDArray
+    f: NDArray[np.float64]
+    output: NDArray[np.float64]
+
+
+class TriadMultiposition(Procedure[TriadMultipositionSpec, CubeObservations,
+                                   TriadMultipositionResult]):
+    """Accelerometer triad, multi-position (seed 003, sec. 1.1): K, M, B from static positions.
+
+    Data columns ``position``, ``output_x``, ``output_y``, ``output_z`` [output unit], rows in
+    time order. A known ``sigma`` is the white noise per reading [output unit], the same for
+    each axis; else the noise comes from the residuals (the scatter within positions when
+    positions hold several readings).
 
     Notes
     -----
@@ -310,73 +305,111 @@ def fit(
     DataError
         An output responds mostly to another axis or with negative sign (mislabelled axes).
     """
-    su = _scale(plan)
-    spec: TriadMultipositionSpec = plan.procedure
-    model = check_noise_model(noise_model if noise_model is not None else spec.noise_model)
-    cols = require_columns(data, OUTPUT_COLUMNS, ("position",), procedure=KIND)
-    labels = np.char.strip(cols["position"])
-    try:
-        f = mp.motion(labels, plan.site).inputs_of_rows(labels).f_i
-    except InputError as exc:
-        raise DataError(f"column position: {exc}") from None
-    check_identifiable(f, labels)
-    out = np.column_stack([cols[c] for c in OUTPUT_COLUMNS])
-    y = out * su.raw_si_per_raw
-    sig = known_sigma(sigma, su.raw_si_per_raw)
-    if sig is None and len(f) <= 4:
-        raise IdentifiabilityError(
-            f"{len(f)} readings leave no degree of freedom for the noise of each output (4 "
-            "unknowns per output): record more readings or positions, or give --sigma")
-    A = np.column_stack([f, np.ones(len(f))])
-    S = np.zeros((3, 3))
-    b = np.zeros(3)
-    cov = np.zeros((12, 12))
-    resid = np.zeros_like(y)
-    noise = {}
-    dofs = []
-    fits = solve_outputs(A, y, sigma_si=sig, groups=position_visits(labels),
-                         noise_model=model)
-    for i, (a, (lf, _)) in enumerate(zip(AXES, fits, strict=True)):
-        S[i], b[i] = lf.x[:3], lf.x[3]
-        idx = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
-        cov[np.ix_(idx, idx)] = lf.covariance
-        resid[:, i] = lf.residuals
-        noise[f"output_{a}"] = float((lf.sigma if sig is None else sig) / su.raw_si_per_raw)
-        dofs.append(lf.dof)
-    _check_labels(S)
-    p = stack_parameters(S, b)
-    pooled = float(np.sqrt(np.mean(np.square(list(noise.values())))))
-    est, ident = triad_identification(
-        p, cov, sensor="accelerometer", scale=su,
-        noise_sigma=pooled if sig is None else float("nan"), noise_unit=plan.instrument.output_unit,
-        sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
-        residuals=(resid / su.raw_si_per_raw).ravel())
-    ident = _with_noise_model(ident, [nf for _, nf in fits], su.raw_si_per_raw)
-    messages = _messages(est.misalignment)
-    reversed_msg = triad.reversed_axes_message(p, "accelerometer", "output_{}")
-    if reversed_msg is not None:
-        messages.append(reversed_msg)
-    for m in messages:
-        warnings.warn(m, InertestWarning, stacklevel=2)
-    calib = calibration_from_parameters(p, sensor="accelerometer", scale=su,
-                                        raw_unit=plan.instrument.output_unit)
-    return TriadMultipositionResult(
-        procedure=KIND,
-        site_latitude_deg=plan.site.latitude_deg,
-        site_gravity_m_s2=plan.site.gravity_m_s2,
-        identification=ident,
-        calibration=ImuCalibration(accelerometer=calib),
-        triads=(est,),
-        residual_output=(resid / su.raw_si_per_raw).ravel(),
-        output_unit=plan.instrument.output_unit,
-        messages=tuple(messages),
-        position=labels,
-        specific_force=f,
-        output=out,
-        fitted=out - resid / su.raw_si_per_raw,
-        noise_per_axis=noise,
-        six_position=six_position_closed_form(labels, out, plan.site.gravity_m_s2),
-    )
+
+    kind = KIND
+    title = "Accelerometer triad, multi-position"
+    spec = TriadMultipositionSpec
+    model = "inertest.models.triad"
+    method = "weighted least squares per output under a common noise model"
+    machines = (mp,)
+    noise_models = NOISE_MODELS
+    report = "inertest.report.accelerometer:triad_sections"
+
+    def motion(self, plan: Plan, *, type_b: TypeBErrors | None = None) -> Fixture:
+        """The multi-position fixture at the plan's site (with its Type-B errors)."""
+        return Fixture(mp.motion, plan.site, dict(type_b or {}))
+
+    def reduce(self, plan: Plan, data: Mapping[str, object], motion: Fixture
+               ) -> CubeObservations:
+        """The specific force of each row's position, checked to excite every axis both ways."""
+        _scale(plan)
+        cols = require_columns(data, OUTPUT_COLUMNS, ("position",), procedure=KIND)
+        labels = np.char.strip(cols["position"])
+        try:
+            f = motion.positions(labels).inputs_of_rows(labels).f_i
+        except InputError as exc:
+            raise DataError(f"column position: {exc}") from None
+        check_identifiable(f, labels)
+        return CubeObservations(labels, f, np.column_stack([cols[c] for c in OUTPUT_COLUMNS]))
+
+    def identify(self, plan: Plan, obs: CubeObservations, *, sigma: float | None,
+                 noise_model: str | None) -> TriadMultipositionResult:
+        """Bias, scale factors and misalignment by least squares per output."""
+        su = _scale(plan)
+        labels, f, out = obs.labels, obs.f, obs.output
+        y = out * su.raw_si_per_raw
+        sig = known_sigma(sigma, su.raw_si_per_raw)
+        if sig is None and len(f) <= 4:
+            raise IdentifiabilityError(
+                f"{len(f)} readings leave no degree of freedom for the noise of each output (4 "
+                "unknowns per output): record more readings or positions, or give --sigma")
+        A = np.column_stack([f, np.ones(len(f))])
+        S = np.zeros((3, 3))
+        b = np.zeros(3)
+        cov = np.zeros((12, 12))
+        resid = np.zeros_like(y)
+        noise = {}
+        dofs = []
+        fits = solve_outputs(A, y, sigma_si=sig, groups=position_visits(labels),
+                             noise_model=str(noise_model))
+        for i, (a, (lf, _)) in enumerate(zip(AXES, fits, strict=True)):
+            S[i], b[i] = lf.x[:3], lf.x[3]
+            idx = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
+            cov[np.ix_(idx, idx)] = lf.covariance
+            resid[:, i] = lf.residuals
+            noise[f"output_{a}"] = float((lf.sigma if sig is None else sig) / su.raw_si_per_raw)
+            dofs.append(lf.dof)
+        _check_labels(S)
+        p = stack_parameters(S, b)
+        pooled = float(np.sqrt(np.mean(np.square(list(noise.values())))))
+        est, ident = triad_identification(
+            p, cov, sensor="accelerometer", scale=su,
+            noise_sigma=pooled if sig is None else float("nan"),
+            noise_unit=plan.instrument.output_unit,
+            sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
+            residuals=(resid / su.raw_si_per_raw).ravel())
+        ident = _with_noise_model(ident, [nf for _, nf in fits], su.raw_si_per_raw)
+        messages = _messages(est.misalignment)
+        reversed_msg = triad.reversed_axes_message(p, "accelerometer", "output_{}")
+        if reversed_msg is not None:
+            messages.append(reversed_msg)
+        for m in messages:
+            warnings.warn(m, InertestWarning, stacklevel=3)
+        calib = calibration_from_parameters(p, sensor="accelerometer", scale=su,
+                                            raw_unit=plan.instrument.output_unit)
+        return TriadMultipositionResult(
+            procedure=KIND,
+            site_latitude_deg=plan.site.latitude_deg,
+            site_gravity_m_s2=plan.site.gravity_m_s2,
+            identification=ident,
+            calibration=ImuCalibration(accelerometer=calib),
+            triads=(est,),
+            residual_output=(resid / su.raw_si_per_raw).ravel(),
+            output_unit=plan.instrument.output_unit,
+            messages=tuple(messages),
+            position=labels,
+            specific_force=f,
+            output=out,
+            fitted=out - resid / su.raw_si_per_raw,
+            noise_per_axis=noise,
+            six_position=six_position_closed_form(labels, out, plan.site.gravity_m_s2),
+        )
+
+    def synthesize(self, plan: Plan, motion: Fixture, truth: Mapping[str, float], *,
+                   noise: float, rng: np.random.Generator | int | None) -> dict[str, NDArray]:
+        """Columns ``position``, ``output_x``, ``output_y``, ``output_z`` at the plan's positions.
+
+        ``truth``: ``K_i`` [scale unit], ``M_ij`` [urad], ``B_i`` [mg]; ``noise`` per reading
+        [output unit].
+        """
+        su = _scale(plan)
+        spec: TriadMultipositionSpec = plan.procedure
+        labels = np.array([p for p in spec.positions for _ in range(spec.samples_per_position)])
+        f = motion.positions(labels).inputs_of_rows(labels).f_i
+        S, b = triad.model_from_truth(truth, "accelerometer", su)
+        raw = (f @ S.T + b) / su.raw_si_per_raw
+        raw = raw + noise_samples(raw.size, noise, rng).reshape(raw.shape)
+        return {"position": labels, **{c: raw[:, i] for i, c in enumerate(OUTPUT_COLUMNS)}}
 
 
 def _with_noise_model(ident: Identification, noises: list[NoiseFit], raw_si_per_raw: float
@@ -407,42 +440,3 @@ def _messages(misalignment: Mapping[str, object]) -> list[str]:
         return [f"misalignment {', '.join(big)} exceed 50 mrad: the small-angle model K (I + M) "
                 "is only approximate; check the mounting and the position labels"]
     return []
-
-
-def truth_model(truth: Mapping[str, float], su: ScaleUnit
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``S`` [raw SI per m/s^2] and ``b`` [raw SI] from truth names in engineering units.
-
-    ``K_x..K_z`` [scale unit; default 1 for physical outputs], ``M_ij`` [urad], ``B_x..B_z``
-    [mg, input-referred, so ``b = S B``]
-    (:func:`inertest.models.triad.parameters_from_engineering`).
-    """
-    names = (*SCALE_NAMES, *MISALIGNMENT_NAMES, *BIAS_NAMES)
-    unknown = sorted(set(truth) - set(names))
-    if unknown:
-        raise PlanError(f"truth for {KIND} has unknown name(s) {', '.join(unknown)}; known: "
-                        f"{', '.join(names)}")
-    p = triad.parameters_from_engineering(truth, "accelerometer", su)
-    return p[:9].reshape(3, 3), p[9:12]
-
-
-def simulate(
-    plan: Plan,
-    truth: Mapping[str, float],
-    *,
-    noise: float = 0.0,
-    rng: np.random.Generator | int | None = None,
-) -> dict[str, NDArray]:
-    """Readings of a virtual accelerometer triad at the plan's positions.
-
-    ``truth``: ``K_i`` [scale unit], ``M_ij`` [urad], ``B_i`` [mg]; ``noise`` per reading
-    [output unit]. Returns columns ``position``, ``output_x``, ``output_y``, ``output_z``.
-    """
-    su = _scale(plan)
-    spec: TriadMultipositionSpec = plan.procedure
-    labels = np.array([p for p in spec.positions for _ in range(spec.samples_per_position)])
-    f = mp.motion(labels, plan.site).inputs_of_rows(labels).f_i
-    S, b = truth_model(truth, su)
-    raw = (f @ S.T + b) / su.raw_si_per_raw
-    raw = raw + noise_samples(raw.size, noise, rng).reshape(raw.shape)
-    return {"position": labels, **{c: raw[:, i] for i, c in enumerate(OUTPUT_COLUMNS)}}
