@@ -12,7 +12,7 @@ import scipy.special
 import scipy.stats
 
 from inertest.cli import _COMMANDS
-from inertest.estimation import identify
+from inertest.estimation import model_checks
 
 #: Modules that cost 0.1-1.5 s to import and belong to the commands that use them.
 HEAVY = ("matplotlib", "sqlalchemy", "alembic", "pandas", "scipy.stats", "scipy.optimize",
@@ -93,9 +93,9 @@ def test_tail_probabilities_from_scipy_special_equal_scipy_stats():
         dof, dof2 = int(rng.integers(1, 400)), int(rng.integers(1, 20000))
         x, f = float(rng.exponential(dof)), float(rng.exponential(1.0))
         q = float(10 ** rng.uniform(-14, -1))
-        assert identify._chi2_sf(x, dof) == float(scipy.stats.chi2.sf(x, dof))
+        assert model_checks.chi2_sf(x, dof) == float(scipy.stats.chi2.sf(x, dof))
         # and the regularised upper incomplete gamma Q(dof/2, x/2) of the textbook
-        np.testing.assert_allclose(identify._chi2_sf(x, dof),
+        np.testing.assert_allclose(model_checks.chi2_sf(x, dof),
                                    scipy.special.gammaincc(dof / 2, x / 2), rtol=1e-12,
                                    atol=1e-300)
         assert float(scipy.special.fdtrc(dof, dof2, f)) == float(scipy.stats.f.sf(f, dof, dof2))

@@ -5,12 +5,12 @@ import warnings
 
 import numpy as np
 import pytest
-import scipy.integrate
 
 import inertest
 from inertest.earth import Site
 from inertest.errors import InertestWarning, InputError, PlanError
 from inertest.estimation import identify as idf
+from inertest.estimation import selection
 from inertest.plan import Instrument, Plan
 from inertest.procedures import accelerometer_multipoint as amp
 from inertest.procedures import gyro_rate_table as grt
@@ -60,58 +60,6 @@ def test_white_model_is_the_classical_least_squares():
     np.testing.assert_allclose(fit.covariance, r @ r / (160 - 3) * np.linalg.inv(A.T @ A),
                                rtol=1e-9, atol=1e-15)
     assert noise.checks.verdict == "consistent" and noise.checks.p_value is not None
-
-
-def _dense_unit_kernel(index, counts, K):
-    M = (index[None, :] == np.arange(counts.size)[:, None]) / counts[:, None]
-    return M @ K @ M.T
-
-
-@pytest.mark.parametrize("contiguous", [True, False])
-def test_unit_kernels_equal_the_dense_averages(contiguous):
-    """Random walk (min(i, k) + 1) and AR(1) (rho^|i-k|) averaged over units, vs dense M K M'."""
-    n = 60
-    labels = np.repeat(np.arange(12), 5) if contiguous else np.tile(np.arange(12), 5)
-    u = idf._units(np.ones((n, 1)), np.zeros(n), labels.astype(str))
-    i = np.arange(n)
-    K_rw = np.minimum.outer(i, i) + 1.0
-    np.testing.assert_allclose(idf._rw_unit_kernel(u), _dense_unit_kernel(u.index, u.counts, K_rw),
-                               rtol=1e-12)
-    K_ar = 0.8 ** np.abs(np.subtract.outer(i, i))
-    np.testing.assert_allclose(idf._ar1_unit_kernel(u, 0.8),
-                               _dense_unit_kernel(u.index, u.counts, K_ar), rtol=1e-10)
-
-
-@pytest.mark.parametrize("contiguous", [True, False])
-def test_flicker_kernel_equals_the_dense_average_of_the_integrated_spectrum(contiguous):
-    """Flicker unit kernel vs dense M C M' with C[i, k] = c(|i - k|) / c(0), c(L) the integral
-    of cos(2 pi f L) / f over 1/(4 n) .. 1/2 cycles per row, by quadrature (scipy.integrate)."""
-    n = 60
-    labels = np.repeat(np.arange(12), 5) if contiguous else np.tile(np.arange(12), 5)
-    u = idf._units(np.ones((n, 1)), np.zeros(n), labels.astype(str))
-    c = np.array([scipy.integrate.quad(lambda f, L=L: np.cos(2 * np.pi * f * L) / f,
-                                       0.25 / n, 0.5, limit=400)[0] for L in range(n)])
-    i = np.arange(n)
-    C = c[np.abs(np.subtract.outer(i, i))] / c[0]
-    np.testing.assert_allclose(idf._flicker_unit_kernel(u),
-                               _dense_unit_kernel(u.index, u.counts, C), atol=1e-9)
-
-
-@pytest.mark.parametrize("scale", [2.0, 32.0])
-def test_flicker_kernel_for_a_bias_time_scale_starts_at_1_over_2_scale_n(scale):
-    """``bias_time_scale`` s: the quadrature of cos(2 pi f L) / f from 1/(2 s n); s = 2 is the
-    old 1/(4 n) bit for bit."""
-    n = 40
-    u = idf._units(np.ones((n, 1)), np.zeros(n), np.repeat(np.arange(8), 5).astype(str))
-    c = np.array([scipy.integrate.quad(lambda f, L=L: np.cos(2 * np.pi * f * L) / f,
-                                       0.5 / (scale * n), 0.5, limit=400)[0] for L in range(n)])
-    i = np.arange(n)
-    C = c[np.abs(np.subtract.outer(i, i))] / c[0]
-    np.testing.assert_allclose(idf._flicker_unit_kernel(u, scale),
-                               _dense_unit_kernel(u.index, u.counts, C), atol=1e-9)
-    if scale == 2.0:
-        np.testing.assert_array_equal(idf._flicker_unit_kernel(u, scale),
-                                      idf._flicker_unit_kernel(u))
 
 
 def test_bias_time_scale_widens_the_constant_term_not_the_slope_and_is_stated():
@@ -292,10 +240,10 @@ def test_common_noise_model_pools_the_aic_of_the_outputs():
     aic = [{"white": 10.0, "position-offsets": 9.0, "random-walk": 12.0, "flicker": 30.0},
            {"white": 10.0, "position-offsets": 12.0, "random-walk": 9.5, "flicker": 30.0},
            {"white": 10.0, "position-offsets": 9.8, "random-walk": 9.9, "flicker": 30.0}]
-    model, w, near = idf.common_noise_model(aic)
+    model, w, near = selection.common_noise_model(aic)
     assert model == "white"  # each output alone would pick offsets or random walk by AIC
     assert near == ["white", "position-offsets", "random-walk"]
-    pen = idf.component_penalty(3, 3)
+    pen = selection.component_penalty(3, 3)
     d = np.array([0.0, 0.8 - 6 + pen, 1.4 - 6 + pen, 60.0 - 6 + pen])
     np.testing.assert_allclose([w[m] for m in aic[0]], np.exp(-d / 2) / np.exp(-d / 2).sum())
 
@@ -306,7 +254,7 @@ def test_auto_keeps_white_unless_the_likelihood_ratio_test_rejects_it(lr, model)
     not pass the test (critical value 4.53 for three candidates at 5 %); by 5 it does."""
     aic = {"white": 10.0, "position-offsets": 12.0, "random-walk": 10.0 - lr + 2,
            "flicker": 12.0}
-    assert idf.common_noise_model([aic])[0] == model
+    assert selection.common_noise_model([aic])[0] == model
 
 
 @pytest.mark.parametrize("k, J", [(1, 1), (1, 3), (2, 3), (3, 3)])
@@ -315,7 +263,7 @@ def test_component_penalty_is_the_chi_bar_square_critical_value(k, J):
     scipy.stats for one output and by simulation of k boundary components for several."""
     import scipy.stats
 
-    c = idf.component_penalty(k, J)
+    c = selection.component_penalty(k, J)
     if k == 1:
         assert c == pytest.approx(scipy.stats.chi2.isf(2 * 0.05 / J, 1), rel=1e-9)
     z = np.random.default_rng(3).normal(size=(400_000, k))

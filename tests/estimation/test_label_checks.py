@@ -16,7 +16,8 @@ import pytest
 
 import inertest
 from inertest.errors import InertestWarning
-from inertest.estimation.identify import OFFSET_PLAUSIBLE_RATIO, solve
+from inertest.estimation.identify import solve
+from inertest.estimation.model_checks import OFFSET_PLAUSIBLE_RATIO
 
 TRIAD = ("output_x", "output_y", "output_z")
 

@@ -7,6 +7,8 @@ import pytest
 
 from inertest.errors import IdentifiabilityError, InputError
 from inertest.estimation import identify as idf
+from inertest.estimation import noise_models as nm
+from inertest.estimation import reml, units
 
 
 def _test(rng, G=24, m=7, shuffle=False):
@@ -32,7 +34,7 @@ def _solve(A, y, groups, **kw):
 
 # Shuffled rows with a given sigma under a correlated model add nothing the unshuffled cases do
 # not cover, so those combinations are not generated (rather than generated and skipped).
-_CASES = [(m, s, sh) for m in idf.NOISE_MODELS for s in (None, 0.9, "rows")
+_CASES = [(m, s, sh) for m in nm.NOISE_MODELS for s in (None, 0.9, "rows")
           for sh in (False, True) if not (s is not None and m not in ("white", "auto") and sh)]
 
 
@@ -43,7 +45,7 @@ def test_position_design_equals_the_full_design(model, sigma, shuffle):
     sig = rng.uniform(0.5, 1.5, y.size) if sigma == "rows" else sigma
     full, nf_full = _solve(rows[codes], y, np.asarray(labels)[codes], sigma_si=sig,
                            noise_model=model)
-    P = idf.PositionDesign.from_codes(rows, codes, labels)
+    P = units.PositionDesign.from_codes(rows, codes, labels)
     pos, nf_pos = _solve(P, y, None, sigma_si=sig, noise_model=model)
     assert nf_pos.model == nf_full.model
     assert nf_pos.unit_labels == nf_full.unit_labels
@@ -65,31 +67,31 @@ def test_position_design_equals_the_full_design(model, sigma, shuffle):
 
 def test_position_design_from_codes_orders_positions_in_time_and_checks_its_input():
     rows = np.arange(12.0).reshape(4, 3)
-    P = idf.PositionDesign.from_codes(rows, [2, 2, 0, 0, 2, 3], ["a", "b", "c", "d"])
+    P = units.PositionDesign.from_codes(rows, [2, 2, 0, 0, 2, 3], ["a", "b", "c", "d"])
     assert P.labels == ("c", "a", "d")  # b has no readings
     np.testing.assert_array_equal(P.index, [0, 0, 1, 1, 0, 2])
     np.testing.assert_array_equal(P.rows, rows[[2, 0, 3]])
     assert P.shape == (6, 3)
     np.testing.assert_array_equal(P @ np.ones(3), rows[[2, 2, 0, 0, 2, 3]].sum(axis=1))
     with pytest.raises(InputError, match="codes must lie"):
-        idf.PositionDesign.from_codes(rows, [0, 4], ["a", "b", "c", "d"])
+        units.PositionDesign.from_codes(rows, [0, 4], ["a", "b", "c", "d"])
     with pytest.raises(InputError, match="no groups"):
         idf.solve(P, np.ones(6), groups=np.array(list("abcdef")))
     with pytest.raises(IdentifiabilityError, match="no degree of freedom"):
-        idf.solve(idf.PositionDesign.from_codes(np.eye(3), [0, 1, 2], "abc"), np.ones(3))
+        idf.solve(units.PositionDesign.from_codes(np.eye(3), [0, 1, 2], "abc"), np.ones(3))
 
 
 @pytest.mark.parametrize("n", [1, 10, 1000])
 @pytest.mark.parametrize("block", [1, 7, 65536])
 def test_flicker_second_antidifference_in_blocks_is_the_whole_record_bit_for_bit(n, block):
-    c = idf._flicker_row_covariance(n)
+    c = nm.flicker_row_covariance(n)
     step = c[0] / 2 + np.concatenate(([0.0], np.cumsum(c[1:])))
     phi = np.concatenate(([0.0], np.cumsum(step)))  # Phi(0 .. n + 1) over the whole record
     lags = np.arange(n + 2)
-    c0, got = idf._flicker_phi(n, lags, block=block)
+    c0, got = nm.flicker_phi(n, lags, block=block)
     assert c0 == c[0]
     np.testing.assert_array_equal(got, phi)
-    np.testing.assert_array_equal(idf._flicker_phi(n, lags[::3], block=block)[1], phi[::3])
+    np.testing.assert_array_equal(nm.flicker_phi(n, lags[::3], block=block)[1], phi[::3])
 
 
 def test_bounded_minimum_is_scipy_minimize_scalar_bounded_bit_for_bit():
@@ -105,5 +107,5 @@ def test_bounded_minimum_is_scipy_minimize_scalar_bounded_bit_for_bit():
         for xatol in (1e-3, 1e-8):
             ref = scipy.optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded",
                                                  options={"xatol": xatol})
-            x, fx = idf._bounded_minimum(f, lo, hi, xatol=xatol)
+            x, fx = reml.bounded_minimum(f, lo, hi, xatol=xatol)
             assert x == float(ref.x) and fx == float(ref.fun)

@@ -627,7 +627,7 @@ def test_mislabelled_face_is_an_outlier_and_warns():
     k = ya.size // 3
     for c in ferraris.ACC_COLUMNS + ferraris.GYR_COLUMNS:
         d[c][ya[:k]] = d[c][zp[:k]]
-    with pytest.warns(InertestWarning, match="does not fit its \"white\" noise model"):
+    with pytest.warns(InertestWarning, match='"white" noise does not fit the session'):
         r = inertest.fit(plan, d)
     c = r.identification.checks
     assert not c.fits and c.outliers

@@ -44,8 +44,9 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import NOISE_MODELS, identify
+from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit
+from inertest.estimation.noise_models import NOISE_MODELS
 from inertest.models import pendulous_accelerometer as model
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure, TypeBErrors

@@ -46,8 +46,9 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.earth import OMEGA_IE
 from inertest.equipment import centrifuge as machine
 from inertest.errors import DataError, InertestWarning, InputError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, check_noise_model, identify
+from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit, weighted_least_squares
+from inertest.estimation.noise_models import NOISE_MODELS, check_noise_model
 from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
 from inertest.models.sdf_gyro import (
     COEFFICIENTS,

@@ -117,12 +117,11 @@ from __future__ import annotations
 
 import functools
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
-import scipy.signal
 import scipy.special
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
@@ -131,8 +130,9 @@ from inertest.earth import OMEGA_IE, earth_rate_enu
 from inertest.equipment import ferraris_session as session
 from inertest.equipment.motion import Inputs, run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
-from inertest.estimation.identify import CHECK_ALPHA
 from inertest.estimation.identify import solve as identify_solve
+from inertest.estimation.model_checks import CHECK_ALPHA, misfit_message, outlier_threshold
+from inertest.estimation.noise_models import MODELS
 from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.triad import AXES, TriadCalibration
@@ -180,9 +180,6 @@ TURN_GRAVITY_ALLOWANCE_M_S2 = 2e-3 * G0
 NOISE_MODELS = ("white", "position-offsets", "random-walk", "flicker")
 #: Blocks each face's samples are cut into to estimate a drift from the scatter of block means.
 _BLOCKS_PER_FACE = 8
-#: Ratio between the correlation times of the AR(1) processes that make up flicker noise (the
-#: rule of :func:`inertest.estimation.identify.solve`, so that its level means the same here).
-_FLICKER_STEP = 4.0
 
 
 @dataclass(frozen=True)
@@ -1001,7 +998,7 @@ def _model_checks(
     n = zz.size
     dof = n - fitted_offsets
     p = float(scipy.special.chdtrc(dof, chi2))  # chi-square survival function
-    thr = max(4.0, float(-scipy.special.ndtri(CHECK_ALPHA / (2 * n))))  # Bonferroni
+    thr = outlier_threshold(n)  # Bonferroni
     outliers = tuple(Outlier(labels[i], float(zz[i])) for i in np.flatnonzero(np.abs(zz) > thr))
     statistic = ("chi-square of the 6 + 6 off-axis face-pair sums (accelerometer, gyro) and the "
                  "3 turns' |a| - g against the noise model, face tilts and Earth rate")
@@ -1013,52 +1010,11 @@ def _model_checks(
         serial_p_value=None, outliers=outliers, outlier_threshold=thr, alpha=CHECK_ALPHA,
         verdict="model does not fit" if p < CHECK_ALPHA or outliers else "consistent",
         name="face pairs and turns against the noise model")
-    return checks if checks.fits else replace(checks, message=_misfit_message(checks))
-
-
-def _misfit_message(c: ModelChecks) -> str:
-    """One line naming why the Ferraris checks failed and what to look at."""
-    why = [f"chi-square {c.chi_square:.4g} for {c.dof} dof (p = {c.p_value:.2g})"]
-    if c.outliers:
-        why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})" for o in c.outliers))
-    return (f'ferraris: the session does not fit its "{c.noise_model}" noise model: '
-            f"{'; '.join(why)}; check the face and turn labels (a face with the IMU moving or "
-            "not lying flat, a turn label running into the next face), the face_tilt_deg of "
-            "the plan and the noise model; the uncertainties are not reliable")
-
-
-def _drift_kernel(model: str, n_fit_rows: int, n_rows: int
-                  ) -> tuple[str, Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
-    """Label of the drift component and ``v -> K v`` for unit variance per sample.
-
-    ``random-walk``: ``K[i, k] = min(i, k) + 1`` over the data row index (steps of unit
-    variance per sample from the first row); ``flicker``: the mean of AR(1) correlations
-    ``rho^|i - k|`` with times 1, 4, 16, ... samples, each of variance ``1/m`` with ``m`` the
-    number of times up to a quarter of the ``n_fit_rows`` face samples the level was estimated
-    from (the rule of :func:`inertest.estimation.identify.solve`, so that the fitted level is
-    the same quantity), continued with equal variance per time up to the ``n_rows`` of the
-    session (1/f over the whole session: faces far apart in time and the turns see the slow
-    part too; checked by Monte Carlo against FFT-shaped 1/f noise from 1/(2 session) up).
-    """
-    if model == "random-walk":
-        return "random walk", lambda v: np.cumsum(np.cumsum(v[::-1], axis=0)[::-1], axis=0)
-    taus = [1.0]
-    while taus[-1] * _FLICKER_STEP <= n_fit_rows / _FLICKER_STEP:
-        taus.append(taus[-1] * _FLICKER_STEP)
-    m = len(taus)
-    while taus[-1] * _FLICKER_STEP <= n_rows:
-        taus.append(taus[-1] * _FLICKER_STEP)
-
-    def apply(v: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.zeros_like(v)
-        for t in taus:
-            rho = float(np.exp(-1.0 / t))
-            fwd = scipy.signal.lfilter([1.0], [1.0, -rho], v, axis=0)
-            bwd = scipy.signal.lfilter([1.0], [1.0, -rho], v[::-1], axis=0)[::-1]
-            out += fwd + bwd - v
-        return out / m
-
-    return "flicker", apply
+    return checks if checks.fits else replace(checks, message=misfit_message(
+        checks, what="the session", prefix=f"{KIND}: ",
+        check="the face and turn labels (a face with the IMU moving or not lying flat, a turn "
+              "label running into the next face), the face_tilt_deg of the plan and the noise "
+              "model"))
 
 
 def _noise_covariance(
@@ -1072,9 +1028,11 @@ def _noise_covariance(
     level are estimated by :func:`inertest.estimation.identify.solve` from the face samples
     (blocks of each face as units, the face means as the model, so only the within-face
     wander is used), and propagated to every face mean and turn integral, correlated across
-    the parts through the drift's kernel over the data row index (rows in time order at
-    ``sample_rate_hz``). Returns the covariance (54, 54), the components per sensor (RMS over
-    its channels, raw unit per sample) and notes on channels whose noise model does not fit.
+    the parts through the drift's row kernel over the session
+    (:meth:`inertest.estimation.noise_models.NoiseModel.row_apply`, rows in time order at
+    ``sample_rate_hz``; the same noise model as the fit of the faces). Returns the covariance
+    (54, 54), the components per sensor (RMS over its channels, raw unit per sample) and notes
+    on channels whose noise model does not fit.
     """
     fs = spec.sample_rate_hz
     n = 54
@@ -1107,11 +1065,14 @@ def _noise_covariance(
     groups = np.char.add(np.char.add(face_of.astype(str), "#"), block.astype(str))
     A = (face_of[:, None] == np.arange(6)[None, :]).astype(float)
     n_rows = max(int(r.max()) for r in stats.rows) + 1
-    label, apply = _drift_kernel(model, face_rows.size, n_rows)
+    drift = MODELS[model]
+    label = str(drift.component)
     Mt = np.zeros((n_rows, 9))
     for u, r in enumerate(stats.rows):
         Mt[r, u] = 1.0 / r.size if u < 6 else 1.0 / fs
-    unit_k = Mt.T @ apply(Mt)  # (9, 9): unit drift variance per sample
+    # (9, 9): the drift's covariance of the face means and turn integrals over the session, at
+    # the level fitted on the face samples (unit variance per sample of that record).
+    unit_k = Mt.T @ drift.row_apply(Mt, level_rows=face_rows.size)
     unit_w = np.r_[1.0 / n_face, n_turn / fs**2]
     for sensor, names, means, turns in (("accelerometer", ACC_COLUMNS, 0, 45),
                                         ("gyroscope", GYR_COLUMNS, 18, 36)):

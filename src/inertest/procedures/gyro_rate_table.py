@@ -47,8 +47,9 @@ from numpy.typing import NDArray
 
 from inertest.equipment import rate_table as table
 from inertest.errors import IdentifiabilityError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, solve
+from inertest.estimation.identify import solve
 from inertest.estimation.least_squares import weighted_least_squares
+from inertest.estimation.noise_models import NOISE_MODELS
 from inertest.models import rate_gyro, triad
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure, TypeBErrors

@@ -65,7 +65,6 @@ from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
 import numpy as np
-import scipy.optimize
 from numpy.typing import NDArray
 
 from inertest.equipment import rate_table as table
@@ -76,13 +75,11 @@ from inertest.errors import (
     InputError,
     PlanError,
 )
-from inertest.estimation.identify import (
-    NOISE_MODELS,
-    common_noise_model,
-    model_checks,
-    selection_spread,
-)
 from inertest.estimation.least_squares import weighted_least_squares
+from inertest.estimation.model_checks import misfit_message, model_checks
+from inertest.estimation.noise_models import MODELS, NOISE_MODELS
+from inertest.estimation.reml import Reml, components, gls
+from inertest.estimation.selection import common_noise_model, selection_spread
 from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.rate_gyro import (
@@ -288,7 +285,7 @@ class GyroTriadRotationResult(LinearTestResult):
         count = self.output_unit
         d["noise_components"] = {
             k: {"value": v, "unit": self.identification.noise_unit if k == "white" else
-                count + next(u for lab, u in _COMPONENTS.values() if lab == k)}
+                count + next(u for m, u in _COMPONENT_UNITS.items() if MODELS[m].component == k)}
             for k, v in self.identification.noise_components.items()}
         return d
 
@@ -593,56 +590,19 @@ class GyroTriadRotation(Procedure[GyroTriadRotationSpec, WindowObservations,
         return cols
 
 
-#: Name of each drift component in the result, and its unit per count unit of the output.
-_COMPONENTS = {"position-offsets": ("position offset", "/s"),
-               "random-walk": ("random walk", "/s/sqrt(s)"), "flicker": ("flicker", "/s")}
-#: Ratio between the correlation times of the processes that make up flicker noise.
-_FLICKER_STEP = 4.0
+#: Unit of each drift component per count unit of the output (its name: the noise model's).
+_COMPONENT_UNITS = {"position-offsets": "/s", "random-walk": "/s/sqrt(s)", "flicker": "/s"}
 
 
 def window_kernel(model: str, start_s: NDArray[np.float64], duration_s: NDArray[np.float64]
                   ) -> NDArray[np.float64]:
     """Covariance of the window integrals of a unit rate-bias drift, shape (n, n) [s^2 or s^3].
 
-    Parameters
-    ----------
-    model : str
-        ``position-offsets``: a rate offset of unit variance per window, ``K = diag(T^2)``;
-        ``random-walk``: a rate random walk ``W`` of unit step variance per second from the
-        session start, ``Cov(W(s), W(t)) = min(s, t)``, so ``K_ik = T_k (b_i^2 - a_i^2) / 2``
-        for window i = [a_i, b_i] before window k and ``K_ii = a_i T_i^2 + T_i^3 / 3``;
-        ``flicker``: unit-variance 1/f noise as the mean of Ornstein-Uhlenbeck processes with
-        correlation times ``tau`` = shortest window x 4^m up to a quarter of the session
-        (Keshner, Proc. IEEE 70(3), 1982, doi:10.1109/PROC.1982.12282), each with
-        ``K_ii = 2 tau (T_i - tau (1 - e^(-T_i/tau)))`` and
-        ``K_ik = tau^2 (1 - e^(-T_i/tau)) (1 - e^(-T_k/tau)) e^(-(a_k - b_i)/tau)``.
-    start_s, duration_s : ndarray, shape (n,)
-        Window starts and lengths [s], not overlapping.
+    The noise model's window kernel (:meth:`inertest.estimation.noise_models.NoiseModel.
+    window_kernel`): offsets per window, a random walk of unit step variance per second, or
+    1/f flicker of unit variance when averaged over the shortest window.
     """
-    a, T = np.asarray(start_s, float), np.asarray(duration_s, float)
-    b = a + T
-    if model == "position-offsets":
-        return np.diag(T**2)
-    earlier = a[:, None] < a[None, :]
-    if model == "random-walk":
-        m = 0.5 * (b**2 - a**2)  # int_I s ds
-        K = np.where(earlier, m[:, None] * T[None, :], T[:, None] * m[None, :])
-        np.fill_diagonal(K, a * T**2 + T**3 / 3)
-        return K
-    if model != "flicker":
-        raise InputError(f"no window kernel for the noise model {model!r}")
-    span = float(b.max() - a.min())
-    taus = [float(T.min())]
-    while taus[-1] * _FLICKER_STEP <= span / _FLICKER_STEP:
-        taus.append(taus[-1] * _FLICKER_STEP)
-    gap = np.abs(np.where(earlier, a[None, :] - b[:, None], a[:, None] - b[None, :]))
-    K = np.zeros((a.size, a.size))
-    for tau in taus:
-        e = 1.0 - np.exp(-T / tau)
-        Kt = tau**2 * np.outer(e, e) * np.exp(-gap / tau)
-        np.fill_diagonal(Kt, 2 * tau * (T - tau * e))
-        K += Kt
-    return K / len(taus)
+    return MODELS[model].window_kernel(start_s, duration_s)
 
 
 @dataclass(frozen=True)
@@ -653,64 +613,7 @@ class _GyroFit:
     covariance: NDArray[np.float64]
     model: str
     components: dict[str, float]
-    nll: float
-    theta: float = 0.0
-    V: NDArray[np.float64] | None = None  # covariance of the windows under the noise model
-
-
-def _gls(X: NDArray[np.float64], y: NDArray[np.float64], V: NDArray[np.float64]
-         ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, float]:
-    """GLS with covariance ``V``: estimate, ``(X' V^-1 X)^-1``, ``r' V^-1 r``, log det terms."""
-    L = np.linalg.cholesky(V)
-    Xw = np.linalg.solve(L, X)
-    yw = np.linalg.solve(L, y)
-    q, r = np.linalg.qr(Xw)
-    x = np.linalg.solve(r, q.T @ yw)
-    res = yw - Xw @ x
-    ri = np.linalg.inv(r)
-    logdet = 2 * float(np.sum(np.log(np.diag(L)))) + 2 * float(
-        np.sum(np.log(np.abs(np.diag(r)))))
-    return x, ri @ ri.T, float(res @ res), logdet
-
-
-def _reml_fit(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
-              K: NDArray[np.float64] | None, sigma2: float | None) -> _GyroFit:
-    """REML of ``V = s2 (diag(W) + theta K)`` (``s2 = sigma2`` when known), then GLS.
-
-    Negative restricted log-likelihood (Patterson & Thompson 1971), ``s2`` profiled out when
-    unknown: ``(log det V0 + log det X'V0^-1 X + dof log(r'V0^-1 r / dof) + dof) / 2``.
-    """
-    n, p = X.shape
-    dof = n - p
-
-    def nll(theta: float) -> tuple[float, float]:
-        V0 = np.diag(W) + (theta * K if K is not None else 0.0)
-        if sigma2 is not None:
-            _, _, rss, logdet = _gls(X, y, sigma2 * V0)
-            return 0.5 * (logdet + rss), sigma2
-        _, _, rss, logdet = _gls(X, y, V0)
-        s2 = max(rss / dof, 1e-300)
-        return 0.5 * (logdet + dof * np.log(s2) + dof), s2
-
-    theta = 0.0
-    if K is not None:
-        ref = float(np.mean(W) / np.mean(np.diag(K)))
-        grid = ref * np.logspace(-4, 4, 17)
-        vals = [nll(float(t))[0] for t in grid]
-        i = int(np.argmin(vals))
-        lo, hi = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
-        opt = scipy.optimize.minimize_scalar(lambda lt: nll(float(np.exp(lt)))[0],
-                                             bounds=(lo, hi), method="bounded",
-                                             options={"xatol": 1e-3})
-        theta, best = (float(np.exp(opt.x)), float(opt.fun)) if opt.fun < vals[i] else (
-            float(grid[i]), float(vals[i]))
-        if nll(0.0)[0] <= best:
-            theta = 0.0
-    value, s2 = nll(theta)
-    V = s2 * (np.diag(W) + (theta * K if K is not None else 0.0))
-    x, cov, _, _ = _gls(X, y, V)
-    return _GyroFit(x=x, covariance=cov, model="white",
-                    components={"white": float(np.sqrt(s2))}, nll=value, theta=theta, V=V)
+    V: NDArray[np.float64]  # covariance of the windows under the noise model
 
 
 def _candidates(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.float64],
@@ -718,18 +621,21 @@ def _candidates(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.fl
                 ) -> dict[str, tuple[_GyroFit, float]]:
     """One gyro under ``white`` and each drift model in ``kernels``, with its AIC.
 
-    AIC of the restricted likelihood, one parameter more for a drift.
+    REML of ``V = s2 (diag(W) + theta K)`` (``s2 = sigma^2`` when known; Patterson & Thompson
+    1971) and GLS, as for every procedure (:mod:`inertest.estimation.reml`); AIC of the
+    restricted likelihood, one parameter more for a drift.
     """
-    s2 = None if sigma is None else sigma**2
-    white = _reml_fit(X, y, W, None, s2)
-    out = {"white": (white, 2 * white.nll)}
-    for name, K in kernels.items():
-        f = _reml_fit(X, y, W, K, s2)
-        label = _COMPONENTS[name][0]
-        out[name] = (_GyroFit(f.x, f.covariance, name,
-                              {"white": f.components["white"],
-                               label: float(np.sqrt(f.theta) * f.components["white"])},
-                              f.nll, f.theta, f.V), 2 * f.nll + 2)
+    known = sigma is not None
+    reml = Reml.of(X, y, W * sigma**2 if known else W, scale_known=known)  # type: ignore[operator]
+    fitted = components(reml, {m: (lambda K=K: K) for m, K in kernels.items()}, with_white=True)
+    out = {}
+    for m, c in fitted.items():
+        s2, V = c.fitted(reml)
+        sol = gls(X, y, V)
+        comps = {"white": float(sigma) if known else float(np.sqrt(s2))}  # type: ignore[arg-type]
+        if c.kernel is not None:
+            comps[str(MODELS[m].component)] = c.level(s2)
+        out[m] = (_GyroFit(sol.x, sol.covariance, m, comps, V), c.aic)
     return out
 
 
@@ -740,17 +646,17 @@ def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_Gyro
     The windows of gyro x, then y, then z, each gyro's block with its own fitted covariance
     (the gyros' noises are independent, so the covariance is block-diagonal) and design.
     Standardised residuals, Ljung-Box test and Bonferroni outliers as in
-    :func:`inertest.estimation.identify.model_checks`; the chi-square is a test only with the
-    noise level given. With the level fitted, a window's standardised residual cannot exceed
-    about ``sqrt(n - 4)`` (n windows): few windows, or two windows wrong together (two labels
-    swapped), stay unseen unless the noise level is given. Warns (InertestWarning) on a misfit.
+    :func:`inertest.estimation.model_checks.model_checks`; the chi-square is a test only with
+    the noise level given. With the level fitted, a window's standardised residual cannot
+    exceed about ``sqrt(n - 4)`` (n windows): few windows, or two windows wrong together (two
+    labels swapped), stay unseen unless the noise level is given. Warns (InertestWarning) on a
+    misfit.
     """
     n = X.shape[0]
     design = np.zeros((3 * n, 12))
     V = np.zeros((3 * n, 3 * n))
     for i, f in enumerate(fits):
         design[i * n:(i + 1) * n, 4 * i:4 * i + 4] = X
-        assert f.V is not None
         V[i * n:(i + 1) * n, i * n:(i + 1) * n] = f.V
     labels = [f"gyro {a}, window {k + 1} ({rows.part[k]})" for a in AXES for k in range(n)]
     with warnings.catch_warnings():
@@ -758,22 +664,9 @@ def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_Gyro
         checks = model_checks(resid.T.reshape(-1), design, V, noise_model=fits[0].model,
                               sigma_given=given, labels=labels, unit="window")
     if not checks.fits:
-        why = []
-        if checks.p_value is not None and checks.p_value < checks.alpha:
-            why.append(f"chi-square {checks.chi_square:.4g} for {checks.dof} dof, "
-                       f"p = {checks.p_value:.2g}")
-        if checks.serial_p_value is not None and checks.serial_p_value < checks.alpha:
-            why.append(f"neighbouring windows alike (Ljung-Box p = {checks.serial_p_value:.2g})")
-        if checks.outliers:
-            why.append("outlying " + ", ".join(f"{o.label} (z = {o.z:+.1f})"
-                                               for o in checks.outliers[:4]))
-        if checks.shift_p_value is not None and checks.shift_p_value < checks.alpha:
-            why.append(f"{' and '.join(checks.shift_units)} off the model against the other "
-                       f"windows (F = {checks.shift_f:.4g}, p = {checks.shift_p_value:.2g})")
-        checks = replace(checks, message=(
-            f'gyro-triad-rotation: the model with "{fits[0].model}" noise does not fit the '
-            f"windows: {'; '.join(why)}; check the attitude, axis, direction and part labels "
-            "and the noise model; the uncertainties are not reliable"))
+        checks = replace(checks, message=misfit_message(
+            checks, what="the windows", prefix=f"{KIND}: ",
+            check="the attitude, axis, direction and part labels and the noise model"))
         warnings.warn(str(checks.message), InertestWarning, stacklevel=3)
     return checks
 
@@ -787,10 +680,10 @@ def _fit_gyros(X: NDArray[np.float64], Y: NDArray[np.float64], W: NDArray[np.flo
     drift model beats it by the likelihood-ratio test pooled over the three gyros, else the
     drift model of smallest summed AIC; each gyro's covariance gains the spread of its
     estimates under the models within 2 per gyro of it, with the weights of that criterion
-    (:func:`inertest.estimation.identify.common_noise_model`, :func:`~inertest.estimation.
-    identify.selection_spread`).
+    (:func:`inertest.estimation.selection.common_noise_model`,
+    :func:`~inertest.estimation.selection.selection_spread`).
     """
-    names = [m for m in _COMPONENTS if model in ("auto", m)]
+    names = [m for m in _COMPONENT_UNITS if model in ("auto", m)]
     if names and X.shape[0] - 4 < 4:
         raise IdentifiabilityError(
             f"{X.shape[0]} windows for 4 unknowns per gyro: too few to estimate the "

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from inertest.equipment import level_fixture as fixture
 from inertest.equipment.motion import Fixture
 from inertest.errors import InertestWarning, PlanError
-from inertest.estimation.identify import NOISE_MODELS
+from inertest.estimation.noise_models import NOISE_MODELS
 from inertest.models.sdf_gyro import coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Plan, read_fields

@@ -33,14 +33,13 @@ from inertest.equipment import polar_axis_table as table
 from inertest.equipment.motion import Fixture, run_starts
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, PlanError
 from inertest.estimation.harmonics import HarmonicFit, harmonic_design, harmonic_names
-from inertest.estimation.identify import (
+from inertest.estimation.identify import NoiseFit, combination_name
+from inertest.estimation.least_squares import weighted_least_squares
+from inertest.estimation.noise_models import (
     BIAS_TIME_SCALE_DEFAULT,
     NOISE_MODELS,
-    NoiseFit,
     check_bias_time_scale,
-    combination_name,
 )
-from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models.sdf_gyro import ENGINEERING_UNIT, coefficients_from_deg_h
 from inertest.models.sdf_gyro import drift as model_drift
 from inertest.plan import Field, Plan, read_fields

@@ -15,13 +15,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from inertest.equipment.motion import StaticPositions, unique_by_runs
 from inertest.errors import InputError
-from inertest.estimation.identify import (
-    BIAS_TIME_SCALE_DEFAULT,
-    NoiseFit,
-    PositionDesign,
-    identify_with_noise,
-)
+from inertest.estimation.identify import NoiseFit, identify_with_noise
 from inertest.estimation.least_squares import LinearFit
+from inertest.estimation.noise_models import BIAS_TIME_SCALE_DEFAULT
+from inertest.estimation.units import PositionDesign
 from inertest.models.sdf_gyro import COEFFICIENTS, ENGINEERING_UNIT, drift_regressors
 from inertest.results import Identification
 from inertest.units import DEG_PER_H_TO_RAD_PER_S, G0

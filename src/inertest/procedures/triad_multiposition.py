@@ -33,8 +33,9 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.equipment import multiposition as mp
 from inertest.equipment.motion import Fixture
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError, PlanError
-from inertest.estimation.identify import NOISE_MODELS, NoiseFit, solve_outputs
+from inertest.estimation.identify import NoiseFit, solve_outputs
 from inertest.estimation.least_squares import weighted_least_squares
+from inertest.estimation.noise_models import NOISE_MODELS
 from inertest.models import triad
 from inertest.models.imu import ImuCalibration
 from inertest.models.triad import (
