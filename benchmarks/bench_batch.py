@@ -6,7 +6,7 @@ by :func:`inertest.run_batch` with every run filed in a fresh SQLite history dat
 transaction per run, written by this process). Timed as a user sees it:
 
 * serial (``workers=1``), the baseline;
-* a process pool of 1, 2 and all cores (:func:`inertest.runner.local_pool`, what
+* a process pool of 1, 2 and all cores (:func:`inertest.app.executors.local_pool`, what
   ``run_batch(workers=N)`` starts), start-up and shutdown included;
 * a ``dask.distributed.LocalCluster`` with one single-threaded worker process per core
   (cluster start-up timed separately, then one batch on a warm cluster).
@@ -34,9 +34,11 @@ from pathlib import Path
 from threadpoolctl import threadpool_limits
 
 import inertest
+from inertest.app.batch import compute, read_manifest, run_batch
+from inertest.app.executors import local_pool
+from inertest.app.run import file_run
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import read_toml
-from inertest.runner import _compute, file_run, local_pool, read_manifest, run_batch
 from inertest.store import HistoryStore
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "polar_tumble"
@@ -76,7 +78,7 @@ def _timed(manifest: Path, db: Path, **kw) -> tuple[float, list[str]]:
 
 def _filing_only(manifest: Path, db: Path) -> float:
     """Time of the driver's part alone: report-free filing of already computed results."""
-    computed = [_compute(t) for t in read_manifest(manifest)]
+    computed = [compute(t) for t in read_manifest(manifest)]
     store = HistoryStore(str(db))
     when = datetime.now(UTC)
     t0 = time.perf_counter()
@@ -100,7 +102,7 @@ def main(argv: list[str] | None = None) -> None:
         rows = samples * 64
         print(f"{fits} polar-tumble fits of {rows} rows each, filed into SQLite; {cores} cores")
 
-        _compute(read_manifest(manifest)[0])  # imports and first-call costs, not timed
+        compute(read_manifest(manifest)[0])  # imports and first-call costs, not timed
         t_serial, ref = _timed(manifest, folder / "serial.db")
         t_filing = _filing_only(manifest, folder / "filing.db")
         with threadpool_limits(1):

@@ -14,8 +14,8 @@ from typing import Any
 
 
 def deadly_fit() -> None:
-    """Pool initializer: replace ``inertest.runner.fit`` in this worker only."""
-    import inertest.runner as runner
+    """Pool initializer: replace ``inertest.app.batch.fit`` in this worker only."""
+    import inertest.app.batch as runner
 
     real = runner.fit
 

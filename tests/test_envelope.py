@@ -36,7 +36,7 @@ def check_envelope(doc: dict, kind: str) -> None:
     """The layout every result shares (results.envelope), with units beside numbers."""
     assert list(doc) == [k for k in ENVELOPE_KEYS if k in doc]
     assert set(ENVELOPE_KEYS) - OPTIONAL_KEYS <= set(doc)
-    if "test" in doc:  # optional identity block (inertest.lab.identity_block), after instrument
+    if "test" in doc:  # the optional identity block (quality.lab.identity_block), after instrument
         assert list(doc).index("test") == list(doc).index("instrument") + 1
         assert {"operator", "date", "software_version", "data_sha256", "equipment",
                 "environment"} <= set(doc["test"])

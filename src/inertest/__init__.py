@@ -42,9 +42,9 @@ _PUBLIC = {
     "simulate": "inertest.api",
     "load_plan": "inertest.api",
     "load_data": "inertest.api",
-    "run": "inertest.runner",
-    "run_batch": "inertest.runner",
-    "RunOutcome": "inertest.runner",
+    "run": "inertest.app.run",
+    "run_batch": "inertest.app.batch",
+    "RunOutcome": "inertest.app.run",
 }
 
 __all__ = sorted(_PUBLIC)

@@ -11,7 +11,7 @@ The campaign file ``examples/demo.toml`` lists the tests::
     spec = "specs/floated_gyro.toml"     # optional: verdicts against this specification
 
 With a top-level ``equipment`` lab file every result also gets its uncertainty budget
-(:func:`inertest.runner.judge`), shown beside the verdicts.
+(:func:`inertest.app.run.judge`), shown beside the verdicts.
 """
 
 from __future__ import annotations
@@ -25,20 +25,20 @@ from typing import Any
 import numpy as np
 
 from inertest.api import fit, load_plan, simulate
-from inertest.conformance import read_spec
+from inertest.app.run import columns_sha256, judge
 from inertest.errors import PlanError
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import read_toml
-from inertest.lab import identity_block, read_equipment, select_equipment
 from inertest.models.sdf_gyro import COEFFICIENTS
 from inertest.procedures import procedure
+from inertest.quality.conformance import read_spec
+from inertest.quality.lab import identity_block, read_equipment, select_equipment
 from inertest.report.conformance import conformance_sections
 from inertest.report.html import Section, page, paragraph, software_version
 from inertest.report.identity import identity_section
 from inertest.report.sections import result_sections
 from inertest.results import with_blocks
-from inertest.runner import columns_sha256, judge
 
 
 @dataclass(frozen=True)

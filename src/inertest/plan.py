@@ -309,7 +309,7 @@ class TestConditions:
         [test]
         operator = "A. Engineer"
         date = 2026-11-20            # test date (TOML date; the day of the fit when absent)
-        equipment = ["RT-02"]        # ids in the lab equipment file (inertest.lab)
+        equipment = ["RT-02"]        # ids in the lab equipment file (inertest.quality.lab)
         temperature_C = 22.5
         humidity_pct = 41
         warm_up_min = 60
@@ -320,7 +320,7 @@ class TestConditions:
     operator : str
     date : datetime.date or None
     equipment : tuple of str
-        Ids of the equipment used, resolved against a lab file by :func:`inertest.lab.
+        Ids of the equipment used, resolved against a lab file by :func:`inertest.quality.lab.
         select_equipment`.
     temperature_C : float or None
         Ambient (or chamber) temperature [degC].

@@ -42,7 +42,7 @@ def test_help_of_the_fit_commands_leaves_the_fit_machinery_unloaded(command):
     # the commands import them when they run.
     code = ("from inertest.cli import main\n"
             f"with contextlib.redirect_stdout(io.StringIO()): main([{command!r}, '--help'])\n"
-            "print(','.join(m for m in ('inertest.runner', 'inertest.api', "
+            "print(','.join(m for m in ('inertest.app.run', 'inertest.api', "
             "'inertest.report.identification') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", "import sys, contextlib, io\n" + code],
                          capture_output=True, text=True, check=True).stdout.strip()

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import inertest
+from inertest.app.run import run
 from inertest.cli import main
 from inertest.io.data_file import write_table
-from inertest.runner import run
 from inertest.store import HistoryStore
 
 

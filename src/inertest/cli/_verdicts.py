@@ -20,7 +20,8 @@ def verdict_summary(conformance: Mapping[str, object] | None) -> str:
     Parameters
     ----------
     conformance : mapping or None
-        The envelope's ``conformance`` block (:meth:`inertest.conformance.Conformance.to_dict`);
+        The envelope's ``conformance`` block
+        (:meth:`inertest.quality.conformance.Conformance.to_dict`);
         None gives ``"- (no specification)"``.
     """
     if not conformance:

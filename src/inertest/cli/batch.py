@@ -15,7 +15,8 @@ from inertest.cli._verdicts import verdict_summary
 from inertest.errors import InputError
 
 if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (issue 18)
-    from inertest.runner import BatchItem, RunOutcome
+    from inertest.app.batch import BatchItem
+    from inertest.app.run import RunOutcome
 
 
 @click.command()
@@ -52,7 +53,7 @@ def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | 
     process (out of memory): the pool is restarted and that run reported as failed. The exit
     status is 1 when any run failed (not for a failed verdict: read "conformance" in the JSON).
     """
-    from inertest.runner import read_manifest, run_batch
+    from inertest.app.batch import read_manifest, run_batch
 
     store: bool | str = False if no_store else (db or True)
     tasks = read_manifest(manifest)

@@ -56,10 +56,10 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
     verifiable or not determined by the plan), 2 for bad input.
     """
     from inertest.api import load_plan
-    from inertest.conformance import read_spec
     from inertest.io.plan_file import load_truth
-    from inertest.lab import read_equipment, select_equipment, unchecked_equipment_message
-    from inertest.plan_check import NominalTruthError, check_plan, read_noise
+    from inertest.quality.conformance import read_spec
+    from inertest.quality.lab import read_equipment, select_equipment, unchecked_equipment_message
+    from inertest.quality.plan_check import NominalTruthError, check_plan, read_noise
 
     p = load_plan(plan)
     spec = read_spec(spec_path)

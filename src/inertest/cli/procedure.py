@@ -93,7 +93,7 @@ def fit(
         raise click.UsageError("--pdf needs --report DIR")
     if report_dir is not None:
         plain_text_figures()
-    from inertest.runner import run
+    from inertest.app.run import run
 
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,

@@ -2,11 +2,11 @@
 
 A lab equipment file states the standard uncertainties (k = 1) of a table, dividing head or
 centrifuge (``rate_ppm``, ``tilt_urad``, ``angle_arcsec``, ``radius_um``, see
-:mod:`inertest.lab`). Each equipment module declares, in its ``TYPE_B`` tuple of
+:mod:`inertest.quality.lab`). Each equipment module declares, in its ``TYPE_B`` tuple of
 :class:`TypeBSource`, which of them it accepts and how the error enters its kinematics; its
 motion takes the errors it carries as an argument (``type_b``: ``{source name: error [SI]}``,
 read with :func:`type_b_error`; none for the nominal machine). So the uncertainty budget
-(:mod:`inertest.budget`) can simulate a test on a machine with a given error
+(:mod:`inertest.quality.budget`) can simulate a test on a machine with a given error
 (:meth:`inertest.procedures.base.Procedure.motion`) and fit it with the nominal machine, without
 any procedure knowing about Type-B sources (JCGM 100:2008, GUM 5.1.3: the sensitivity coefficient
 as the change of the output estimate for a change of one input estimate).
@@ -33,7 +33,7 @@ class TypeBSource:
     Attributes
     ----------
     name : str
-        Name without the unit suffix, as :attr:`inertest.lab.TypeB.name` (``"tilt"``).
+        Name without the unit suffix, as :attr:`inertest.quality.lab.TypeB.name` (``"tilt"``).
     si_unit : str
         Unit of the error inside the library (``"rad"``, ``"1"``, ``"m"``).
     effect : str

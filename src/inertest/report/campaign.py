@@ -60,7 +60,7 @@ def campaign_page(
     history : sequence of (QuantityHistory, times)
         The instrument's stored history including this run (figures shown from two runs on).
     test : mapping, optional
-        The envelope's ``test`` block (:func:`inertest.lab.identity_block`): operator, date,
+        The envelope's ``test`` block (:func:`inertest.quality.lab.identity_block`): operator, date,
         equipment and its calibration status, environment.
     uncertainty_budget, conformance : mapping, optional
         The envelope's blocks of the same names: a verdict table and a budget table

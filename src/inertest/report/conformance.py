@@ -1,7 +1,8 @@
 """Verdicts against a specification and the uncertainty budget, as tables (report and terminal).
 
-Built from the envelope's ``conformance`` block (:meth:`inertest.conformance.Conformance.
-to_dict`) and ``uncertainty_budget`` block (:meth:`inertest.budget.UncertaintyBudget.to_dict`),
+Built from the envelope's ``conformance`` block
+(:meth:`inertest.quality.conformance.Conformance.to_dict`) and ``uncertainty_budget`` block
+(:meth:`inertest.quality.budget.UncertaintyBudget.to_dict`),
 so the terminal, the JSON and the HTML report say the same. Values and uncertainties are rounded
 by :func:`~inertest.report.rounding.round_to_uncertainty` (JCGM 100:2008, GUM 7.2.6); a Type-B
 contribution is printed to two significant digits in the quantity's unit.

@@ -1,10 +1,10 @@
 """Who, what, when, where and with what: the identity rows of every report and terminal table.
 
 Built from a result envelope (:func:`inertest.results.envelope`) and its optional ``test`` block
-(:func:`inertest.lab.identity_block`), so the terminal, the JSON and the HTML report state the
-same identity: instrument and serial, site, operator, date, software version, data SHA-256, the
-equipment used with its calibration status, and the environment. ISO/IEC 17025 7.8.2 lists what a
-test report identifies; this is that list for an inertial instrument test.
+(:func:`inertest.quality.lab.identity_block`), so the terminal, the JSON and the HTML report
+state the same identity: instrument and serial, site, operator, date, software version, data
+SHA-256, the equipment used with its calibration status, and the environment. ISO/IEC 17025
+7.8.2 lists what a test report identifies; this is that list for an inertial instrument test.
 """
 
 from __future__ import annotations

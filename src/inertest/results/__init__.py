@@ -447,8 +447,8 @@ ENVELOPE_KEYS: tuple[str, ...] = (
 )
 
 #: Envelope keys present only when known: the test's identity (``inertest fit --equipment``),
-#: the uncertainty budget (:meth:`inertest.budget.UncertaintyBudget.to_dict`) and the verdicts
-#: against a specification (:meth:`inertest.conformance.Conformance.to_dict`).
+#: the uncertainty budget (:meth:`inertest.quality.budget.UncertaintyBudget.to_dict`) and the
+#: verdicts against a specification (:meth:`inertest.quality.conformance.Conformance.to_dict`).
 OPTIONAL_KEYS: frozenset[str] = frozenset({"test", "uncertainty_budget", "conformance"})
 
 
@@ -488,16 +488,16 @@ def envelope(
         not ``consistent``/``ok`` (a model that does not fit the data) is added to them.
     test : mapping, optional
         Who ran the test, when, with what equipment (ids, calibration due dates) and in which
-        environment, the software version and the data's SHA-256 (:func:`inertest.lab.
+        environment, the software version and the data's SHA-256 (:func:`inertest.quality.lab.
         identity_block`); the key is present only when known, right after ``instrument``.
     uncertainty_budget : mapping, optional
         Per quantity: the Type-A std and its dof, each Type-B source's contribution, the
         combined std, k and the expanded U, with the independence assumption (JCGM 100:2008,
-        GUM 5.1.2, G.4.1; :meth:`inertest.budget.UncertaintyBudget.to_dict`); present only
+        GUM 5.1.2, G.4.1; :meth:`inertest.quality.budget.UncertaintyBudget.to_dict`); present only
         when computed, after ``result``.
     conformance : mapping, optional
         Verdict per limited quantity (value, U, k, limit, clause, verdict) and the decision
-        rule's text (ILAC-G8:09/2019; :meth:`inertest.conformance.Conformance.to_dict`);
+        rule's text (ILAC-G8:09/2019; :meth:`inertest.quality.conformance.Conformance.to_dict`);
         present only when a specification was given, after ``uncertainty_budget``.
 
     Returns

@@ -1,4 +1,4 @@
-"""The lab equipment file (inertest.lab) and a plan's [test] table (inertest.plan)."""
+"""The lab equipment file (inertest.quality.lab) and a plan's [test] table (inertest.plan)."""
 
 import datetime as dt
 import math
@@ -7,16 +7,16 @@ from pathlib import Path
 import pytest
 
 from inertest.errors import PlanError
-from inertest.lab import (
+from inertest.plan import read_test_table
+from inertest.quality.lab import (
     LabFileError,
     equipment_from_mapping,
     overdue_messages,
     read_equipment,
     select_equipment,
 )
-from inertest.plan import read_test_table
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab" / "equipment.toml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "lab" / "equipment.toml"
 
 
 def _doc(**over):

@@ -3,7 +3,7 @@
 For each quantity of a result (its identifiable coefficients and combinations) the budget lists
 the Type-A standard uncertainty of the fit and one Type-B contribution per error source of the
 test equipment named in the plan's ``[test] equipment`` (lab file ``type_b``, see
-:mod:`inertest.lab`) and of the site's local gravity, then combines them (JCGM 100:2008, GUM
+:mod:`inertest.quality.lab`) and of the site's local gravity, then combines them (JCGM 100:2008, GUM
 5.1.2, uncorrelated input quantities: root sum of squares) and expands the combined standard
 uncertainty with ``k = t_95.45(nu_eff)`` from the Welch-Satterthwaite effective degrees of
 freedom (GUM G.4.1, eq. G.2b; the Type-B inputs taken as exactly known, ``nu = inf``, GUM G.4.3),
@@ -43,9 +43,9 @@ from scipy import stats
 
 from inertest.earth import Site, normal_gravity
 from inertest.equipment.type_b import TypeBSource
-from inertest.lab import Equipment
 from inertest.plan import Plan
 from inertest.procedures import procedure
+from inertest.quality.lab import Equipment
 
 #: Coverage probability of the expanded uncertainty (k = 2 for a normal distribution, GUM G.6.6).
 COVERAGE_PROBABILITY = 0.9545
@@ -232,7 +232,8 @@ def uncertainty_budget(
     result : procedure result
         From :func:`inertest.fit` (``coefficients``, ``combinations``, ``identification.dof``).
     equipment : sequence of Equipment
-        The lab records of the plan's ``[test] equipment`` (:func:`inertest.lab.select_equipment`).
+        The lab records of the plan's ``[test] equipment``
+        (:func:`inertest.quality.lab.select_equipment`).
 
     Returns
     -------

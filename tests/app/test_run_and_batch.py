@@ -11,10 +11,13 @@ import pytest
 
 import batch_hooks
 import inertest
-import inertest.runner as runner
+import inertest.app.batch as batch
+import inertest.app.run as runner
+from inertest.app.batch import run_batch
+from inertest.app.executors import WORKER_DIED
+from inertest.app.run import DuplicateRunError
 from inertest.errors import InertestError, OutputPathError
 from inertest.io.atomic import REPORT_MARKER
-from inertest.runner import WORKER_DIED, DuplicateRunError, run_batch
 from inertest.store import HistoryStore
 
 
@@ -94,7 +97,6 @@ def test_failed_store_leaves_no_report_and_failed_report_no_run(tumble, tmp_path
     assert not any(p.name.startswith(".rep") for p in tmp_path.iterdir())
     monkeypatch.undo()
 
-    import inertest.runner as runner
 
     def broken_report(*args, **kwargs):
         raise OSError(28, "No space left on device")
@@ -222,7 +224,7 @@ def test_batch_cli_survives_a_killed_worker_with_one_error_line(tumble, tmp_path
     from inertest.cli import main
 
     plan, data = tumble
-    monkeypatch.setattr(runner, "local_pool", _hooked_pool)
+    monkeypatch.setattr(batch, "local_pool", _hooked_pool)
     manifest = _manifest(tmp_path, plan, data, ["DIE", "B2", "B3"])
     db = tmp_path / "h.db"
     status = main(["batch", str(manifest), "--workers", "2", "--db", str(db),

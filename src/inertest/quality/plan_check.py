@@ -2,7 +2,7 @@
 
 :func:`check_plan` predicts the uncertainty of every quantity a plan determines, from the plan and a
 noise model, before anything is measured, and compares it with each limit of an instrument
-specification (:mod:`inertest.conformance`):
+specification (:mod:`inertest.quality.conformance`):
 
 1. The test is simulated noise-free (the plan's kinematics, a nominal instrument: the given truth,
    or zero coefficients with the plan's nominal scale factor where it has one, e.g. a triad's
@@ -30,8 +30,8 @@ specification (:mod:`inertest.conformance`):
      candidate plan draws its noise from the same seed (common random numbers), so the
      comparison between candidates is not blurred by independent draws.
 3. Type B: the uncertainty budget of the plan's equipment and the site gravity
-   (:func:`inertest.budget.uncertainty_budget`), and ``U = k u_c`` with ``k = 2`` (GUM G.6.6:
-   many degrees of freedom).
+   (:func:`inertest.quality.budget.uncertainty_budget`), and ``U = k u_c`` with ``k = 2``
+   (GUM G.6.6: many degrees of freedom).
 4. The decision: a limit is *verifiable* when ``U <= tolerance / TUR`` (test uncertainty ratio,
    default 3, the usual 3:1 of calibration practice; ILAC-G8:09/2019 sec. 3 leaves the ratio to
    the lab); *marginal* when ``tolerance / TUR < U < tolerance`` (a guarded pass, w = U, is still
@@ -82,12 +82,12 @@ from typing import Any
 
 import numpy as np
 
-from inertest.budget import quantities_of, uncertainty_budget
-from inertest.conformance import Spec, model_names, not_determined_note
 from inertest.errors import InertestError, PlanError, UnitError
-from inertest.lab import Equipment
 from inertest.plan import Plan, did_you_mean
 from inertest.procedures import procedure
+from inertest.quality.budget import quantities_of, uncertainty_budget
+from inertest.quality.conformance import Spec, model_names, not_determined_note
+from inertest.quality.lab import Equipment
 from inertest.units import convert
 
 #: Default test uncertainty ratio: U <= tolerance / 3.
@@ -665,7 +665,7 @@ def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
     ----------
     plan : Plan
     spec : Spec
-        Limits to verify (:func:`inertest.conformance.read_spec`).
+        Limits to verify (:func:`inertest.quality.conformance.read_spec`).
     noise : NoiseModel
         The instrument's noise in the plan's output unit (:func:`read_noise`).
     equipment : sequence of Equipment

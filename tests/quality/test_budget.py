@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 import inertest
-from inertest.budget import Contribution, combine, uncertainty_budget
 from inertest.earth import Site
 from inertest.errors import InertestWarning
-from inertest.lab import Equipment, TypeB
 from inertest.procedures import procedure
+from inertest.quality.budget import Contribution, combine, uncertainty_budget
+from inertest.quality.lab import Equipment, TypeB
 from inertest.units import ARCSEC_TO_RAD, PPM_TO_RATIO
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 TRUTH = {"DF": 1.2, "DI": 0.85, "DO": -0.62, "DS": 0.31, "DIO": 0.12, "DOS": -0.08,
          "DSI": 0.05, "DII": 0.04, "DOO": -0.03, "DSS": 0.02}
 

@@ -23,15 +23,15 @@ import sqlalchemy as sa
 from distributed import Client, LocalCluster
 
 import inertest
+from inertest.app.batch import run_batch
 from inertest.cli import main
 from inertest.io.data_file import write_table
 from inertest.procedures.centrifuge_nine_position import fit_inputs
-from inertest.runner import run_batch
 from inertest.studies import centrifuge_study as cs
 
 pytestmark = pytest.mark.slow
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 N_RUNS = 4  # good (plan, data) pairs in the manifest; one more names a missing plan
 
 

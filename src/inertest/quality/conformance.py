@@ -34,10 +34,10 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from inertest.budget import UncertaintyBudget, quantities_of
 from inertest.errors import PlanError, UnitError
-from inertest.lab import read_toml_file
 from inertest.plan import Field, check_known_keys, did_you_mean, read_fields
+from inertest.quality.budget import UncertaintyBudget, quantities_of
+from inertest.quality.lab import read_toml_file
 from inertest.units import compound_unit, convert
 
 #: Decision rules; ``{k}`` is filled with the coverage factor(s) used (:func:`rule_text`).

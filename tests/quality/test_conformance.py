@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 import inertest
-from inertest.budget import UncertaintyBudget, combine, uncertainty_budget
-from inertest.conformance import SpecError, decide, read_spec, spec_from_mapping, verdicts
+from inertest.quality.budget import UncertaintyBudget, combine, uncertainty_budget
+from inertest.quality.conformance import SpecError, decide, read_spec, spec_from_mapping, verdicts
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 @pytest.mark.parametrize(("value", "guarded", "simple"), [

@@ -1,4 +1,4 @@
-"""inertest.plan_check: predicted uncertainty of a plan before testing (issue 20).
+"""inertest.quality.plan_check: predicted uncertainty of a plan before testing (issue 20).
 
 References: the Monte Carlo scatter of simulated-and-fitted tests with noise from
 tests/noise_generators.py (written apart from the library), the 1/sqrt(n) law of a mean of n
@@ -16,9 +16,9 @@ import pytest
 
 from inertest.api import fit, load_plan, simulate
 from inertest.cli import main
-from inertest.conformance import SpecError, spec_from_mapping, verdicts
 from inertest.errors import InertestWarning
-from inertest.plan_check import NoiseModel, check_plan, predict_std
+from inertest.quality.conformance import SpecError, spec_from_mapping, verdicts
+from inertest.quality.plan_check import NoiseModel, check_plan, predict_std
 from noise_generators import noise as mc_noise
 
 SIGMA = 0.002  # mA per reading (S_T = 12.5 deg/h/mA: 0.025 deg/h)
@@ -204,8 +204,8 @@ def _scatter(plan, truth, kind, s, reps, seed):
 ])
 def test_scale_factor_plans_predict_the_scatter_of_fitted_tests(examples_dir, folder, spec,
                                                                 sigma, given_truth, reps):
-    from inertest.conformance import read_spec
     from inertest.io.plan_file import load_truth
+    from inertest.quality.conformance import read_spec
 
     plan = load_plan(examples_dir / folder / "plan.toml")
     truth = load_truth(examples_dir / folder / "truth.toml")
@@ -241,7 +241,7 @@ def test_cli_takes_the_truth_beside_the_plan_or_says_what_to_give(examples_dir, 
 
 
 def test_std_relative_error_matches_the_spread_of_sample_stds():
-    from inertest.plan_check import std_relative_error
+    from inertest.quality.plan_check import std_relative_error
 
     rng = np.random.default_rng(3)
     for draw, n in ((lambda size: rng.normal(size=size), 60),

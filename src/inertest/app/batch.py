@@ -1,0 +1,281 @@
+"""Many runs of tests: a manifest, fits on an executor, each run filed as its own transaction.
+
+:func:`run_batch` computes the fits on any ``concurrent.futures``-style executor (a process pool,
+a ``dask.distributed.Client``) while this process files every run, one transaction each
+(:func:`inertest.app.run.file_run`), in manifest order; the submission window keeps memory
+bounded however long the manifest. The executor's plumbing (restarting a broken pool, a lost
+Dask worker, timeouts) is in :mod:`inertest.app.executors`.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from inertest.api import fit, load_data, load_plan
+from inertest.app.executors import Fits, local_pool, slots
+from inertest.app.run import (
+    PathLike,
+    RunOutcome,
+    as_utc,
+    data_summary,
+    file_run,
+    judge,
+    lab_of,
+    source_name,
+    spec_of,
+)
+from inertest.errors import InertestError, PlanError
+from inertest.io.atomic import check_outputs
+from inertest.io.data_file import file_sha256
+from inertest.io.plan_file import read_toml
+from inertest.plan import did_you_mean
+from inertest.quality.lab import Equipment, select_equipment
+
+if TYPE_CHECKING:
+    from inertest.store import HistoryStore
+
+
+@dataclass(frozen=True)
+class BatchTask:
+    """One (plan, data) pair of a batch, with its options.
+
+    ``spec`` and ``equipment`` (files, as ``inertest fit --spec --equipment``) are read and
+    applied where the fit runs, so the filed run carries its uncertainty budget and verdicts.
+    """
+
+    plan: Path
+    data: Path
+    sigma: float | None = None
+    report_dir: Path | None = None
+    spec: Path | None = None
+    equipment: Path | None = None
+
+
+@dataclass(frozen=True)
+class BatchItem:
+    """The outcome of one batch task: an outcome, or the one-line error that stopped it."""
+
+    task: BatchTask
+    outcome: RunOutcome | None
+    error: str | None
+
+
+_RUN_KEYS = ("plan", "data", "sigma", "report", "spec", "equipment")
+_DEFAULT_KEYS = ("sigma", "spec", "equipment")
+def read_manifest(path: PathLike) -> list[BatchTask]:
+    """Read a batch manifest (TOML).
+
+    ``[[run]]`` tables with ``plan``, ``data``, optional ``sigma``, ``report``, ``spec`` (an
+    instrument specification: verdicts) and ``equipment`` (a lab equipment file: uncertainty
+    budget); an optional ``[defaults]`` table gives ``sigma``, ``spec`` and ``equipment`` for
+    every run that does not name its own. Paths are relative to the manifest's folder.
+    """
+    mpath = Path(path)
+    doc = read_toml(mpath, "batch manifest")
+    runs = doc.get("run")
+    unknown = sorted(set(doc) - {"run", "defaults"})
+    if unknown:
+        raise PlanError(f"batch manifest {mpath}: unknown table(s) {', '.join(unknown)}"
+                        f"{did_you_mean(unknown[0], ('run', 'defaults'))}; list the runs as "
+                        "[[run]] tables (shared spec, equipment, sigma in [defaults])")
+    if not isinstance(runs, list) or not runs:
+        raise PlanError(f"batch manifest {mpath} lists no [[run]] tables with plan and data")
+    defaults = doc.get("defaults", {})
+    if not isinstance(defaults, dict):
+        raise PlanError(f"batch manifest {mpath}: defaults must be a table ([defaults])")
+    _known_keys(defaults, _DEFAULT_KEYS, f"batch manifest {mpath}, [defaults]")
+    tasks = []
+    for k, r in enumerate(runs, start=1):
+        where = f"batch manifest {mpath}, run {k}"
+        if not isinstance(r, dict):
+            raise PlanError(f"{where}: each run must be a [[run]] table with plan and data")
+        _known_keys(r, _RUN_KEYS, where)
+        if "plan" not in r or "data" not in r:
+            raise PlanError(f"{where}: needs plan and data (optional sigma, report, spec, "
+                            "equipment)")
+        opts = {**defaults, **r}
+        sigma = opts.get("sigma")
+        if sigma is not None and (isinstance(sigma, bool) or not isinstance(sigma, int | float)):
+            raise PlanError(f"{where}: sigma must be a number")
+
+        def rel(key: str, opts: dict = opts, where: str = where) -> Path | None:
+            v = opts.get(key)
+            if v is None:
+                return None
+            if not isinstance(v, str) or not v:
+                raise PlanError(f'{where}: {key} must be a file path (text), got {v!r}')
+            return mpath.parent / v
+
+        tasks.append(BatchTask(
+            plan=rel("plan"), data=rel("data"),  # type: ignore[arg-type]
+            sigma=None if sigma is None else float(sigma), report_dir=rel("report"),
+            spec=rel("spec"), equipment=rel("equipment")))
+    return tasks
+
+
+def _known_keys(table: Mapping[str, Any], known: Sequence[str], where: str) -> None:
+    extra = sorted(set(table) - set(known))
+    if extra:
+        raise PlanError(f"{where}: unknown key(s) {', '.join(extra)}"
+                        f"{did_you_mean(extra[0], known)}; known: {', '.join(known)}")
+
+
+def _check_judging_files(todo: Sequence[BatchTask]) -> None:
+    """Read every spec and lab file the tasks name once, before any fit.
+
+    A bad one stops the batch with nothing stored; the workers read them again where they run.
+    """
+    for spec in sorted({t.spec for t in todo if t.spec is not None}):
+        spec_of(spec)
+    for lab in sorted({t.equipment for t in todo if t.equipment is not None}):
+        lab_of(lab)
+
+
+def compute(task: BatchTask) -> tuple[Any, ...]:
+    """Worker side of a batch task: read, fit and judge (no database, no report)."""
+    p = load_plan(task.plan)
+    lab, lab_source = lab_of(task.equipment)
+    used: tuple[Equipment, ...] = ()
+    if lab is not None and p.test is not None:
+        used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", task.plan),
+                                lab_source=lab_source)
+    spec_doc = spec_of(task.spec)
+    d = load_data(task.data)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fit(p, d, sigma=task.sigma)
+    budget, conformance = (judge(p, result, used, spec_doc)
+                           if lab is not None or spec_doc is not None else (None, None))
+    digest = file_sha256(task.data)
+    return (result, p, task.plan.read_text(encoding="utf-8"), digest,
+            tuple(str(w.message) for w in caught), data_summary(task.data, d, digest),
+            lab, lab_source, budget, conformance)
+
+
+def run_batch(
+    tasks: PathLike | Iterable[BatchTask | tuple[PathLike, PathLike]],
+    *,
+    executor: Any = None,
+    workers: int = 1,
+    store: bool | str | HistoryStore = False,
+    allow_duplicate: bool = False,
+    tested_at: datetime | None = None,
+    progress: Callable[[BatchItem], None] | None = None,
+    max_pending: int | None = None,
+    timeout: float | None = None,
+) -> list[BatchItem]:
+    """Run many tests: fits on ``executor``, then each filed here as its own transaction.
+
+    Parameters
+    ----------
+    tasks : path of a manifest, or iterable of BatchTask or (plan, data) pairs
+        What to run (:func:`read_manifest` for the manifest layout).
+    executor : optional
+        Anything with ``submit(fn, *args)`` returning futures with ``result()``:
+        :class:`concurrent.futures.ProcessPoolExecutor`, ``dask.distributed.Client``. The fits
+        (read plan and data, identify) run there; the returned results are filed here.
+    workers : int
+        Used when no ``executor`` is given: 1 runs the fits here, one after the other; more
+        starts a local process pool of ``min(workers, cpu count)`` processes for this batch.
+    store, allow_duplicate, tested_at
+        As in :func:`run`; the database is written only by this process, one transaction per
+        run, in task order.
+    progress : callable, optional
+        Called with each :class:`BatchItem` as soon as it is filed (for a progress bar).
+    max_pending : int, optional
+        Fits submitted ahead of the one being filed (memory stays bounded by this many results
+        however long the manifest); default twice the executor's worker count, at least 4.
+    timeout : float, optional
+        Longest a fit may take [s], counted from when every earlier run is filed (the run is
+        then at the head of the queue); a run over it fails and its worker is stopped (a
+        process pool is restarted; on Dask the future is cancelled). Default: no limit. With
+        a timeout and no ``executor`` the fits run in a pool even for ``workers=1``.
+
+    Returns
+    -------
+    list of BatchItem
+        In task order; a task that failed carries its one-line error and stored nothing.
+
+    Notes
+    -----
+    A run that fails does not stop the others, even when it takes its worker down. When a
+    process pool breaks (a worker killed or out of memory), the pool is restarted with the
+    same settings and the runs that were in flight are run again one at a time: one that
+    kills its worker alone fails with "worker process died (killed or out of memory)" and is
+    not tried again; the others are filed. After three restarts in a row with no fit finished
+    the pool is given up and the runs not yet done fail. A Dask worker lost under a run
+    (``KilledWorker``, after Dask's own retries) or a cancelled future fails that run only.
+    While it waits, the driver checks the pool every 0.5 s, so a pool that broke without
+    telling its futures is noticed rather than waited on forever.
+
+    The results do not depend on where the fits ran: the same manifest gives bit-identical
+    results serially, on a process pool and on a Dask cluster (``tests/test_dask_batch.py``).
+    """
+    if isinstance(tasks, str | os.PathLike):
+        todo = read_manifest(tasks)
+    else:
+        todo = [t if isinstance(t, BatchTask) else BatchTask(Path(t[0]), Path(t[1]))
+                for t in tasks]
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise PlanError(f"workers must be a whole number >= 1, got {workers!r}")
+    if timeout is not None and (isinstance(timeout, bool) or not isinstance(timeout, int | float)
+                                or not timeout > 0):
+        raise PlanError(f"timeout must be a number of seconds > 0, got {timeout!r}")
+    if max_pending is not None and (isinstance(max_pending, bool)
+                                    or not isinstance(max_pending, int) or max_pending < 1):
+        raise PlanError(f"max_pending must be a whole number >= 1, got {max_pending!r}")
+    for t in todo:
+        if t.report_dir is not None:
+            check_outputs([t.report_dir], [x for x in (t.plan, t.data, t.spec, t.equipment)
+                                           if x is not None])
+    _check_judging_files(todo)
+    own = executor is None and (timeout is not None or (workers > 1 and len(todo) > 1))
+    return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
+                     store=store, allow_duplicate=allow_duplicate, tested_at=tested_at,
+                     progress=progress, max_pending=max_pending, timeout=timeout, own=own)
+
+
+def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
+              allow_duplicate: bool, tested_at: datetime | None,
+              progress: Callable[[BatchItem], None] | None, max_pending: int | None,
+              timeout: float | None = None, own: bool = False) -> list[BatchItem]:
+    """Submit the fits through a sliding window and file each result in task order."""
+    from inertest.store import HistoryStore
+
+    window = max_pending or max(4, 2 * slots(executor))
+    fits = Fits(todo, executor, own=own, timeout=timeout, fn=compute)
+    own_db = store is True or isinstance(store, str)
+    db: Any = None
+    when = as_utc(tested_at) if tested_at is not None else datetime.now(UTC)
+    out: list[BatchItem] = []
+    try:
+        db = HistoryStore(None if store is True else str(store)) if own_db else store
+        for k, t in enumerate(todo):
+            fits.submit_up_to(k + window)
+            try:
+                (result, p, plan_text, digest, msgs, summary, lab, lab_source, budget,
+                 conformance) = fits.collect(k)
+                outcome = file_run(
+                    result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
+                    tested_at=when, store=db if db else False, report_dir=t.report_dir,
+                    allow_duplicate=allow_duplicate, warnings_=msgs,
+                    inputs=[x for x in (t.plan, t.data, t.spec, t.equipment) if x is not None],
+                    lab=lab, lab_source=lab_source, plan_source=source_name("plan", t.plan),
+                    budget=budget, conformance=conformance)
+                item = BatchItem(t, outcome, None)
+            except (InertestError, OSError) as exc:
+                item = BatchItem(t, None, str(exc))
+            out.append(item)
+            if progress is not None:
+                progress(item)
+    finally:
+        fits.close()
+        if own_db and db:
+            db.close()
+    return out

@@ -1,0 +1,416 @@
+"""Run a test end to end as one transaction: fit, report, store (``inertest fit``).
+
+:func:`run` does what ``inertest fit`` does, from Python: identify the coefficients, render the
+report into a temporary folder, check the history database for the same data filed twice, store
+the run, and only then move the report into place. A failure at any step leaves nothing behind:
+no stored run, no report, no half-written folder. :func:`run_batch` does it for many (plan, data)
+pairs, computing on any ``concurrent.futures``-style executor (a process pool, a
+``dask.distributed.Client``) while this process files every run, one transaction each.
+
+Example
+-------
+>>> import inertest
+>>> out = inertest.run("plan.toml", "data.csv", store="history.db", report_dir="report")
+...                                                                   # doctest: +SKIP
+>>> out.result.coefficients["DI"], out.stored_run, out.report               # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import os
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from inertest.api import fit, load_data, load_plan
+from inertest.errors import InertestError, PlanError
+from inertest.io.atomic import check_outputs, target_directory
+from inertest.io.data_file import file_sha256
+from inertest.plan import Plan
+from inertest.quality.lab import (
+    Equipment,
+    identity_block,
+    overdue_messages,
+    read_equipment,
+    select_equipment,
+    unchecked_equipment_message,
+)
+from inertest.results import with_blocks
+
+if TYPE_CHECKING:
+    from inertest.quality.budget import UncertaintyBudget
+    from inertest.quality.conformance import Conformance, Spec
+    from inertest.store import HistoryStore
+
+PathLike = str | os.PathLike[str]
+class DuplicateRunError(InertestError):
+    """The same data file is already filed for this instrument and procedure."""
+
+
+@dataclass(frozen=True)
+class RunOutcome:
+    """What :func:`run` did.
+
+    Attributes
+    ----------
+    result : procedure result
+        With ``kind``, ``identification`` and ``to_dict()`` (the result envelope).
+    plan : Plan
+    data_sha256 : str
+        SHA-256 of the data file (or of the columns, for in-memory data).
+    tested_at : datetime
+        When the test was run (UTC).
+    stored_run : str or None
+        UUID of the stored run; None when not stored.
+    database : str or None
+        The database it was stored in (password masked).
+    report : Path or None
+        The report's ``index.html``.
+    warnings : tuple of str
+        Warnings raised while fitting, and the filing's own (also shown by the command line).
+    notices : tuple of str
+        The filing's own warnings, also in the envelope's ``messages``: overdue equipment
+        calibrations, equipment named without a lab file.
+    test : dict or None
+        The envelope's ``test`` block (:func:`inertest.quality.lab.identity_block`): operator, date,
+        equipment with calibration status, environment, software version, data SHA-256.
+    budget : UncertaintyBudget or None
+        Type A and Type B per quantity (:func:`inertest.quality.budget.uncertainty_budget`),
+        when a lab file or a specification was given.
+    conformance : Conformance or None
+        Verdicts against the specification (:func:`inertest.quality.conformance.verdicts`).
+    """
+
+    result: Any
+    plan: Plan
+    data_sha256: str
+    tested_at: datetime
+    stored_run: str | None = None
+    database: str | None = None
+    report: Path | None = None
+    warnings: tuple[str, ...] = field(default=())
+    test: dict[str, Any] | None = None
+    budget: UncertaintyBudget | None = None
+    conformance: Conformance | None = None
+    notices: tuple[str, ...] = field(default=())
+
+    def to_dict(self) -> dict[str, object]:
+        """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
+        return _with_notices(with_blocks(
+            self.result.to_dict(), test=self.test,
+            uncertainty_budget=None if self.budget is None else self.budget.to_dict(),
+            conformance=None if self.conformance is None else self.conformance.to_dict()),
+            self.notices)
+
+
+def _with_notices(doc: dict[str, object], notices: Sequence[str]) -> dict[str, object]:
+    """``doc`` with ``notices`` appended to its ``messages`` (each once)."""
+    if not notices:
+        return doc
+    found = doc.get("messages")
+    messages = [str(m) for m in found] if isinstance(found, list) else []
+    doc["messages"] = messages + [m for m in notices if m not in messages]
+    return doc
+
+
+def run(
+    plan: Plan | PathLike,
+    data: Mapping[str, Any] | PathLike,
+    *,
+    sigma: float | None = None,
+    store: bool | str | HistoryStore = False,
+    report_dir: PathLike | None = None,
+    pdf: bool = False,
+    tested_at: datetime | None = None,
+    allow_duplicate: bool = False,
+    equipment: PathLike | Mapping[str, Equipment] | None = None,
+    spec: PathLike | Spec | None = None,
+    noise_model: str | None = None,
+) -> RunOutcome:
+    """Fit, report and store one test as a single transaction (``inertest fit``).
+
+    Parameters
+    ----------
+    plan : Plan or path
+        The test plan (TOML file or :class:`~inertest.plan.Plan`).
+    data : mapping of columns, or path
+        The measurements (CSV, Parquet or HDF5 file, or ``{column: array}``).
+    sigma : float, optional
+        Known noise per reading [output unit]; estimated from the residuals when omitted.
+    store : bool, str or HistoryStore
+        False: do not store. True: the default database (``$INERTEST_DB`` or
+        ``~/.local/share/inertest/history.db``). A URL or path, or an open
+        :class:`~inertest.store.HistoryStore`.
+    report_dir : path, optional
+        Folder for the self-contained HTML report: a new folder, an empty one or an earlier
+        inertest report; never one holding other files or an input.
+    pdf : bool
+        Also write ``report.pdf`` (needs Chromium).
+    tested_at : datetime, optional
+        When the test was run (default: now); naive datetimes are UTC.
+    allow_duplicate : bool
+        File a data file again that is already stored for this instrument and procedure.
+    equipment : path or mapping, optional
+        The lab equipment file (:func:`inertest.quality.lab.read_equipment`) or its records:
+        the plan's ``[test] equipment`` ids are resolved against it (an unknown id is an error
+        naming both files) and an overdue calibration on the test date becomes a warning. With
+        it, the uncertainty budget is computed: Type A of the fit, and Type B of each item's
+        ``type_b`` entries and of the site gravity, propagated through the procedure's model
+        (:func:`inertest.quality.budget.uncertainty_budget`, JCGM 100:2008 GUM 5.1).
+    spec : path or Spec, optional
+        An instrument specification (:func:`inertest.quality.conformance.read_spec`, see
+        ``examples/specs``): the budget is computed (gravity only without a lab file) and each
+        limited quantity gets a verdict under the spec's ILAC-G8 decision rule, its guard band
+        the budget's expanded uncertainty U. Budget and verdicts go into the envelope (JSON,
+        stored run) and the report.
+    noise_model : str, optional
+        Overrides the plan's ``[procedure] noise_model`` (:func:`inertest.api.fit`).
+
+    Returns
+    -------
+    RunOutcome
+
+    Raises
+    ------
+    InertestError
+        Bad plan or data, an unsafe report folder, a duplicate run, or an unusable database;
+        nothing was stored or written.
+    """
+    plan_path = None if isinstance(plan, Plan) else Path(plan)
+    data_path = None if isinstance(data, Mapping) else Path(data)
+    if report_dir is not None:
+        check_outputs([report_dir], [p for p in (plan_path, data_path) if p is not None])
+    if pdf and report_dir is None:
+        raise PlanError("a PDF is part of the report: give report_dir as well")
+    p = plan if isinstance(plan, Plan) else load_plan(plan)
+    lab, lab_source = lab_of(equipment)
+    used: tuple[Equipment, ...] = ()
+    if lab is not None and p.test is not None:  # an unknown id fails before any work
+        used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", plan_path),
+                                lab_source=lab_source)
+    spec_doc = spec_of(spec)
+    d = data if isinstance(data, Mapping) else load_data(data)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = fit(p, d, sigma=sigma, noise_model=noise_model)
+    messages = tuple(str(w.message) for w in caught)
+    budget, conformance = (judge(p, result, used, spec_doc)
+                           if lab is not None or spec_doc is not None else (None, None))
+    when = as_utc(tested_at) if tested_at is not None else datetime.now(UTC)
+    digest = file_sha256(data_path) if data_path is not None else columns_sha256(d)
+    plan_text = plan_path.read_text(encoding="utf-8") if plan_path is not None else repr(p)
+    return file_run(
+        result, p, plan_text=plan_text, data_sha256=digest, data_summary=data_summary(
+            data_path, d, digest), tested_at=when, store=store, report_dir=report_dir, pdf=pdf,
+        allow_duplicate=allow_duplicate, warnings_=messages,
+        inputs=[x for x in (plan_path, data_path) if x is not None], lab=lab,
+        lab_source=lab_source, plan_source=source_name("plan", plan_path), budget=budget,
+        conformance=conformance)
+
+
+def judge(plan: Plan, result: Any, equipment: Sequence[Equipment], spec: Spec | None
+          ) -> tuple[UncertaintyBudget, Conformance | None]:
+    """The result's uncertainty budget and, with a spec, its verdicts (budget's U as guard band).
+
+    Raises
+    ------
+    SpecError
+        A limited quantity that is no quantity of the procedure (one of its model the test
+        does not determine is judged "not determined"), or a limit unit that cannot express
+        it; raised before anything is written.
+    """
+    from inertest.quality.budget import uncertainty_budget
+    from inertest.quality.conformance import model_names, verdicts
+
+    if spec is not None:  # a misnamed quantity fails before the budget's simulations
+        spec.check_quantities(_quantity_names(result), model_names(result),
+                              kind=getattr(result, "kind", "the result"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the budget's noise-free refits warn about nothing real
+        budget = uncertainty_budget(plan, result, equipment)
+    return budget, None if spec is None else verdicts(result, spec, budget)
+
+
+def _quantity_names(result: Any) -> list[str]:
+    return [*result.coefficients, *(c.name for c in result.combinations)]
+
+
+def spec_of(spec: PathLike | Spec | None) -> Spec | None:
+    """The specification read from a path (or as given)."""
+    if spec is None:
+        return None
+    from inertest.quality.conformance import Spec, read_spec
+
+    return spec if isinstance(spec, Spec) else read_spec(spec)
+
+
+def source_name(what: str, path: Path | None) -> str:
+    """How messages name an input: ``"plan plan.toml"`` or ``"the plan"``."""
+    return f"{what} {path}" if path is not None else f"the {what}"
+
+
+def lab_of(equipment: PathLike | Mapping[str, Equipment] | None
+         ) -> tuple[Mapping[str, Equipment] | None, str]:
+    """The lab's equipment records and how to name their file in messages."""
+    if equipment is None:
+        return None, "the lab file"
+    if isinstance(equipment, Mapping):
+        return equipment, "the lab equipment records"
+    return read_equipment(equipment), f"lab file {equipment}"
+
+
+def file_run(
+    result: Any,
+    plan: Plan,
+    *,
+    plan_text: str,
+    data_sha256: str,
+    data_summary: Mapping[str, object],
+    tested_at: datetime,
+    store: bool | str | HistoryStore = False,
+    report_dir: PathLike | None = None,
+    pdf: bool = False,
+    allow_duplicate: bool = False,
+    warnings_: Sequence[str] = (),
+    inputs: Sequence[PathLike] = (),
+    lab: Mapping[str, Equipment] | None = None,
+    lab_source: str = "the lab file",
+    plan_source: str = "the plan",
+    budget: UncertaintyBudget | None = None,
+    conformance: Conformance | None = None,
+) -> RunOutcome:
+    """Report and store an already computed result, as one transaction (see :func:`run`).
+
+    ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
+    report.
+    """
+    if store is not False and store is not None:  # SQLAlchemy, Alembic: only when storing
+        from inertest.store import HistoryStore, RunRecord, StoreError
+
+    version = metadata.version("inertest")
+    test = identity_block(plan.test, lab=lab, tested_at=tested_at, software_version=version,
+                          data_sha256=data_sha256, plan_source=plan_source,
+                          lab_source=lab_source)
+    used = [lab[i] for i in plan.test.equipment] if lab is not None and plan.test else []
+    notices = overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))
+    if lab is None and plan.test is not None and plan.test.equipment:
+        notices.append(unchecked_equipment_message(plan.test.equipment))
+    warnings_ = [*warnings_, *notices]
+    envelope_doc = _with_notices(with_blocks(
+        result.to_dict(), test=test,
+        uncertainty_budget=None if budget is None else budget.to_dict(),
+        conformance=None if conformance is None else conformance.to_dict()), notices)
+    own_store = store is True or isinstance(store, str)
+    db: HistoryStore | None
+    if store is False or store is None:
+        db = None
+    elif isinstance(store, HistoryStore):
+        db = store
+    else:
+        db = HistoryStore(None if store is True else str(store))
+    try:
+        record = None
+        if db is not None:
+            record = RunRecord.from_result(
+                envelope_doc, serial=plan.instrument.serial,
+                instrument_kind=plan.instrument.kind, plan_text=plan_text,
+                data_sha256=data_sha256, software_version=version, tested_at=tested_at)
+            if not allow_duplicate:
+                earlier = db.runs_with_data(plan.instrument.serial, result.kind, data_sha256)
+                if earlier:
+                    raise DuplicateRunError(
+                        f"this data file (sha256 {data_sha256[:12]}...) is already filed for "
+                        f"{plan.instrument.serial} / {result.kind} (run {earlier[0]}); nothing "
+                        "stored. Use --allow-duplicate to file it again, or --no-store")
+        report_path = None
+        if report_dir is not None:
+            history: list = []
+            if db is not None and record is not None:
+                from inertest.store.summary import summarize_runs
+
+                try:
+                    earlier_runs = db.runs(plan.instrument.serial, procedure=result.kind)
+                except StoreError:
+                    earlier_runs = []
+                history = summarize_runs(sorted([*earlier_runs, record],
+                                                key=lambda r: r.tested_at))
+            html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
+                                history, test, envelope_doc)
+            added = False
+            try:
+                with target_directory(report_dir, inputs=inputs) as tmp:
+                    (tmp / "index.html").write_text(html, encoding="utf-8")
+                    if pdf:
+                        from inertest.report.pdf import html_to_pdf
+
+                        html_to_pdf(tmp / "index.html", tmp / "report.pdf")
+                    # Store last inside the block: a failed store leaves no report, and a
+                    # failed report leaves no stored run.
+                    if db is not None and record is not None:
+                        db.add(record)
+                        added = True
+            except BaseException:
+                if added:  # moving the report into place failed (full disk): withdraw the run
+                    db.discard(record.run_uuid)  # type: ignore[union-attr]
+                raise
+            report_path = Path(report_dir) / "index.html"
+        elif db is not None and record is not None:
+            db.add(record)
+        return RunOutcome(
+            result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
+            stored_run=None if record is None else record.run_uuid,
+            database=None if db is None else db.display_url, report=report_path,
+            warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance,
+            notices=tuple(notices))
+    finally:
+        if db is not None and own_store:
+            db.close()
+
+
+def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[str, object],
+                 tested_at: datetime, version: str, history: list,
+                 test: Mapping[str, Any] | None = None,
+                 doc: Mapping[str, Any] | None = None) -> str:
+    from inertest.report.campaign import campaign_page
+
+    inst = plan.instrument
+    return campaign_page(
+        result,
+        instrument={"serial": inst.serial or "-", "kind": inst.kind,
+                    "output unit": inst.output_unit, "scale factor": inst.scale_factor or "-"},
+        site={"latitude [deg]": f"{plan.site.latitude_deg:.6f}",
+              "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
+        plan_text=plan_text, data=data_summary, tested_at=tested_at,
+        software_version=version, history=history, test=test,
+        uncertainty_budget=None if doc is None else doc.get("uncertainty_budget"),
+        conformance=None if doc is None else doc.get("conformance"))
+
+
+def data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:
+    """What the report says of the data: file, rows, columns, SHA-256."""
+    n = len(next(iter(data.values()))) if data else 0
+    return {"file": str(path) if path is not None else "(in memory)", "rows": n,
+            "columns": ", ".join(map(str, data)), "sha256": digest}
+
+
+def columns_sha256(data: Mapping[str, Any]) -> str:
+    """SHA-256 over the column names and values of in-memory data (stable across runs)."""
+    import numpy as np
+
+    h = hashlib.sha256()
+    for name in sorted(data):
+        a = np.asarray(data[name])
+        h.update(name.encode("utf-8") + b"\0" + str(a.dtype).encode() + b"\0")
+        h.update(a.astype(str).tobytes() if a.dtype.kind in "OUS" else a.tobytes())
+    return h.hexdigest()
+
+
+def as_utc(t: datetime) -> datetime:
+    """``t`` in UTC (a naive time is taken as UTC)."""
+    return t.replace(tzinfo=UTC) if t.tzinfo is None else t.astimezone(UTC)
