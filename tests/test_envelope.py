@@ -153,3 +153,27 @@ def test_envelope_lifts_the_message_of_a_failed_check():
     assert doc["messages"] == ["a note", "misfit: why"]
     assert envelope("polar-tumble", checks=[bad, good])["messages"] == ["misfit: why"]
     assert envelope("polar-tumble", checks=[good])["messages"] == []
+
+
+def test_one_schema_check_reads_every_envelope_back(tmp_path, capsys):
+    """apply (and nav-calibrate --initial) and the store read an envelope back through
+    results.read_envelope: another schema version is refused with what to do."""
+    import json
+
+    from inertest.cli import main
+    from inertest.errors import InputError
+    from inertest.results import SCHEMA_VERSION, read_envelope
+
+    doc = {"kind": "ferraris", "schema_version": SCHEMA_VERSION + 1, "result": {}}
+    with pytest.raises(InputError, match="schema_version 3; this inertest reads version 2"):
+        read_envelope(doc, source="x")
+    with pytest.raises(InputError, match="not an inertest result"):
+        read_envelope([1, 2], source="x")
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(doc))
+    data = tmp_path / "d.csv"
+    data.write_text("acc_x,acc_y,acc_z\n1,2,3\n")
+    assert main(["apply", str(cal), str(data), "-o", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "schema_version 3" in err and "refit the data" in err
+    assert not (tmp_path / "o.csv").exists()

@@ -7,6 +7,7 @@ from scipy.spatial.transform import Rotation
 
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError
+from inertest.models import triad
 from inertest.procedures import navigation_calibration as nc
 
 LAT = np.radians(34.246)
@@ -173,8 +174,7 @@ def test_convention_misalignment_scale_bias_by_hand():
     b = A @ np.array([0.5 * ARCSEC, 0.0, 0.0])
     recs = segments(prof, rate_hz=20.0, A=A, b=b)
     res = nc.iterate_calibration(recs, np.eye(3) * k, np.zeros(3), latitude_rad=LAT)
-    c = res.summary(scale_unit="count/deg", si_per_scale_unit=180 / np.pi)["coefficients"]
-    assert c["M_xy"]["value"] == pytest.approx(50.0, abs=1e-3) and c["M_xy"]["unit"] == "urad"
-    assert abs(c["M_yx"]["value"]) < 1e-3
-    assert c["K_x"]["value"] == pytest.approx(7200.0, rel=1e-10)
-    assert c["B_x"]["value"] == pytest.approx(0.5, abs=1e-4) and c["B_x"]["unit"] == "deg/h"
+    m = dict(zip(triad.MISALIGNMENT_NAMES, res.misalignment_rad / 1e-6, strict=True))
+    assert m["M_xy"] == pytest.approx(50.0, abs=1e-3) and abs(m["M_yx"]) < 1e-3  # urad
+    assert res.scale[0] / (180 / np.pi) == pytest.approx(7200.0, rel=1e-10)  # count/deg
+    assert res.bias_rad_s[0] == pytest.approx(0.5 * ARCSEC, abs=1e-4 * ARCSEC)

@@ -21,7 +21,7 @@ import datetime as _dt
 import hashlib
 import os
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
@@ -32,7 +32,7 @@ from inertest.api import fit, load_data, load_plan
 from inertest.errors import InertestError, PlanError
 from inertest.io.atomic import check_outputs, target_directory
 from inertest.io.data_file import file_sha256
-from inertest.plan import Plan
+from inertest.plan import Instrument, Plan
 from inertest.quality.lab import (
     Equipment,
     identity_block,
@@ -88,7 +88,7 @@ class RunOutcome:
     """
 
     result: Any
-    plan: Plan
+    plan: Plan | None
     data_sha256: str
     tested_at: datetime
     stored_run: str | None = None
@@ -267,7 +267,7 @@ def lab_of(equipment: PathLike | Mapping[str, Equipment] | None
 
 def file_run(
     result: Any,
-    plan: Plan,
+    plan: Plan | None,
     *,
     plan_text: str,
     data_sha256: str,
@@ -284,23 +284,35 @@ def file_run(
     plan_source: str = "the plan",
     budget: UncertaintyBudget | None = None,
     conformance: Conformance | None = None,
+    instrument: Instrument | None = None,
+    report_html: Callable[[list[Any]], str] | None = None,
+    outputs: Callable[[], None] | None = None,
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`).
 
+    Every stored kind goes through here (a procedure's fit, a batch run, a thermal fit).
     ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
-    report.
+    report. Without a plan (an analysis that has none), ``instrument`` names the instrument
+    and ``report_html(history)`` builds the report page; ``outputs()`` writes the command's
+    other files (figures, model files) inside the transaction: when it fails, the run is
+    withdrawn and the report not moved into place.
     """
+    if plan is None and instrument is None:
+        raise PlanError("file_run needs the plan or the instrument")
+    inst = plan.instrument if plan is not None else instrument
+    assert inst is not None
+    test_table = plan.test if plan is not None else None
     if store is not False and store is not None:  # SQLAlchemy, Alembic: only when storing
         from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
-    test = identity_block(plan.test, lab=lab, tested_at=tested_at, software_version=version,
+    test = identity_block(test_table, lab=lab, tested_at=tested_at, software_version=version,
                           data_sha256=data_sha256, plan_source=plan_source,
                           lab_source=lab_source)
-    used = [lab[i] for i in plan.test.equipment] if lab is not None and plan.test else []
+    used = [lab[i] for i in test_table.equipment] if lab is not None and test_table else []
     notices = overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))
-    if lab is None and plan.test is not None and plan.test.equipment:
-        notices.append(unchecked_equipment_message(plan.test.equipment))
+    if lab is None and test_table is not None and test_table.equipment:
+        notices.append(unchecked_equipment_message(test_table.equipment))
     warnings_ = [*warnings_, *notices]
     envelope_doc = _with_notices(with_blocks(
         result.to_dict(), test=test,
@@ -318,15 +330,15 @@ def file_run(
         record = None
         if db is not None:
             record = RunRecord.from_result(
-                envelope_doc, serial=plan.instrument.serial,
-                instrument_kind=plan.instrument.kind, plan_text=plan_text,
+                envelope_doc, serial=inst.serial,
+                instrument_kind=inst.kind, plan_text=plan_text,
                 data_sha256=data_sha256, software_version=version, tested_at=tested_at)
             if not allow_duplicate:
-                earlier = db.runs_with_data(plan.instrument.serial, result.kind, data_sha256)
+                earlier = db.runs_with_data(inst.serial, result.kind, data_sha256)
                 if earlier:
                     raise DuplicateRunError(
                         f"this data file (sha256 {data_sha256[:12]}...) is already filed for "
-                        f"{plan.instrument.serial} / {result.kind} (run {earlier[0]}); nothing "
+                        f"{inst.serial} / {result.kind} (run {earlier[0]}); nothing "
                         "stored. Use --allow-duplicate to file it again, or --no-store")
         report_path = None
         if report_dir is not None:
@@ -335,13 +347,14 @@ def file_run(
                 from inertest.store.summary import summarize_runs
 
                 try:
-                    earlier_runs = db.runs(plan.instrument.serial, procedure=result.kind)
+                    earlier_runs = db.runs(inst.serial, procedure=result.kind)
                 except StoreError:
                     earlier_runs = []
                 history = summarize_runs(sorted([*earlier_runs, record],
                                                 key=lambda r: r.tested_at))
-            html = _report_html(result, plan, plan_text, data_summary, tested_at, version,
-                                history, test, envelope_doc)
+            html = (report_html(history) if report_html is not None else _report_html(
+                result, plan, plan_text, data_summary, tested_at, version, history, test,
+                envelope_doc))
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -355,13 +368,23 @@ def file_run(
                     if db is not None and record is not None:
                         db.add(record)
                         added = True
+                    if outputs is not None:
+                        outputs()
             except BaseException:
                 if added:  # moving the report into place failed (full disk): withdraw the run
                     db.discard(record.run_uuid)  # type: ignore[union-attr]
                 raise
             report_path = Path(report_dir) / "index.html"
-        elif db is not None and record is not None:
-            db.add(record)
+        else:
+            if db is not None and record is not None:
+                db.add(record)
+            try:
+                if outputs is not None:
+                    outputs()
+            except BaseException:
+                if db is not None and record is not None:
+                    db.discard(record.run_uuid)
+                raise
         return RunOutcome(
             result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
             stored_run=None if record is None else record.run_uuid,
@@ -373,12 +396,15 @@ def file_run(
             db.close()
 
 
-def _report_html(result: Any, plan: Plan, plan_text: str, data_summary: Mapping[str, object],
+def _report_html(result: Any, plan: Plan | None, plan_text: str,
+                 data_summary: Mapping[str, object],
                  tested_at: datetime, version: str, history: list,
                  test: Mapping[str, Any] | None = None,
                  doc: Mapping[str, Any] | None = None) -> str:
     from inertest.report.campaign import campaign_page
 
+    if plan is None:
+        raise PlanError("a report without a plan needs its own page (report_html)")
     inst = plan.instrument
     return campaign_page(
         result,

@@ -118,61 +118,35 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
     """Refine the gyro calibration by navigating through the 360-degree turns in DATA."""
     from inertest.api import load_data
     from inertest.io.atomic import target_directory
-    from inertest.models import triad
-    from inertest.models.imu import ImuCalibration
-    from inertest.models.rate_gyro import raw_rate_per_si, raw_rate_unit
     from inertest.procedures import navigation_calibration as nav
     from inertest.report.gyro_triad import navigation_page
-    from inertest.results import envelope, instrument_block, site_block
 
     check_paths([report_dir], [plan, data, initial])
     p = _rotation_plan(plan)
     if max_iterations < 1:
         raise InputError("--max-iterations must be at least 1")
-    gyro = _initial_calibration(initial, p)
-    per_si = raw_rate_per_si(p.instrument.output_unit)
-    records = nav.records_from_columns(load_data(data), raw_per_si=per_si)
-    result = nav.iterate_calibration(
-        records, gyro.forward / per_si, gyro.offset / per_si,
-        latitude_rad=p.site.latitude_rad, check_interval_s=check_interval,
-        estimate_bias=not no_bias, max_iterations=max_iterations)
-    raw_unit = raw_rate_unit(p.instrument.output_unit)
-    su = triad.scale_unit(raw_unit, "gyroscope")
-    k_unit, k_si = su.unit, su.si_per_unit
-    final = triad.calibration_from_parameters(
-        triad.stack_parameters(result.forward, result.offset), sensor="gyroscope", scale=su,
-        raw_unit=raw_unit)
+    result = nav.calibrate(p, load_data(data), _initial_calibration(initial, p),
+                           check_interval_s=check_interval, estimate_bias=not no_bias,
+                           max_iterations=max_iterations)
     if report_dir is not None:
-        html = navigation_page(result, scale_unit=k_unit, si_per_scale_unit=k_si,
-                               serial=p.instrument.serial)
+        html = navigation_page(result)
         with target_directory(report_dir, inputs=[plan, data, initial]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
-    d = result.summary(scale_unit=k_unit, si_per_scale_unit=k_si)
     if as_json:
-        body = {k: v for k, v in d.items() if k != "coefficients"}
-        body["calibration"] = ImuCalibration(gyroscope=final).to_dict()
-        echo_json(envelope("navigation-calibration", site=site_block(p.site),
-                           instrument=instrument_block(p.instrument),
-                           identification={"coefficients": d["coefficients"]}, result=body))
+        echo_json(result.to_dict())
         return
     rows = [[h.iteration, format_number(float(h.attitude_error_rms_arcsec)),
              ", ".join(format_number(float(v)) for v in h.scale_correction_ppm),
              format_number(float(np.max(np.abs(h.misalignment_correction_urad))))]
-            for h in result.history]
+            for h in result.iteration.history]
     print_table("navigation-mode iterations", ["iteration", "attitude error rms [arcsec]",
                                                "dK x, y, z [ppm]", "max |dM| [urad]"], rows)
-    coef = d["coefficients"]
     print_table("calibration after the iteration", ["quantity", "value", "std", "unit"],
-                [[k, *_value_std(v), v["unit"]]  # type: ignore[index]
-                 for k, v in coef.items()])  # type: ignore[union-attr]
-    click.echo("converged" if result.converged else
+                [[e.name, *round_to_uncertainty(e.value, e.std), e.unit]
+                 for e in result.coefficients.values()])
+    for note in result.identification.not_separable:
+        click.echo(f"note: {note}")
+    click.echo("converged" if result.iteration.converged else
                f"not converged after {max_iterations} iterations")
     if report_dir is not None:
         click.echo(f"report: {report_dir / 'index.html'}")
-
-
-def _value_std(v: dict) -> list[str]:
-    """Value and std as printed (GUM 7.2.6); ``"-"`` for a missing std."""
-    val, std = round_to_uncertainty(float(v["value"]), None if v["std"] is None
-                                    else float(v["std"]))
-    return [val, std or "-"]

@@ -8,7 +8,6 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
-from inertest.results import envelope
 
 
 @click.command()
@@ -29,7 +28,7 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
     # The database and plotting libraries load only when the command runs.
     from inertest.report.history import history_figure, history_rows
     from inertest.store import HistoryStore, check_label
-    from inertest.store.summary import summarize_runs
+    from inertest.store.summary import instrument_history
 
     serial = check_label(serial, "serial")
     figure_format(plot)
@@ -39,17 +38,13 @@ def history(serial: str, names: tuple[str, ...], procedure: str | None, db: str 
         runs = store.runs(serial, procedure=procedure)
     finally:
         store.close()
-    summaries = summarize_runs(runs, names=names or None, k=k)
+    result = instrument_history(runs, serial, names=names or None, k=k)
+    summaries = result.summaries
     if plot is not None:
         fig = history_figure([h for h, _ in summaries], [t for _, t in summaries])
         save_figure(fig, plot, dpi=120)
     if as_json:
-        echo_json(envelope("history", instrument={"serial": serial}, result={
-            "runs": [{"tested_at": r.tested_at.isoformat(), "procedure": r.procedure,
-                      "run_uuid": r.run_uuid, "software_version": r.software_version,
-                      "data_sha256": r.data_sha256} for r in runs],
-            "quantities": [h.to_dict() for h, _ in summaries],
-        }))
+        echo_json(result.to_dict())
         return
     click.echo(safe_line(f"{serial}: {len(runs)} run(s) from {runs[0].tested_at:%Y-%m-%d %H:%M} "
                          f"to {runs[-1].tested_at:%Y-%m-%d %H:%M} UTC"))

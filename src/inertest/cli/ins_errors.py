@@ -121,9 +121,9 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
     if "latitude_deg" not in site:
         raise click.UsageError("give --latitude DEG (or --scenario FILE, or --example)")
     # The INS numerics, scipy and the report (matplotlib) load only when the command runs.
-    from inertest.ins.covariance import RandomSources, propagate_covariance
-    from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
-    from inertest.ins.propagation import characteristic_periods, source_responses
+    from inertest.ins.analysis import analyse
+    from inertest.ins.covariance import RandomSources
+    from inertest.ins.error_model import SIGN_CONVENTION, STATES
     from inertest.ins.scenario import scenario_from_mapping
     from inertest.io.atomic import write_text
     from inertest.report.html import page
@@ -134,7 +134,6 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         periods_rows,
         responses_figure,
     )
-    from inertest.results import envelope
 
     scenario = scenario_from_mapping(doc, source=str(scenario_file or "command line"))
     for opt, value in (("--gyro-arw-deg-sqrt-h", gyro_arw_deg_sqrt_h),
@@ -148,10 +147,8 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         accel_vrw=accel_vrw_m_s_sqrt_h * M_PER_S_PER_SQRT_H_TO_M_PER_S_PER_SQRT_S,
         gyro_rrw=gyro_rrw_deg_h_sqrt_h * DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S,
     )
-    dens = randoms.densities()
-    resp = source_responses(scenario)
-    periods = characteristic_periods(scenario.site)
-    sigma = propagate_covariance(scenario.site, resp.t, randoms).sigma if dens.any() else None
+    result = analyse(scenario, randoms)
+    resp, periods, sigma = result.responses, result.periods, result.sigma
     table = None
     if (closed_forms or report) and not as_json and scenario.site.earth_rate_rad_s > 0:
         table = _closed_form_table(scenario, resp)
@@ -166,19 +163,7 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
                 else "scenario from the command's options")))
         write_text(report, html)
     if as_json:
-        out: dict[str, Any] = {"t": resp.t.tolist()}
-        for i, st in enumerate(STATES):
-            out[st] = resp.combined[:, i].tolist()
-        out["periods"] = {k: (v if not isinstance(v, float) or math.isfinite(v) else None)
-                          for k, v in periods.as_dict().items()}
-        out["units"] = {"t": "s", **STATE_UNITS, "periods": "s"}
-        out["sign_convention"] = SIGN_CONVENTION
-        if sigma is not None:
-            out["sigma"] = {st: sigma[:, i].tolist() for i, st in enumerate(STATES)}
-        st = scenario.site
-        echo_json(envelope("ins-errors", result=out, site={
-            "latitude_deg": math.degrees(st.latitude_rad), "gravity_m_s2": st.gravity_m_s2,
-            "radius_m": st.radius_m, "earth_rate_rad_s": st.earth_rate_rad_s}))
+        echo_json(result.to_dict())
         return
     click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table("characteristic periods (eigenvalues of A)", ["period", "value", "closed form"],

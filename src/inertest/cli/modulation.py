@@ -77,7 +77,6 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
     Source: patent, stator rotation modulation for suspended gyros.
     """
     from inertest.report.modulation import component_figure
-    from inertest.results import envelope
     from inertest.studies import stator_modulation as sm
 
     check_paths([plot], [])
@@ -110,20 +109,17 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
         * DEG_PER_S_TO_RAD_PER_S, (t.size, 2)).copy()
     house[:, 0] += house_sine_deg_s * DEG_PER_S_TO_RAD_PER_S * np.sin(2 * np.pi * house_sine_hz * t)
     noise = rng.normal(0.0, noise_deg_h * k, size=(t.size, 2)) if noise_deg_h else None
-    runs = [sm.run_modulation(t, house, drift, stator_rate_rad_s=2 * np.pi * f,
-                              sample_rate_hz=sample_hz, periods=periods, noise=noise)
-            for f in rates_hz]
+    study = sm.ComponentStudy(tuple(rates_hz), tuple(
+        sm.run_modulation(t, house, drift, stator_rate_rad_s=2 * np.pi * f,
+                          sample_rate_hz=sample_hz, periods=periods, noise=noise)
+        for f in rates_hz))
     if plot is not None:
-        fig = component_figure(runs)
+        fig = component_figure(list(study.runs))
         save_figure(fig, plot)
-    rows = [{"stator_hz": f, "rms_residual_modulated_deg_h": r.rms(True) / k,
-             "rms_residual_fixed_deg_h": r.rms(False) / k, "delay_s": r.cost.delay_s,
-             "bandwidth_hz": r.cost.bandwidth_hz, "window_s": r.cost.window_s}
-            for f, r in zip(rates_hz, runs, strict=True)]
     if as_json:
-        echo_json(envelope("modulation-component", result={
-            "runs": rows, "units": {"rms": "deg/h", "delay": "s", "bandwidth": "Hz"}}))
+        echo_json(study.to_dict())
         return
+    rows = study.rows()
     print_table("stator rotation modulation: residual drift after whole-period integration",
                 ["stator [Hz]", "RMS residual [deg/h]", "no modulation [deg/h]", "delay [s]",
                  "bandwidth [Hz]"],
@@ -190,7 +186,6 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         system_sections,
         system_summary_rows,
     )
-    from inertest.results import envelope
     from inertest.studies import rotation_modulation as rm
 
     figure_format(plot)
@@ -216,6 +211,7 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
         s = rm.make_scheme(scheme, span, rate_rad_s=rate, dwell_s=dwell_s, heading_rad=heading,
                            alternate=alternate, revolutions=revolutions)
         runs = [rm.run_scheme(site, s, imu, t)]
+    study = rm.SystemStudy(latitude_deg, imu, tuple(runs), compare)
     if plot is not None:
         fig = system_figure(runs)
         save_figure(fig, plot)
@@ -226,11 +222,7 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
                                     source="simulated (noise-free): IMU errors and scheme from "
                                            "the command's options")))
     if as_json:
-        common = {"latitude_deg": latitude_deg, "imu": _imu_json(imu),
-                  "vertical_channel": "not modelled"}
-        echo_json(envelope("modulation-system", site={"latitude_deg": latitude_deg},
-                           result={**common, "runs": [r.to_dict() for r in runs]} if compare
-                           else {**common, **runs[0].to_dict()}))
+        echo_json(study.to_dict())
         return
     click.echo(f"sign convention: {SIGN_CONVENTION}")
     print_table(f"INS errors over {hours:g} h at latitude {latitude_deg:g} deg (max |error|; "
@@ -262,15 +254,3 @@ def _imu_errors(drift: str, trend: str, bias: str, sf: str, asf: str,
     return rm.ImuErrors.from_triads(
         gyro, accel, gyro_drift_rate=vec(trend, "--gyro-drift-trend-deg-h-per-h")
         * DEG_PER_H_TO_RAD_PER_S / HOUR_TO_S)
-
-
-def _imu_json(imu: ImuErrors) -> dict:
-    return {
-        "gyro_drift": {"value": imu.gyro_drift.tolist(), "unit": "rad/s"},
-        "gyro_drift_rate": {"value": imu.gyro_drift_rate.tolist(), "unit": "rad/s^2"},
-        "accel_bias": {"value": imu.accel_bias.tolist(), "unit": "m/s^2"},
-        "gyro_scale_factor": {"value": imu.gyro_scale_factor.tolist(), "unit": "1"},
-        "accel_scale_factor": {"value": imu.accel_scale_factor.tolist(), "unit": "1"},
-        "gyro_misalignment": {"value": imu.gyro_misalignment.tolist(), "unit": "rad"},
-    }
-

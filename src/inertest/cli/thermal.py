@@ -108,37 +108,37 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
                          t_ref_c=t_ref_c, serial=serial)
-    stored = None
-    db_store = None
-    if store:
-        stored, db_store = _store(result, data, serial, db, argv_text=(
-            f"quantity = {quantity!r}\nvalidation_cycles = {validation_cycles}\n"
-            f"max_degree = {max_degree}\nuse_rate = {str(not no_rate).lower()}\n"
-            f"hidden = {hidden}\nmax_iter = {max_iter}\n"))
-    try:
+    from datetime import UTC, datetime
+
+    from inertest.app.run import data_summary, file_run
+    from inertest.io.data_file import file_sha256
+    from inertest.plan import Instrument
+
+    def outputs() -> None:  # the figure and the model, inside the run's transaction
         if plot is not None:
-            fig = thermal_figure(result)
-            save_figure(fig, plot)
-        if report_dir is not None:
-            html = page(f"Temperature compensation: {quantity}",
-                        thermal_sections(result, title=f"{quantity} compensation"),
-                        subtitle=f"data: {data}",
-                        identity=input_identity([data], serial=serial))
-            with target_directory(report_dir, inputs=[data]) as tmp:
-                (tmp / "index.html").write_text(html, encoding="utf-8")
+            save_figure(thermal_figure(result), plot)
         if model_out is not None:
             from inertest.io.thermal_model import write_thermal_model
 
             write_thermal_model(model_out, result.model(model_name))
-    except BaseException:
-        if stored is not None and db_store is not None:
-            db_store.discard(stored)
-        raise
-    finally:
-        if db_store is not None:
-            db_store.close()
+
+    digest = file_sha256(data)
+    outcome = file_run(
+        result, None, instrument=Instrument(kind="rate-gyro", serial=serial),
+        plan_text="# inertest thermal fit\n" + (
+            f"quantity = {quantity!r}\nvalidation_cycles = {validation_cycles}\n"
+            f"max_degree = {max_degree}\nuse_rate = {str(not no_rate).lower()}\n"
+            f"hidden = {hidden}\nmax_iter = {max_iter}\n"),
+        data_sha256=digest, data_summary=data_summary(data, {}, digest),
+        tested_at=datetime.now(UTC), store=(db or True) if store else False,
+        report_dir=report_dir, inputs=[data], allow_duplicate=True, outputs=outputs,
+        report_html=lambda history: page(
+            f"Temperature compensation: {quantity}",
+            thermal_sections(result, title=f"{quantity} compensation"),
+            subtitle=f"data: {data}", identity=input_identity([data], serial=serial)))
+    stored = outcome.stored_run
     if as_json:
-        echo_json(result.to_dict())
+        echo_json(outcome.to_dict())
         return
     header, rows = summary_rows(result)
     print_table(f"thermal compensation of the {quantity}", header, rows)
@@ -153,26 +153,6 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
                    f"{result.model(model_name).to_dict().get('equation', 'network arrays')})")
     if stored is not None:
         click.echo(f"stored run {stored} of {serial}")
-
-
-def _store(result, data: Path, serial: str, db: str | None, *, argv_text: str):
-    """Add the run to the history database; return its id and the open store."""
-    from importlib import metadata
-
-    from inertest.io.data_file import file_sha256
-    from inertest.store import HistoryStore, RunRecord
-
-    record = RunRecord.from_result(
-        result.to_dict(), serial=serial, instrument_kind="rate-gyro",
-        plan_text="# inertest thermal fit\n" + argv_text, data_sha256=file_sha256(data),
-        software_version=metadata.version("inertest"))
-    store = HistoryStore(db)
-    try:
-        store.add(record)
-    except BaseException:
-        store.close()
-        raise
-    return record.run_uuid, store
 
 
 @thermal.command()

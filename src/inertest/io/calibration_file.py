@@ -8,6 +8,7 @@ from pathlib import Path
 
 from inertest.errors import InputError
 from inertest.models.imu import ImuCalibration
+from inertest.results import read_envelope
 
 
 def read_json_object(path: str | os.PathLike[str], what: str) -> dict:
@@ -25,11 +26,13 @@ def read_json_object(path: str | os.PathLike[str], what: str) -> dict:
 def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration") -> ImuCalibration:
     """The triad calibration held in ``path``.
 
-    Accepted: a result envelope (``result.calibration``, schema version 2), an older ``fit
-    --json`` result (top-level ``calibration``), or a bare ``{"accelerometer": ..., "gyroscope":
+    Accepted: a result envelope (``result.calibration``; its schema version checked by
+    :func:`inertest.results.read_envelope`), or a bare ``{"accelerometer": ..., "gyroscope":
     ...}`` block.
     """
     doc = read_json_object(path, what)
+    if "kind" in doc or "schema_version" in doc:
+        doc = read_envelope(doc, source=f"{what} file {Path(path)}")
     body = doc.get("result") if isinstance(doc.get("result"), dict) else doc
     block = body.get("calibration", body)
     if not isinstance(block, dict):

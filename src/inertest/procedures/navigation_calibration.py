@@ -45,8 +45,11 @@ from inertest.earth import Site, earth_rate_enu, normal_gravity
 from inertest.equipment import rate_table as table
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
-from inertest.models import triad
+from inertest.models import rate_gyro, triad
+from inertest.models.imu import ImuCalibration
 from inertest.models.triad import AXES, decompose
+from inertest.plan import Instrument, Plan
+from inertest.results import Estimate, Identification, envelope, instrument_block
 from inertest.units import ARCSEC_TO_RAD, DEG_PER_H_TO_RAD_PER_S, MICRORAD_TO_RAD
 
 __all__ = ["AXES", "decompose"]  # re-exported from the triad model
@@ -174,6 +177,9 @@ class NavigationCalibrationResult:
     noise_arcsec : float
         Scatter of the attitude-error increments between check instants [arcsec].
     dof : int
+    covariance : ndarray, shape (12, 12)
+        Covariance of ``K`` [raw SI per rad/s], ``M`` [urad], ``B`` [deg/h] (the bias rows and
+        columns zero when the bias was not estimated).
     """
 
     forward: NDArray[np.float64]
@@ -190,34 +196,8 @@ class NavigationCalibrationResult:
     bias_std_rad_s: NDArray[np.float64]
     noise_arcsec: float
     dof: int
-
-    def summary(self, *, scale_unit: str, si_per_scale_unit: float) -> dict[str, object]:
-        """JSON-ready block (``identification`` + ``result`` of ``nav-calibrate``'s envelope).
-
-        The scale-factor unit depends on the instrument's output, which this result does not
-        know, hence the arguments. Scale factors in ``scale_unit``, misalignments urad, biases
-        deg/h; attitude errors arcsec.
-        """
-        b_unit, b_si = triad.bias_unit("gyroscope")
-        coef: dict[str, dict[str, object]] = {}
-        for i, nm in enumerate(triad.SCALE_NAMES):
-            coef[nm] = {"value": float(self.scale[i] / si_per_scale_unit),
-                        "std": float(self.scale_std[i] / si_per_scale_unit), "unit": scale_unit}
-        for k, nm in enumerate(triad.MISALIGNMENT_NAMES):
-            coef[nm] = {"value": float(self.misalignment_rad[k] / MICRORAD_TO_RAD),
-                        "std": float(self.misalignment_std_rad[k] / MICRORAD_TO_RAD),
-                        "unit": triad.MISALIGNMENT_UNIT}
-        for i, nm in enumerate(triad.BIAS_NAMES):
-            std = self.bias_std_rad_s[i]
-            coef[nm] = {"value": float(self.bias_rad_s[i] / b_si),
-                        "std": None if np.isnan(std) else float(std / b_si), "unit": b_unit}
-        return {
-            "coefficients": coef,
-            "converged": self.converged,
-            "iterations": [h.to_dict() for h in self.history],
-            "noise": {"sigma": self.noise_arcsec, "unit": "arcsec per check interval"},
-            "dof": self.dof,
-        }
+    covariance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((12, 12)),
+                                            repr=False)
 
 
 def cumulative_rotation(increments: Rotation) -> Rotation:
@@ -449,8 +429,119 @@ def iterate_calibration(
         scale=np.real(k), misalignment_rad=np.real(m), bias_rad_s=np.real(bias),
         scale_std=std[:3], misalignment_std_rad=std[3:9],
         bias_std_rad_s=std[9:12] if estimate_bias else np.full(3, np.nan),
-        noise_arcsec=float(fit.sigma * RAD_TO_ARCSEC), dof=fit.dof,
+        noise_arcsec=float(fit.sigma * RAD_TO_ARCSEC), dof=fit.dof, covariance=cov_eng,
     )
+
+
+@dataclass(frozen=True)
+class NavigationCalibration:
+    """A gyro triad calibrated in navigation mode: the result of :func:`calibrate`.
+
+    Attributes
+    ----------
+    site_latitude_deg, site_gravity_m_s2 : float
+        Where the turns were run [deg], [m/s^2].
+    instrument : Instrument
+        The triad (its output unit sets the scale factor's unit).
+    identification : Identification
+        ``K_i`` [scale unit], ``M_ij`` [urad] and, when estimated, ``B_i`` [deg/h], with their
+        covariance; the noise is the scatter of the attitude-error increments.
+    calibration : ImuCalibration
+        The refined correction (JSON ``calibration`` block, for ``inertest apply``).
+    iteration : NavigationCalibrationResult
+        The iterations in SI.
+    scale_unit : str
+        Unit of ``K_i``.
+    """
+
+    site_latitude_deg: float
+    site_gravity_m_s2: float
+    instrument: Instrument
+    identification: Identification
+    calibration: ImuCalibration
+    iteration: NavigationCalibrationResult
+    scale_unit: str
+
+    kind = "navigation-calibration"
+
+    @property
+    def coefficients(self) -> dict[str, Estimate]:
+        """The identifiable coefficients."""
+        return self.identification.coefficients
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``navigation-calibration`` result envelope."""
+        it = self.iteration
+        return envelope(
+            self.kind,
+            site={"latitude_deg": self.site_latitude_deg, "gravity_m_s2": self.site_gravity_m_s2},
+            instrument=instrument_block(self.instrument),
+            identification=self.identification.to_dict(),
+            result={"converged": it.converged, "iterations": [h.to_dict() for h in it.history],
+                    "noise": {"sigma": it.noise_arcsec, "unit": "arcsec per check interval"},
+                    "dof": it.dof, "calibration": self.calibration.to_dict()})
+
+
+def calibrate(
+    plan: Plan, data: Mapping[str, object], initial: triad.TriadCalibration, *,
+    check_interval_s: float = 1.0, estimate_bias: bool = True, max_iterations: int = 10,
+) -> NavigationCalibration:
+    """Refine a gyro-triad calibration by navigating through the turns in ``data``.
+
+    Parameters
+    ----------
+    plan : Plan
+        A ``gyro-triad-rotation`` plan (site, instrument).
+    data : mapping
+        The time series of the turns (:data:`NAV_COLUMNS`), raw counts in the plan's unit.
+    initial : TriadCalibration
+        The starting gyro calibration (raw unit per second to rad/s), e.g. of the 360-degree
+        rotation test.
+    check_interval_s, estimate_bias, max_iterations
+        As :func:`iterate_calibration`.
+
+    Returns
+    -------
+    NavigationCalibration
+        With the identification in engineering units (its scale-factor unit from the plan's
+        output) and the refined calibration.
+    """
+    per_si = rate_gyro.raw_rate_per_si(plan.instrument.output_unit)
+    records = records_from_columns(data, raw_per_si=per_si)
+    it = iterate_calibration(records, initial.forward / per_si, initial.offset / per_si,
+                             latitude_rad=plan.site.latitude_rad,
+                             check_interval_s=check_interval_s, estimate_bias=estimate_bias,
+                             max_iterations=max_iterations)
+    raw_unit = rate_gyro.raw_rate_unit(plan.instrument.output_unit)
+    su = triad.scale_unit(raw_unit, "gyroscope")
+    final = triad.calibration_from_parameters(triad.stack_parameters(it.forward, it.offset),
+                                              sensor="gyroscope", scale=su, raw_unit=raw_unit)
+    b_unit, b_si = triad.bias_unit("gyroscope")
+    names = [*triad.SCALE_NAMES, *triad.MISALIGNMENT_NAMES]
+    values = [*(it.scale / su.si_per_unit), *(it.misalignment_rad / MICRORAD_TO_RAD)]
+    units = [su.unit] * 3 + [triad.MISALIGNMENT_UNIT] * 6
+    D = np.r_[np.full(3, 1.0 / su.si_per_unit), np.ones(9)]
+    cov = it.covariance * np.outer(D, D)
+    not_sep: tuple[str, ...] = ()
+    if estimate_bias:
+        names += list(triad.BIAS_NAMES)
+        values += list(it.bias_rad_s / b_si)
+        units += [b_unit] * 3
+    else:
+        cov = cov[:9, :9]
+        not_sep = (f"biases {', '.join(triad.BIAS_NAMES)}: kept at the initial calibration "
+                   "(not estimated)",)
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    ident = Identification(
+        coefficients={n: Estimate(n, float(v), float(e), u)
+                      for n, v, e, u in zip(names, values, std, units, strict=True)},
+        combinations=(), not_separable=not_sep, covariance=cov, names=tuple(names),
+        noise_sigma=it.noise_arcsec, noise_unit="arcsec per check interval",
+        sigma_from_residuals=True, dof=it.dof, rank=len(names), residuals=np.zeros(0))
+    return NavigationCalibration(
+        site_latitude_deg=plan.site.latitude_deg, site_gravity_m_s2=plan.site.gravity_m_s2,
+        instrument=plan.instrument, identification=ident,
+        calibration=ImuCalibration(gyroscope=final), iteration=it, scale_unit=su.unit)
 
 
 def simulate_segment(

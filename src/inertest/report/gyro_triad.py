@@ -13,7 +13,11 @@ from matplotlib.ticker import MaxNLocator
 
 from inertest.procedures.gyro_rate_table import GyroRateTableResult
 from inertest.procedures.gyro_triad_rotation import GyroTriadRotationResult
-from inertest.procedures.navigation_calibration import AXES, NavigationCalibrationResult
+from inertest.procedures.navigation_calibration import (
+    AXES,
+    NavigationCalibration,
+    NavigationCalibrationResult,
+)
 from inertest.report.calibration import calibration_rows
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
@@ -174,38 +178,36 @@ def convergence_figure(result: NavigationCalibrationResult):
     return fig
 
 
-def navigation_sections(
-    result: NavigationCalibrationResult, *, scale_unit: str, si_per_scale_unit: float,
-    title: str = "Navigation-mode calibration",
-) -> list[Section]:
+def navigation_sections(result: NavigationCalibration, *,
+                        title: str = "Navigation-mode calibration") -> list[Section]:
     """Estimates after the iteration, the history of corrections and the convergence figure."""
-    d = result.summary(scale_unit=scale_unit, si_per_scale_unit=si_per_scale_unit)
-    rows = [[k, fmt(v["value"], v["std"]), v["unit"]]  # type: ignore[index]
-            for k, v in d["coefficients"].items()]  # type: ignore[union-attr]
+    it = result.iteration
+    rows = [[e.name, fmt(e.value, e.std), e.unit] for e in result.coefficients.values()]
     sec = Section(title, [table_html(["quantity", "estimate ± std", "unit"], rows)])
+    for note in result.identification.not_separable:
+        sec.parts.append(paragraph("Not determined: " + note, note=True))
     sec.parts.append(paragraph(
-        f"{'Converged' if result.converged else 'Not converged'} after {len(result.history)} "
+        f"{'Converged' if it.converged else 'Not converged'} after {len(it.history)} "
         "iteration(s); scatter of the attitude-error increments "
-        f"{format_number(result.noise_arcsec)} arcsec ({result.dof} dof)."))
+        f"{format_number(it.noise_arcsec)} arcsec ({it.dof} dof)."))
     hist = [[h.iteration, float(h.attitude_error_rms_arcsec),
              float(h.attitude_error_max_arcsec),
              ", ".join(format_number(float(v)) for v in h.scale_correction_ppm),
              float(np.max(np.abs(h.misalignment_correction_urad))),
              ", ".join(format_number(float(v)) for v in h.bias_correction_deg_h)]
-            for h in result.history]
+            for h in it.history]
     sec.parts.append(table_html(
         ["iteration", "rms error [arcsec]", "max error [arcsec]", "δK x, y, z [ppm]",
          "max |δM| [urad]", "δB x, y, z [deg/h]"], hist))
-    sec.parts.append(figure_html(convergence_figure(result),
+    sec.parts.append(figure_html(convergence_figure(it),
                                  "Attitude error and corrections per iteration"))
     return [sec]
 
 
-def navigation_page(result: NavigationCalibrationResult, *, scale_unit: str,
-                    si_per_scale_unit: float, serial: str) -> str:
+def navigation_page(result: NavigationCalibration) -> str:
     """Self-contained HTML page of a navigation-mode calibration."""
+    serial = result.instrument.serial
     return page(f"inertest: navigation-mode calibration of {serial or 'gyro triad'}",
-                navigation_sections(result, scale_unit=scale_unit,
-                                    si_per_scale_unit=si_per_scale_unit),
+                navigation_sections(result),
                 subtitle="Iterative refinement through 360-degree rotations (Source: Precise "
                          "calibration and compensation of FOG scale factor, sec. 1.3)")

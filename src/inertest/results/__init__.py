@@ -527,6 +527,41 @@ def envelope(
                        conformance=conformance)
 
 
+def read_envelope(doc: object, *, source: str) -> dict[str, object]:
+    """An envelope read back (a result file, a stored run), checked: the one schema check.
+
+    Parameters
+    ----------
+    doc : object
+        The parsed JSON.
+    source : str
+        How messages name where it came from (``"calibration file cal.json"``).
+
+    Returns
+    -------
+    dict
+        The envelope.
+
+    Raises
+    ------
+    InputError
+        Not an inertest result envelope, or a schema version this inertest does not read
+        (with what to do).
+    """
+    from inertest.errors import InputError
+
+    if not isinstance(doc, Mapping) or not isinstance(doc.get("kind"), str):
+        raise InputError(f"{source} is not an inertest result (a JSON object with kind and "
+                         "schema_version, as --json prints)")
+    version = doc.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise InputError(
+            f"{source} has schema_version {version!r}; this inertest reads version "
+            f"{SCHEMA_VERSION}: refit the data with this version (or use the inertest that "
+            "wrote it)")
+    return dict(doc)
+
+
 def with_blocks(
     doc: Mapping[str, object],
     *,

@@ -35,7 +35,8 @@ from sqlalchemy.exc import (
 )
 from sqlalchemy.orm import Session, selectinload
 
-from inertest.errors import InertestError
+from inertest.errors import InertestError, InputError
+from inertest.results import read_envelope
 from inertest.store.schema import EstimateRow, Run
 
 ENV_VAR = "INERTEST_DB"
@@ -134,9 +135,10 @@ class RunRecord:
                 "(add serial = \"...\" or use --no-store)"
             )
         check_label(serial, "[instrument] serial")
-        if "kind" not in result or "schema_version" not in result:
-            raise StoreError("only results in the inertest envelope (kind, schema_version, ...) "
-                             "can be stored; pass result.to_dict()")
+        try:
+            result = read_envelope(result, source="the result to store")
+        except InputError as exc:
+            raise StoreError(f"{exc}; pass result.to_dict()") from None
         ident = result.get("identification") or {}
         ests = [
             StoredEstimate(n, "coefficient", float(e["value"]), float(e["std"]), str(e["unit"]))
@@ -478,8 +480,16 @@ def _record(r: Run) -> RunRecord:
                            None if e.terms_json is None else json.loads(e.terms_json))
             for e in r.estimates
         ),
-        result=json.loads(r.result_json),
+        result=_stored_envelope(r),
     )
+
+
+def _stored_envelope(r: Run) -> dict[str, object]:
+    """The stored run's envelope, read back through the one schema check."""
+    try:
+        return read_envelope(json.loads(r.result_json), source=f"stored run {r.run_uuid}")
+    except InputError as exc:
+        raise StoreError(str(exc)) from None
 
 
 def _optional_float(v: object) -> float | None:

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import datetime
 
 from inertest.estimation.trend import DEFAULT_ALPHA, QuantityHistory, summarize
+from inertest.results import envelope
 from inertest.store.history import RunRecord, StoreError
 
 
@@ -49,3 +51,38 @@ def summarize_runs(
                       [s for _, _, s, _ in rows], k=k, alpha=alpha)
         out.append((h, times))
     return out
+
+
+@dataclass(frozen=True)
+class InstrumentHistory:
+    """An instrument's stored runs and the history of each quantity (``inertest history``).
+
+    Attributes
+    ----------
+    serial : str
+    runs : tuple of RunRecord
+        In time order.
+    summaries : list of (QuantityHistory, list of datetime)
+        Per quantity: its summary (:func:`summarize_runs`) and the times of its runs.
+    """
+
+    serial: str
+    runs: tuple[RunRecord, ...]
+    summaries: list[tuple[QuantityHistory, list[datetime]]]
+
+    kind = "history"
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``history`` result envelope: the runs and each quantity's summary."""
+        return envelope(self.kind, instrument={"serial": self.serial}, result={
+            "runs": [{"tested_at": r.tested_at.isoformat(), "procedure": r.procedure,
+                      "run_uuid": r.run_uuid, "software_version": r.software_version,
+                      "data_sha256": r.data_sha256} for r in self.runs],
+            "quantities": [h.to_dict() for h, _ in self.summaries],
+        })
+
+
+def instrument_history(runs: Sequence[RunRecord], serial: str, *,
+                       names: Sequence[str] | None = None, k: float = 3.0) -> InstrumentHistory:
+    """The history of ``serial`` over its stored ``runs`` (:func:`summarize_runs`)."""
+    return InstrumentHistory(serial, tuple(runs), summarize_runs(runs, names=names, k=k))

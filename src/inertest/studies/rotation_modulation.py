@@ -140,6 +140,7 @@ from inertest.ins.error_model import (
     system_matrix,
 )
 from inertest.models import triad
+from inertest.results import envelope
 
 __all__ = [
     "SCHEMES",
@@ -518,6 +519,17 @@ class ImuErrors:
         """``M_g = diag(dK) + misalignment`` [-] (:func:`inertest.models.triad.error_matrix`)."""
         return triad.error_matrix(self.gyro_scale_factor, self.gyro_misalignment)
 
+    def to_dict(self) -> dict[str, object]:
+        """Each error with its SI unit (JSON)."""
+        return {
+            "gyro_drift": {"value": self.gyro_drift.tolist(), "unit": "rad/s"},
+            "gyro_drift_rate": {"value": self.gyro_drift_rate.tolist(), "unit": "rad/s^2"},
+            "accel_bias": {"value": self.accel_bias.tolist(), "unit": "m/s^2"},
+            "gyro_scale_factor": {"value": self.gyro_scale_factor.tolist(), "unit": "1"},
+            "accel_scale_factor": {"value": self.accel_scale_factor.tolist(), "unit": "1"},
+            "gyro_misalignment": {"value": self.gyro_misalignment.tolist(), "unit": "rad"},
+        }
+
 
 def _inputs(site: InsSite, imu: ImuErrors, c: NDArray, w_nb_b: NDArray,
             eps_b: NDArray) -> NDArray[np.float64]:
@@ -892,6 +904,37 @@ def compare_schemes(
 # --------------------------------------------------------------------------------------------
 # White noise: covariance and Monte Carlo
 # --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SystemStudy:
+    """Navigation errors of an INS whose IMU turns on a mount (``modulation system``).
+
+    Attributes
+    ----------
+    latitude_deg : float
+        Site latitude [deg].
+    imu : ImuErrors
+    runs : tuple of SystemRun
+        One run per scheme (several with ``compare``).
+    compare : bool
+        Every scheme on the same IMU errors (the JSON lists the runs).
+    """
+
+    latitude_deg: float
+    imu: ImuErrors
+    runs: tuple[SystemRun, ...]
+    compare: bool = False
+
+    kind = "modulation-system"
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``modulation-system`` result envelope (SI, with units)."""
+        common = {"latitude_deg": self.latitude_deg, "imu": self.imu.to_dict(),
+                  "vertical_channel": "not modelled"}
+        result = ({**common, "runs": [r.to_dict() for r in self.runs]} if self.compare
+                  else {**common, **self.runs[0].to_dict()})
+        return envelope(self.kind, site={"latitude_deg": self.latitude_deg}, result=result)
 
 
 def _discrete(site: InsSite, dt: float) -> tuple[NDArray, NDArray]:

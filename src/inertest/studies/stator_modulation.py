@@ -37,6 +37,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from inertest.errors import InputError
+from inertest.results import envelope
+from inertest.units import DEG_PER_H_TO_RAD_PER_S
 
 #: x with |sin(pi x) / (pi x)| = 1/sqrt(2): the -3 dB point of a boxcar, in units of 1/length.
 BOXCAR_3DB = 0.442946470689452
@@ -264,6 +266,41 @@ def run_modulation(
         estimate_fixed=filt(u_fix),
         cost=filter_cost(stator_rate_rad_s, periods),
     )
+
+
+@dataclass(frozen=True)
+class ComponentStudy:
+    """The stator modulation at each stator frequency of a study (``modulation component``).
+
+    Attributes
+    ----------
+    stator_hz : tuple of float
+        Stator rotation frequencies [Hz].
+    runs : tuple of ModulationRun
+        The run at each frequency (drift, house rate, noise alike).
+    """
+
+    stator_hz: tuple[float, ...]
+    runs: tuple[ModulationRun, ...]
+
+    kind = "modulation-component"
+
+    def rows(self) -> list[dict[str, float]]:
+        """Per stator frequency: the RMS residual drift with and without modulation.
+
+        Keys: ``stator_hz``, ``rms_residual_modulated_deg_h``, ``rms_residual_fixed_deg_h``
+        [deg/h], the filter's ``delay_s`` [s], ``bandwidth_hz`` [Hz] and ``window_s`` [s].
+        """
+        k = DEG_PER_H_TO_RAD_PER_S
+        return [{"stator_hz": f, "rms_residual_modulated_deg_h": r.rms(True) / k,
+                 "rms_residual_fixed_deg_h": r.rms(False) / k, "delay_s": r.cost.delay_s,
+                 "bandwidth_hz": r.cost.bandwidth_hz, "window_s": r.cost.window_s}
+                for f, r in zip(self.stator_hz, self.runs, strict=True)]
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``modulation-component`` result envelope."""
+        return envelope(self.kind, result={
+            "runs": self.rows(), "units": {"rms": "deg/h", "delay": "s", "bandwidth": "Hz"}})
 
 
 def drift_scenario(
