@@ -136,26 +136,21 @@ def figure_format(path: Path | None, option: str = "--plot") -> str | None:
 
 
 def save_figure(fig: Figure, path: Path, *, dpi: int = 110) -> None:
-    """Write ``fig`` to ``path`` (format by suffix) atomically and close it."""
+    """Write ``fig`` to ``path`` (format by suffix) atomically and close it.
+
+    Its texts are drawn as written (:func:`inertest.report.figure_text.plain_figure_text`).
+    """
     import matplotlib.pyplot as plt
+
+    from inertest.report.figure_text import plain_figure_text
 
     fmt = figure_format(path)
     try:
+        plain_figure_text(fig)
         with target_file(path) as tmp:
             fig.savefig(tmp, format=fmt, dpi=dpi, bbox_inches="tight")
     finally:
         plt.close(fig)
-
-
-def plain_text_figures() -> None:
-    """Draw every figure text as plain text, never as matplotlib math.
-
-    A ``$`` in a file name, serial or data label is then a dollar sign; as math text its parse
-    error would stop the command.
-    """
-    import matplotlib
-
-    matplotlib.rcParams["text.parse_math"] = False
 
 
 _OVERWRITE = "inertest.overwrite"

@@ -12,7 +12,6 @@ from inertest.cli import safe_line
 from inertest.cli._common import (
     check_paths,
     echo_json,
-    plain_text_figures,
     print_identity,
     print_table,
 )
@@ -91,8 +90,6 @@ def fit(
     """
     if pdf and report_dir is None:
         raise click.UsageError("--pdf needs --report DIR")
-    if report_dir is not None:
-        plain_text_figures()
     from inertest.runner import run
 
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
