@@ -12,6 +12,7 @@ import numpy as np
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     figure_format,
@@ -76,7 +77,7 @@ def _tau_option(text: str) -> str | list[float]:
 @click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--column", default=None,
               help="Column to analyse (tables; index for a 2-D .npy). Optional if only one.")
-@click.option("--rate", "rate_hz", type=float, required=True, help="Sample rate [Hz].")
+@click.option("--rate", "rate_hz", type=REAL, required=True, help="Sample rate [Hz].")
 @click.option("--input", "data_type", type=click.Choice(["rate", "angle"]), default="rate",
               show_default=True, help="Rate samples, or integrated angle/velocity samples.")
 @click.option("--unit", default=None,

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import echo_json, print_table
+from inertest.cli._common import FiniteFloatRange, echo_json, print_table
 from inertest.cli._verdicts import verdict_summary
 from inertest.errors import InputError
 
@@ -26,7 +26,7 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the fits on a Dask cluster instead (scheduler address, e.g. "
                    "tcp://10.0.0.5:8786; needs dask[distributed]).")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--timeout", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
               help="Fail a run whose fit takes longer than this, counted from when every "
                    "earlier run is filed; its worker is stopped (default: no limit).")

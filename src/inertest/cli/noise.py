@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import check_paths, echo_json, input_identity, print_table
+from inertest.cli._common import REAL, check_paths, echo_json, input_identity, print_table
 from inertest.errors import DataError, InputError
 from inertest.io.imu_recording import FORMATS, TIME_UNITS, read_imu_recording
 from inertest.results import envelope
@@ -31,14 +31,14 @@ _OUTLIERS = ("keep", "refuse", "clip")
               show_default=True, help="Unit of the gyro columns.")
 @click.option("--accel-unit", type=click.Choice(list(ACCEL_UNITS)), default="m/s^2",
               show_default=True, help="Unit of the accelerometer columns (g = 9.80665 m/s^2).")
-@click.option("--rate", "rate_hz", type=float, default=None,
+@click.option("--rate", "rate_hz", type=REAL, default=None,
               help="Sample rate [Hz]: needed without time stamps, else checked against them.")
 @click.option("--gaps", type=click.Choice(_GAPS), default="refuse", show_default=True,
               help="Gaps or duplicated stamps: refuse, or analyse the longest clean segment.")
 @click.option("--outliers", type=click.Choice(_OUTLIERS), default="keep", show_default=True,
               help="Samples beyond --outlier-threshold robust sigmas: keep (counted), refuse, "
                    "or clip.")
-@click.option("--outlier-threshold", type=float, default=10.0, show_default=True,
+@click.option("--outlier-threshold", type=REAL, default=10.0, show_default=True,
               help="Outlier threshold [robust sigmas from a running median].")
 @click.option("--detrend", is_flag=True, help="Remove a straight line from each channel.")
 @click.option("--kalibr", "kalibr_out", type=click.Path(dir_okay=False, path_type=Path),

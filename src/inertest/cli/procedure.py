@@ -10,6 +10,7 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     print_identity,
@@ -27,7 +28,7 @@ _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
               help="TOML of true coefficients in deg/h, deg/h/g, deg/h/g^2.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Data file to write (.csv or .parquet).")
-@click.option("--noise", type=float, default=0.0, show_default=True,
+@click.option("--noise", type=REAL, default=0.0, show_default=True,
               help="White noise per reading, in the plan's output unit.")
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | None) -> None:
@@ -48,7 +49,7 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
 @click.command()
 @click.argument("plan", type=_FILE)
 @click.argument("data", type=_FILE)
-@click.option("--sigma", type=float, default=None,
+@click.option("--sigma", type=REAL, default=None,
               help="Known noise per reading in the output unit (default: from the residuals).")
 @click.option("--noise-model", default=None,
               help="Noise model of the instrument: auto, white, position-offsets, random-walk or "
