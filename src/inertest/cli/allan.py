@@ -20,7 +20,7 @@ from inertest.cli._common import (
     print_table,
     save_figure,
 )
-from inertest.errors import InputError
+from inertest.errors import DataError, InputError
 from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
@@ -148,6 +148,10 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     model = None
     checks: list[str] = []
     if not no_noise_id:
+        if not np.any(res["oadev"].var > 0):
+            raise DataError(f"{data.name} is constant (every sample is {float(samples[0]):g} "
+                            f"{unit}): there is no noise to analyse; check the recording and "
+                            "--column")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             model = identify_noise(res["oadev"], instrument=instrument)

@@ -141,8 +141,12 @@ def _dask_client(address: str | None) -> Iterator[Any]:
     except ImportError:
         raise InputError("--scheduler needs Dask: pip install 'dask[distributed]', or use "
                          "--workers N for local processes") from None
+    _check_scheduler_address(address)
     try:
         client = Client(address)  # timeout: distributed.comm.timeouts.connect
+    except ValueError as exc:  # an address distributed's own parser refuses
+        raise InputError(f"--scheduler {address!r} is not a scheduler address ({exc}); "
+                         f"{_ADDRESS_FIX}") from None
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address} ({exc}); check the "
                          "address, or use --workers N for local processes") from None
@@ -150,3 +154,26 @@ def _dask_client(address: str | None) -> Iterator[Any]:
         yield client
     finally:
         client.close()
+
+
+_ADDRESS_FIX = "give it as tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
+
+
+def _check_scheduler_address(address: str) -> None:
+    """Refuse, before connecting, a ``--scheduler`` that is no ``SCHEME://HOST:PORT`` address."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(f"--scheduler {address!r} is not a scheduler address ({exc}); "
+                         f"{_ADDRESS_FIX}") from None
+    if scheme not in backends or scheme == "inproc":
+        known = ", ".join(f"{b}://" for b in backends if b != "inproc")
+        raise InputError(f"--scheduler {address!r}: unknown protocol {scheme!r} (known: {known}); "
+                         f"{_ADDRESS_FIX}")
+    if not host or any(c.isspace() for c in address) or not 0 < int(port) < 65536:
+        raise InputError(f"--scheduler {address!r} needs a host name and a port from 1 to "
+                         f"65535; {_ADDRESS_FIX}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -94,7 +95,12 @@ def known_sigma(sigma: float | None, si_per_output_unit: float) -> float | None:
         return None
     if not np.isfinite(sigma) or sigma <= 0:
         raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-    return float(sigma) * si_per_output_unit
+    s = float(sigma) * si_per_output_unit
+    if not (math.isfinite(s * s) and s * s > 0):  # variances are computed with it
+        size, what = ("large", "overflows") if s > 1 else ("small", "underflows to 0")
+        raise PlanError(f"noise sigma {sigma:g} (output unit) is too {size} to compute with (its "
+                        f"square {what}); give the noise per reading in the plan's output unit")
+    return s
 
 
 #: Names of a time column [s] that :func:`check_sample_rate` compares with the plan's rate.
