@@ -116,7 +116,8 @@ def check_sample_rate(
     A rate 10 times too low silently makes every integral over the samples (the Ferraris
     turns) 10 times too large, and so the gyro scale factors. The median step of the first
     column in :data:`TIME_COLUMNS` [s] must match ``1 / sample_rate_hz`` within ``tolerance``
-    (relative); steps that are not positive (a new segment restarting its clock) are ignored.
+    (relative); steps that are not positive (a new segment restarting its clock) are ignored,
+    unless most steps are negative: a time column running backwards is refused as such.
     Data without a time column are not checked.
 
     Raises
@@ -131,6 +132,12 @@ def check_sample_rate(
     if t.dtype.kind not in "fiu" or t.size < 3:
         return
     dt = np.diff(t.astype(float))
+    back = np.flatnonzero(dt < 0)
+    if back.size > np.count_nonzero(dt > 0):  # restarts of the clock are few; this is most
+        raise DataError(
+            f"{source}: the time column {name!r} runs backwards ({back.size} of {dt.size} steps "
+            f"are negative, the first at data row {int(back[0]) + 2}); sort the rows by time, "
+            "or fix the time column")
     dt = dt[np.isfinite(dt) & (dt > 0)]
     if dt.size < 2:
         return
