@@ -29,7 +29,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.cli._common import REAL, check_paths
+from inertest.cli._common import check_paths
 from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration, read_json_object
 from inertest.io.data_file import read_table, write_table
@@ -131,7 +131,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
             units[name] = unit
 
     if use_acc:
-        raw = np.column_stack([np.asarray(table[c], dtype=REAL) for c in acc_cols])
+        raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
         a_si = cal.accelerometer.apply(raw)
         put(acc_cols, accel_from_si(a_si, acc_unit), acc_unit)
         done.append(f"accelerometer -> {acc_unit}")
@@ -139,7 +139,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
         if cal.gyroscope.g_sensitivity is not None and a_si is None:
             raise DataError("this gyroscope calibration corrects g-sensitivity and needs the "
                             "accelerometer columns and calibration (--acc-columns)")
-        raw = np.column_stack([np.asarray(table[c], dtype=REAL) for c in gyr_cols])
+        raw = np.column_stack([np.asarray(table[c], dtype=float) for c in gyr_cols])
         w_si = cal.gyroscope.apply(raw, a_si)
         put(gyr_cols, rate_from_si(w_si, gyr_unit), gyr_unit)
         done.append(f"gyroscope -> {gyr_unit}")
