@@ -288,7 +288,7 @@ def target_directory(
         old = report_manifest(final) or []
         # Every path checked before the first is replaced: nothing is written half-way.
         for rel in [*written, REPORT_MARKER]:
-            path_inside(final, rel, what=f"report folder {final}: the report writes")
+            _check_replaceable(final, rel)
         for rel in written:
             dest = final / rel
             dest.parent.mkdir(parents=True, exist_ok=True)
@@ -303,6 +303,20 @@ def target_directory(
     finally:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _check_replaceable(folder: Path, rel: str) -> None:
+    """Refuse a report file ``rel`` that cannot replace what ``folder`` holds at its path."""
+    head = f"report folder {folder}: the report writes"
+    dest = path_inside(folder, rel, what=head)
+    clash = dest if dest.is_dir() else next(
+        (p for p in dest.parents if p != folder and p.is_relative_to(folder) and p.exists()
+         and not p.is_dir()), None)
+    if clash is not None:
+        kind = "folder" if clash == dest else "file"
+        raise OutputPathError(f"{head} {rel}, but the folder holds a {kind} "
+                              f"{clash.relative_to(folder)} there; move it away, or give a new "
+                              "folder")
 
 
 def _remove_stale_file(folder: Path, rel: str) -> None:
