@@ -84,16 +84,16 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
     rec = read_imu_recording(data, fmt=fmt, time_column=time_column, time_unit=time_unit,
                              gyro_columns=gyro_columns, accel_columns=accel_columns,
                              gyro_unit=gyro_unit, accel_unit=accel_unit)
+    rate = rate_hz if rate_hz is not None else rec.rate_hz
+    if rec.t is None and rate is None:
+        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
+                         "the time column with --time-column")
     for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
                           *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3, strict=False)]:
         if col.size and (col == col[0]).all():  # no noise: nothing to fit (all deviations 0)
             raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} in "
                             "every sample): there is no noise to analyse; check the recording, "
                             "or leave the channel out with --gyro-columns / --accel-columns")
-    rate = rate_hz if rate_hz is not None else rec.rate_hz
-    if rec.t is None and rate is None:
-        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
-                         "the time column with --time-column")
     result = analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
                                accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
                                outliers=outliers, outlier_threshold=outlier_threshold,
