@@ -657,30 +657,29 @@ def _user_folder_and_report(d: Path, listed: list[str]) -> Path:
     return d / "rep"
 
 
-@case("fit-report-manifest-behind-symlink")
-def _(d):
-    """The issue's repro: exit 0 and user/keep.txt gone."""
-    return _fit(d, "plan.toml", "data.csv", "--no-store", "--report",
-                str(_user_folder_and_report(d, ["sub/keep.txt"])))
+def _fit_report(d: Path, rep: Path) -> list[str]:
+    return _fit(d, "plan.toml", "data.csv", "--no-store", "--report", str(rep))
+
+
+def _thermal_report(d: Path, rep: Path) -> list[str]:
+    return ["thermal", "fit", str(d / "chamber.csv"), "--quantity", "bias", "--report", str(rep)]
+
+
+for _name, _listed, _command in (
+        ("fit-report-manifest-behind-symlink", "sub/keep.txt", _fit_report),  # the repro
+        ("fit-report-manifest-outside-folder", "../plan.toml", _fit_report),
+        ("thermal-report-manifest-behind-symlink", "sub/keep.txt", _thermal_report)):
+    @case(_name)
+    def _(d, _listed=_listed, _command=_command):
+        """The issue's repro was exit 0 and user/keep.txt gone."""
+        return _command(d, _user_folder_and_report(d, [_listed]))
 
 
 @case("fit-report-manifest-file-is-symlink")
 def _(d):
     rep = _user_folder_and_report(d, ["index.html"])
     (rep / "index.html").symlink_to("../user/keep.txt")
-    return _fit(d, "plan.toml", "data.csv", "--no-store", "--report", str(rep))
-
-
-@case("fit-report-manifest-outside-folder")
-def _(d):
-    return _fit(d, "plan.toml", "data.csv", "--no-store", "--report",
-                str(_user_folder_and_report(d, ["../plan.toml"])))
-
-
-@case("thermal-report-manifest-behind-symlink")
-def _(d):
-    return ["thermal", "fit", str(d / "chamber.csv"), "--quantity", "bias", "--report",
-            str(_user_folder_and_report(d, ["sub/keep.txt"]))]
+    return _fit_report(d, rep)
 
 
 # --- issue 34: files read back hold finite numbers of the right type ----------------------------
@@ -729,16 +728,16 @@ def _(d):
     return _fit(d, "plan.toml", "data.csv", "--spec", str(d / "spec.toml"))
 
 
-@case("simulate-truth-nan")
-def _(d):
-    (d / "truth.toml").write_text("[coefficients]\nDF = nan\n")
-    return _sim(d, "-o", str(d / "out.csv"))
-
-
-@case("batch-manifest-sigma-nan")
-def _(d):
-    (d / "m.toml").write_text('[[run]]\nplan = "plan.toml"\ndata = "data.csv"\nsigma = nan\n')
-    return ["batch", str(d / "m.toml")]
+for _name, _file, _text, _argv in (
+        ("simulate-truth-nan", "truth.toml", "[coefficients]\nDF = nan\n",
+         lambda d: _sim(d, "-o", str(d / "out.csv"))),
+        ("batch-manifest-sigma-nan", "m.toml",
+         '[[run]]\nplan = "plan.toml"\ndata = "data.csv"\nsigma = nan\n',
+         lambda d: ["batch", str(d / "m.toml")])):
+    @case(_name)
+    def _(d, _file=_file, _text=_text, _argv=_argv):
+        (d / _file).write_text(_text)
+        return _argv(d)
 
 
 @case("fit-data-hdf5-complex-column")
@@ -775,35 +774,20 @@ def _(d):
 
 
 # --- issue 34: number options -------------------------------------------------------------------
-@case("history-k-nan")
-def _(d):
-    return ["history", "FG-1", "-k", "nan"]
-
-
-@case("history-k-inf")
-def _(d):
-    return ["history", "FG-1", "-k", "inf"]
-
-
-@case("fit-sigma-inf")
-def _(d):
-    return _fit(d, "plan.toml", "data.csv", "--sigma", "inf")
-
-
-@case("fit-sigma-1e300")
-def _(d):
-    return _fit(d, "plan.toml", "data.csv", "--sigma", "1e300")
+for _name, _argv in {  # -k nan switched the outlier flags off; 1e300 overflowed in the fit
+    "history-k-nan": lambda d: ["history", "FG-1", "-k", "nan"],
+    "history-k-inf": lambda d: ["history", "FG-1", "-k", "inf"],
+    "fit-sigma-inf": lambda d: _fit(d, "plan.toml", "data.csv", "--sigma", "inf"),
+    "fit-sigma-1e300": lambda d: _fit(d, "plan.toml", "data.csv", "--sigma", "1e300"),
+    "modulation-stator-hz-nan": lambda d: ["modulation", "component", "--stator-hz", "1,nan"],
+}.items():
+    case(_name)(_argv)
 
 
 @case("batch-timeout-nan")
 def _(d):
     (d / "m.toml").write_text('[[run]]\nplan = "plan.toml"\ndata = "data.csv"\n')
     return ["batch", str(d / "m.toml"), "--timeout", "nan"]
-
-
-@case("modulation-stator-hz-nan")
-def _(d):
-    return ["modulation", "component", "--stator-hz", "1,nan"]
 
 
 # --- issue 34: inputs that reached the internal-error handler -----------------------------------
