@@ -178,3 +178,14 @@ def test_temporaries_of_killed_runs_are_cleared_whatever_their_name(tmp_path):
     assert socket.gethostname()  # the host part is this machine's
     _write(tmp_path / "rep7", {"index.html": "new"})
     assert not stale.exists()
+
+
+def test_a_link_named_like_a_stale_temporary_is_left_alone(tmp_path):
+    from inertest.io.atomic import _host
+
+    (tmp_path / "user").mkdir()
+    (tmp_path / "user" / "keep.txt").write_text("the user's")
+    fake = tmp_path / f".rep.inertest-tmp-{_host()}-999999999-abc"
+    fake.symlink_to(tmp_path / "user")
+    _write(tmp_path / "rep", {"index.html": "1"})
+    assert fake.is_symlink() and (tmp_path / "user" / "keep.txt").read_text() == "the user's"

@@ -139,9 +139,9 @@ def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
         return removed
     for sib in siblings:
         m = pattern.match(sib.name)
-        if m is None or _alive(int(m.group(1))):
-            continue
-        if sib.is_dir() and not sib.is_symlink():
+        if m is None or sib.is_symlink() or _alive(int(m.group(1))):
+            continue  # inertest never makes a temporary that is a link: not ours
+        if sib.is_dir():
             shutil.rmtree(sib, ignore_errors=True)
         else:
             sib.unlink(missing_ok=True)
