@@ -189,3 +189,18 @@ def test_a_link_named_like_a_stale_temporary_is_left_alone(tmp_path):
     fake.symlink_to(tmp_path / "user")
     _write(tmp_path / "rep", {"index.html": "1"})
     assert fake.is_symlink() and (tmp_path / "user" / "keep.txt").read_text() == "the user's"
+
+
+def test_a_full_disk_reported_without_a_file_name_names_the_output(tmp_path):
+    """Arrow and HDF5 report ENOSPC without a file name: the user's path is given."""
+    import errno
+
+    from inertest.io.atomic import target_file
+
+    with pytest.raises(OSError) as info, target_file(tmp_path / "s.parquet"):
+        raise OSError(errno.ENOSPC, "Error writing bytes to file")
+    assert info.value.errno == errno.ENOSPC and info.value.filename == str(tmp_path / "s.parquet")
+    with pytest.raises(OSError) as info, target_directory(tmp_path / "rep"):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    assert info.value.filename == str(tmp_path / "rep")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -14,6 +14,7 @@ inside the folder through real folders only, never behind a symbolic link.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
@@ -72,8 +73,12 @@ def _user_path_error(exc: OSError, tmp: Path | None, final: Path) -> OSError:
     """``exc`` naming ``final`` (or a file in it) where it named the hidden temporary ``tmp``.
 
     ``tmp`` is None when the temporary could not even be created: any name of this process's
-    temporaries beside ``final`` then stands for ``final``.
+    temporaries beside ``final`` then stands for ``final``. A full disk that a writer reports
+    without a file name (Arrow, HDF5) is named at ``final``.
     """
+    if exc.filename is None and exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
+        return type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(final))
+
     def user(name: object) -> object:
         if not isinstance(name, str | bytes):
             return name
