@@ -58,8 +58,23 @@ def assets(tmp_path_factory):
     shutil.copy(EXAMPLES / "ins_errors" / "source_scenario.toml", d / "scenario.toml")
     shutil.copy(EXAMPLES / "gyro_triad_rotation" / "plan.toml", d / "rotation.toml")
     np.save(d / "two.npy", np.random.default_rng(3).normal(size=(400, 2)))
+    _thermal_assets(d)
     assert os.environ.get("INERTEST_DB") == env
     return d
+
+
+def _thermal_assets(d: Path) -> None:
+    """A gyro bias recorded over 4 chamber cycles, its thermal model, a triad thermal plan."""
+    from inertest.io.data_file import write_table
+
+    t = np.arange(0.0, 4 * 12000.0, 60.0)
+    temp = 10.0 - 50.0 * np.cos(2 * np.pi * t / 12000.0)
+    bias = 0.5 + 0.004 * (temp - 20) + np.random.default_rng(4).normal(0, 0.01, t.size)
+    write_table(d / "chamber.csv", {"cycle": t // 12000 + 1, "time_s": t,
+                                    "temperature_c": temp, "bias_deg_h": bias})
+    assert main(["thermal", "fit", str(d / "chamber.csv"), "--quantity", "bias", "--no-rate",
+                 "--model-out", str(d / "bias_model.json")]) == 0
+    shutil.copy(EXAMPLES / "thermal_triad" / "plan.toml", d / "triad.toml")
 
 
 CASES: dict[str, Callable[[Path], list[str]]] = {}
@@ -630,6 +645,269 @@ def _(d):
     return ["batch", str(d / "m.toml")]
 
 
+# --- issue 34: paths inside report folders -----------------------------------------------------
+def _user_folder_and_report(d: Path, listed: list[str]) -> Path:
+    """``rep/`` an earlier report whose manifest lists ``listed``; ``rep/sub -> ../user``."""
+    (d / "user").mkdir()
+    (d / "user" / "keep.txt").write_text("the user's")
+    (d / "rep").mkdir()
+    (d / "rep" / "sub").symlink_to("../user")
+    (d / "rep" / ".inertest-report").write_text(json.dumps(
+        {"written_by": "inertest", "files": listed}))
+    return d / "rep"
+
+
+def _fit_report(d: Path, rep: Path) -> list[str]:
+    return _fit(d, "plan.toml", "data.csv", "--no-store", "--report", str(rep))
+
+
+def _thermal_report(d: Path, rep: Path) -> list[str]:
+    return ["thermal", "fit", str(d / "chamber.csv"), "--quantity", "bias", "--report", str(rep)]
+
+
+for _name, _listed, _command in (
+        ("fit-report-manifest-behind-symlink", "sub/keep.txt", _fit_report),  # the repro
+        ("fit-report-manifest-outside-folder", "../plan.toml", _fit_report),
+        ("thermal-report-manifest-behind-symlink", "sub/keep.txt", _thermal_report)):
+    @case(_name)
+    def _(d, _listed=_listed, _command=_command):
+        """The issue's repro was exit 0 and user/keep.txt gone."""
+        return _command(d, _user_folder_and_report(d, [_listed]))
+
+
+@case("fit-report-manifest-file-is-symlink")
+def _(d):
+    rep = _user_folder_and_report(d, ["index.html"])
+    (rep / "index.html").symlink_to("../user/keep.txt")
+    return _fit_report(d, rep)
+
+
+# --- issue 34: files read back hold finite numbers of the right type ----------------------------
+def _thermal_model_with(d: Path, value: float, name: str = "m.json") -> Path:
+    doc = json.loads((d / "bias_model.json").read_text())
+    doc["terms"][-1]["value"] = value
+    (d / name).write_text(json.dumps(doc))
+    return d / name
+
+
+def _apply_thermal(d: Path, model: Path) -> list[str]:
+    return ["apply", str(model), str(d / "chamber.csv"), "-o", str(d / "o.csv"),
+            "--temperature-column", "temperature_c"]
+
+
+@case("apply-thermal-model-nan-coefficient")
+def _(d):
+    """Was: an all-NaN column written and success reported."""
+    return _apply_thermal(d, _thermal_model_with(d, float("nan")))
+
+
+@case("apply-thermal-model-overflowing-coefficient")
+def _(d):
+    return _apply_thermal(d, _thermal_model_with(d, 1e308))
+
+
+@case("apply-calibration-infinity")
+def _(d):
+    doc = json.loads((d / "cal.json").read_text())
+    doc["result"]["calibration"]["gyroscope"]["offset"][1] = float("inf")
+    (d / "c.json").write_text(json.dumps(doc))
+    return ["apply", str(d / "c.json"), str(d / "ferraris.csv"), "-o", str(d / "o.csv")]
+
+
+@case("fit-lab-file-nan")
+def _(d):
+    text = (EXAMPLES / "lab" / "equipment.toml").read_text()
+    (d / "lab.toml").write_text(text.replace("rate_ppm = 5.0", "rate_ppm = nan"))
+    return _fit(d, "plan.toml", "data.csv", "--equipment", str(d / "lab.toml"))
+
+
+@case("fit-spec-file-inf")
+def _(d):
+    text = (EXAMPLES / "specs" / "floated_gyro.toml").read_text()
+    (d / "spec.toml").write_text(text.replace("max_abs = 1.0", "max_abs = inf", 1))
+    return _fit(d, "plan.toml", "data.csv", "--spec", str(d / "spec.toml"))
+
+
+for _name, _file, _text, _argv in (
+        ("simulate-truth-nan", "truth.toml", "[coefficients]\nDF = nan\n",
+         lambda d: _sim(d, "-o", str(d / "out.csv"))),
+        ("batch-manifest-sigma-nan", "m.toml",
+         '[[run]]\nplan = "plan.toml"\ndata = "data.csv"\nsigma = nan\n',
+         lambda d: ["batch", str(d / "m.toml")])):
+    @case(_name)
+    def _(d, _file=_file, _text=_text, _argv=_argv):
+        (d / _file).write_text(_text)
+        return _argv(d)
+
+
+@case("fit-data-hdf5-complex-column")
+def _(d):
+    """Was: read with the imaginary part dropped (numpy's ComplexWarning the only sign)."""
+    import h5py
+
+    from inertest.io.data_file import read_table
+    with h5py.File(d / "x.h5", "w") as fh:
+        for k, v in read_table(d / "data.csv").items():
+            if v.dtype.kind == "f":
+                fh[k] = v + (1j if k == "output" else 0)
+            else:
+                fh.create_dataset(k, data=v.astype(object), dtype=h5py.string_dtype())
+    return _fit(d, data="x.h5")
+
+
+@case("fit-data-parquet-list-column")
+def _(d):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from inertest.io.data_file import read_table
+    cols = {k: v.tolist() for k, v in read_table(d / "data.csv").items()}
+    cols["output"] = [[x] for x in cols["output"]]
+    pq.write_table(pa.table(cols), d / "x.parquet")
+    return _fit(d, data="x.parquet")
+
+
+@case("allan-npy-complex")
+def _(d):
+    np.save(d / "x.npy", np.ones(400) + 1j)
+    return _allan(d, "x.npy", "--rate", "1")
+
+
+# --- issue 34: number options -------------------------------------------------------------------
+def _history_k(d: Path, k: str) -> list[str]:
+    """``history -k K`` of a database with two runs (-k nan switched the outlier flags off)."""
+    for extra in ((), ("--allow-duplicate",)):
+        assert main(_fit(d, "plan.toml", "data.csv", "--db", str(d / "h.db"), *extra)) == 0
+    return ["history", "FG-0417", "--db", str(d / "h.db"), "-k", k]
+
+
+for _name, _argv in {  # 1e300 overflowed in the fit
+    "history-k-nan": lambda d: _history_k(d, "nan"),
+    "history-k-inf": lambda d: _history_k(d, "inf"),
+    "fit-sigma-inf": lambda d: _fit(d, "plan.toml", "data.csv", "--sigma", "inf"),
+    "fit-sigma-1e300": lambda d: _fit(d, "plan.toml", "data.csv", "--sigma", "1e300"),
+    "modulation-stator-hz-nan": lambda d: ["modulation", "component", "--stator-hz", "1,nan"],
+}.items():
+    case(_name)(_argv)
+
+
+@case("batch-timeout-nan")
+def _(d):
+    (d / "m.toml").write_text('[[run]]\nplan = "plan.toml"\ndata = "data.csv"\n')
+    return ["batch", str(d / "m.toml"), "--timeout", "nan"]
+
+
+# --- issue 34: inputs that reached the internal-error handler -----------------------------------
+@case("plan-check-sigma-1e300")
+def _(d):
+    (d / "noise.toml").write_text("sigma = 1e300\n")
+    return ["plan-check", str(d / "plan.toml"), "--spec",
+            str(EXAMPLES / "specs" / "floated_gyro.toml"), "--noise", str(d / "noise.toml")]
+
+
+@case("thermal-triad-header-only")
+def _(d):
+    (d / "x.csv").write_text("step,temperature_c,branch,position,output_x,output_y,output_z\n")
+    return ["thermal", "triad", str(d / "triad.toml"), str(d / "x.csv")]
+
+
+@case("noise-constant-channel")
+def _(d):
+    from inertest.io.data_file import write_table
+    rng = np.random.default_rng(5)
+    write_table(d / "imu.csv", {"time": np.arange(2000) / 100.0, "gx": np.zeros(2000),
+                                "gy": rng.normal(size=2000), "gz": rng.normal(size=2000)})
+    return ["noise", str(d / "imu.csv")]
+
+
+@case("allan-constant")
+def _(d):
+    np.save(d / "x.npy", np.full(4000, 3.0))
+    return _allan(d, "x.npy", "--rate", "100")
+
+
+for _name, _address in (("no-port", "gar bage"), ("broken-ipv6", "tcp://[::1:x"),
+                        ("unknown-protocol", "http://h:8786"), ("port-range", "tcp://h:99999")):
+    @case(f"batch-scheduler-{_name}")
+    def _(d, _address=_address):
+        """Was: internal error (ValueError from distributed's address parser)."""
+        (d / "m.toml").write_text('[[run]]\nplan = "plan.toml"\ndata = "data.csv"\n')
+        return ["batch", str(d / "m.toml"), "--no-store", "--scheduler", _address]
+
+
+@case("fit-ferraris-time-running-backwards")
+def _(d):
+    """Was: reported as a wrong sample rate (the only forward steps were segment restarts)."""
+    from inertest.io.data_file import read_table, write_table
+    t = read_table(d / "ferraris.csv")
+    for part in np.unique(t["part"]):
+        sel = t["part"] == part
+        t["t_s"][sel] = t["t_s"][sel][::-1]
+    write_table(d / "x.csv", t)
+    return _fit(d, "ferraris.toml", "x.csv")
+
+
+# --- issue 34: size caps before parsing ---------------------------------------------------------
+def _laughs(levels: int = 9) -> str:
+    lines = ["gyroscope_noise_density: 1.0e-4", "a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, levels)]
+    return "\n".join(lines) + "\n"
+
+
+@case("noise-compare-yaml-alias-bomb")
+def _(d):
+    """Was: out-of-memory; 700 bytes expanding to 3.9e8 values."""
+    (d / "imu.yaml").write_text(_laughs())
+    return ["noise", str(EXAMPLES / "noise" / "lasergyro.imu.xz"), "--compare",
+            str(d / "imu.yaml")]
+
+
+@case("noise-compare-yaml-too-large")
+def _(d):
+    (d / "imu.yaml").write_text("gyroscope_noise_density: 1.0e-4\n" + "#\n" * 600_000)
+    return ["noise", str(EXAMPLES / "noise" / "lasergyro.imu.xz"), "--compare",
+            str(d / "imu.yaml")]
+
+
+#: Issue 34: what the one line of a case must say (the problem, the fix), so that no case passes
+#: on an error other than its own (the old ones were one clean line too, but misleading or about
+#: something else).
+EXPECT = {
+    "fit-report-manifest-behind-symlink": "lists sub/keep.txt, which lies behind the symbolic",
+    "fit-report-manifest-outside-folder": "lists '../plan.toml', which is not a path inside",
+    "thermal-report-manifest-behind-symlink": "behind the symbolic link",
+    "fit-report-manifest-file-is-symlink": "lists index.html, which lies behind the symbolic",
+    "apply-thermal-model-nan-coefficient": "terms[1].value is nan, not a finite number; write "
+                                           "the model again",
+    "apply-thermal-model-overflowing-coefficient": "gives a non-finite bias_deg_h",
+    "apply-calibration-infinity": "gyroscope.offset[1] is inf, not a finite number",
+    "fit-lab-file-nan": "equipment[0].type_b.rate_ppm is nan, not a finite number",
+    "fit-spec-file-inf": "limit[0].max_abs is inf, not a finite number",
+    "simulate-truth-nan": "coefficients.DF is nan, not a finite number",
+    "batch-manifest-sigma-nan": "run[0].sigma is nan, not a finite number",
+    "fit-data-hdf5-complex-column": "column 'output' holds complex numbers",
+    "fit-data-parquet-list-column": "column 'output' holds list<",
+    "allan-npy-complex": "holds complex numbers",
+    "history-k-nan": "'nan' is not a finite number",
+    "history-k-inf": "'inf' is not a finite number",
+    "fit-sigma-inf": "'inf' is not a finite number",
+    "fit-sigma-1e300": "too large to compute with",
+    "modulation-stator-hz-nan": "expected finite numbers",
+    "batch-timeout-nan": "'nan' is not a finite number",
+    "plan-check-sigma-1e300": "sigma = 1e+300 is too large to compute with",
+    "thermal-triad-header-only": "has no rows",
+    "noise-constant-channel": "channel gx of imu.csv is constant",
+    "allan-constant": "x.npy is constant",
+    "batch-scheduler-no-port": "give it as tcp://HOST:PORT",
+    "batch-scheduler-broken-ipv6": "give it as tcp://HOST:PORT",
+    "batch-scheduler-unknown-protocol": "unknown protocol 'http'",
+    "batch-scheduler-port-range": "a port from 1 to 65535",
+    "fit-ferraris-time-running-backwards": "time column 't_s' runs backwards",
+    "noise-compare-yaml-alias-bomb": "larger than 100000 values once its aliases",
+    "noise-compare-yaml-too-large": "larger than 1024 KiB",
+}
+
+
 def _digest(folder: Path) -> dict[str, str]:
     out = {}
     for p in sorted(folder.rglob("*")):
@@ -645,6 +923,7 @@ def _digest(folder: Path) -> dict[str, str]:
 
 def test_corpus_is_large():
     assert len(CASES) >= 60
+    assert set(EXPECT) <= set(CASES)
 
 
 @pytest.mark.parametrize("name", sorted(CASES))
@@ -663,6 +942,7 @@ def test_bad_input_is_one_clean_line(name, assets, tmp_path, monkeypatch, capsys
     assert status != 0, f"{name}: exit 0; stderr {err!r}"
     assert "Traceback" not in err and "internal error" not in err, err
     assert len(lines) == 1 and lines[0].startswith("error: "), err
+    assert EXPECT.get(name, "") in lines[0], f"{name}: {lines[0]}"
     assert "\x1b" not in err and "\0" not in err
     assert "hunter2" not in err
     assert _digest(work) == before, f"{name} changed files in its folder"
@@ -670,7 +950,7 @@ def test_bad_input_is_one_clean_line(name, assets, tmp_path, monkeypatch, capsys
 
 
 # --- what is not about the input ----------------------------------------------------------------
-@pytest.mark.parametrize("command", ["simulate", "fit-report", "allan-report", "apply"])
+@pytest.mark.parametrize("command", ["simulate", "fit-report", "allan-report", "apply", "batch"])
 def test_disk_full_is_one_line_and_leaves_nothing(command, assets, tmp_path, monkeypatch,
                                                   capsys):
     work = tmp_path / "work"
@@ -684,7 +964,11 @@ def test_disk_full_is_one_line_and_leaves_nothing(command, assets, tmp_path, mon
                                str(work / "a.html"), "--no-noise-id"),
         "apply": ["apply", str(work / "cal.json"), str(work / "ferraris.csv"), "-o",
                   str(work / "o.csv")],
+        "batch": ["batch", str(work / "m.toml"), "--db", str(db)],
     }[command]
+    # issue 34: batch printed a bare "[Errno 28]"; the same line as fit now
+    (work / "m.toml").write_text('[[run]]\nplan = "plan.toml"\ndata = "data.csv"\n'
+                                 'report = "rep"\n')
     before = _digest(work)
     real_replace = os.replace
 
@@ -696,8 +980,94 @@ def test_disk_full_is_one_line_and_leaves_nothing(command, assets, tmp_path, mon
     monkeypatch.setattr(os, "replace", real_replace)
     err = capsys.readouterr().err
     assert status != 0 and "disk full at" in err and "Traceback" not in err
+    assert "Errno" not in err and "inertest-tmp" not in err
     assert len([ln for ln in err.splitlines() if ln.strip()]) == 1
     assert _digest(work) == before
+
+
+@pytest.mark.parametrize("command", ["allan-plot", "fit-report", "apply"])
+def test_an_unwritable_output_names_the_users_path(command, assets, tmp_path, monkeypatch,
+                                                   capsys):
+    """Issue 34: the message named the hidden temporary (``.x.png.inertest-tmp-...``)."""
+    import tempfile
+
+    work = tmp_path / "work"
+    shutil.copytree(assets, work)
+    argv, shown = {
+        "allan-plot": (_allan(work, "two.npy", "--column", "0", "--rate", "1", "--plot",
+                              str(work / "x.png"), "--no-noise-id"), "x.png"),
+        "fit-report": (_fit(work, "plan.toml", "data.csv", "--no-store", "--report",
+                            str(work / "rep")), "rep"),
+        "apply": (["apply", str(work / "cal.json"), str(work / "ferraris.csv"), "-o",
+                   str(work / "o.csv")], "o.csv"),
+    }[command]
+    before = _digest(work)
+    real = {"mkstemp": tempfile.mkstemp, "mkdtemp": tempfile.mkdtemp}
+
+    def refuse(name):
+        def create(*a, **k):
+            if ".inertest-tmp-" not in k.get("prefix", ""):
+                return real[name](*a, **k)
+            raise PermissionError(13, "Permission denied",
+                                  os.path.join(k["dir"], k["prefix"] + "x1y2z3"))
+        return create
+
+    monkeypatch.setattr(tempfile, "mkstemp", refuse("mkstemp"))
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse("mkdtemp"))
+    status = main(argv)
+    monkeypatch.undo()
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert status == 2 and len(lines) == 1, err
+    assert lines[0] == f"error: cannot use file {work / shown}: Permission denied"
+    assert _digest(work) == before
+
+
+def test_a_history_database_on_read_only_storage_is_read_not_written(assets, tmp_path,
+                                                                     monkeypatch, capsys):
+    """Issue 34: history could not read it (SQLite's WAL needs a -shm file beside it)."""
+    from inertest.store import history as store_history
+
+    work = tmp_path / "work"
+    shutil.copytree(assets, work)
+    db = work / "archive" / "h.db"
+    db.parent.mkdir()
+    assert main(_fit(work, "plan.toml", "data.csv", "--db", str(db))) == 0
+    capsys.readouterr()
+    before = _digest(work)
+    db.chmod(0o444)
+    db.parent.chmod(0o555)
+    monkeypatch.setattr(store_history, "_writable", lambda path: False)  # also for root
+    try:
+        assert main(["history", "FG-0417", "--db", str(db), "--json"]) == 0
+        assert len(json.loads(capsys.readouterr().out)["result"]["runs"]) == 1
+        assert main(_fit(work, "plan.toml", "data.csv", "--db", str(db),
+                         "--allow-duplicate")) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.endswith("is on read-only storage; store the run elsewhere with --db, or "
+                            "use --no-store") and err.count("\n") == 0
+    finally:
+        db.parent.chmod(0o755)
+        db.chmod(0o644)
+    assert _digest(work) == before  # no -shm, no -wal, no row
+
+
+def test_a_compression_bomb_is_refused_before_it_is_parsed(tmp_path, monkeypatch, capsys):
+    """Issue 34: a small .xz of gigabytes of text ended at out-of-memory after 100 s; here the
+    cap is lowered to 1 MiB so that the test stays small."""
+    import lzma
+
+    from inertest.io import imu_recording
+
+    monkeypatch.setattr(imu_recording, "MAX_DECOMPRESSED_BYTES", 1 << 20)
+    bomb = tmp_path / "bomb.imu.xz"
+    bomb.write_bytes(lzma.compress(b"% psins\n0 0 0 0 0 0\n34 108 380 0 10 9.8\n"
+                                   b"0.1 0.1 0.1 125 125 125\n" + b"1 2 3 4 5 6\n" * 200_000))
+    before = _digest(tmp_path)
+    assert main(["noise", str(bomb)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {bomb} is larger than 1 MiB when decompressed")
+    assert err.count("\n") == 1 and _digest(tmp_path) == before
 
 
 def test_unexpected_error_is_one_line_and_a_log(tmp_path, monkeypatch, capsys):
@@ -725,6 +1095,49 @@ def test_dollar_signs_in_names_are_plain_text(tmp_path, capsys):
     assert main(["allan", str(data), "--rate", "10", "--plot", str(tmp_path / "a$x$.png"),
                  "--report", str(tmp_path / "r.html")]) == 0
     assert (tmp_path / "a$x$.png").stat().st_size > 0
+
+
+HOSTILE_LABEL = r"cost $\frac{1}{0$ run"
+
+
+@pytest.mark.parametrize("command", ["study-label", "scenario-name", "data-file-name"])
+def test_dollar_signs_in_labels_are_drawn_not_parsed(command, assets, tmp_path):
+    """Issue 34: a ``$...$`` in a study label or scenario name was an internal error (matplotlib
+    mathtext); the fix of the round before turned math off where the crash was seen, and missed
+    these. Every figure text is escaped by one helper now: the commands succeed."""
+    import re
+
+    work = tmp_path / "work"
+    shutil.copytree(assets, work)
+    if command == "study-label":  # the example study, cut to one machine error and short
+        text = (work / "study.toml").read_text()
+        text = text[:[m.start() for m in re.finditer(r"^\[errors\.", text, flags=re.M)][1]]
+        text = text.replace("revolutions = 100", "revolutions = 4").replace("runs = 200",
+                                                                            "runs = 20")
+        line = f"label = '{HOSTILE_LABEL}'"  # a TOML literal string: no escapes
+        (work / "s.toml").write_text(re.sub(r'^label = ".*"$', lambda m: line, text, count=1,
+                                            flags=re.M))
+        argv = ["centrifuge-study", str(work / "s.toml"), "--report", str(work / "s.html")]
+    elif command == "scenario-name":
+        text = (work / "scenario.toml").read_text()
+        line = f"name = '{HOSTILE_LABEL}'"  # a TOML literal string: no escapes
+        (work / "s.toml").write_text(re.sub(r'^name = ".*"$', lambda m: line, text, count=1,
+                                            flags=re.M))
+        argv = ["ins-errors", "--scenario", str(work / "s.toml"), "--plot", str(work / "e.png")]
+    else:
+        shutil.copy(work / "data.csv", work / f"{HOSTILE_LABEL}.csv")
+        argv = _fit(work, "plan.toml", f"{HOSTILE_LABEL}.csv", "--no-store", "--report",
+                    str(work / "rep"))
+    # A fresh process, as a user runs it: in this one matplotlib's settings are what earlier
+    # tests left.
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONWARNINGS": "error",
+           "XDG_CACHE_HOME": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-c", "import sys; from inertest.cli import main; "
+                           "sys.exit(main(sys.argv[1:]))", *argv], cwd=work, env=env,
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and "internal error" not in done.stderr, done.stderr
+    if command != "data-file-name":  # the label really is in the file given
+        assert f"'{HOSTILE_LABEL}'" in (work / "s.toml").read_text()
 
 
 def test_failed_store_leaves_no_database_file(assets, tmp_path, capsys):

@@ -7,6 +7,8 @@ fix it; the command line prints the message and exits non-zero without a traceba
 
 from __future__ import annotations
 
+import errno
+
 
 class InertestError(Exception):
     """Base class of the errors that a user's input can cause."""
@@ -38,3 +40,29 @@ class IdentifiabilityError(InertestError, ValueError):
 
 class InertestWarning(UserWarning):
     """Something in the input is usable but not as the procedure recommends (e.g. spacing)."""
+
+
+def os_error_message(exc: OSError) -> tuple[str, bool]:
+    """One line naming the problem and the fix for an OSError; True when the machine failed.
+
+    False means the user's path is at fault (missing, a folder, no permission); True a full
+    disk, a read-only file system or an I/O error. The command line and the batch's per-run
+    errors print the same line.
+    """
+    where = exc.filename if exc.filename is not None else ""
+    if exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
+        what = "disk full" if exc.errno == errno.ENOSPC else "disk quota exceeded"
+        return (f"{what} at {where or 'the output'}: nothing was written; free space or choose "
+                "another output folder", True)
+    if isinstance(exc, FileNotFoundError | IsADirectoryError | NotADirectoryError
+                  | PermissionError | FileExistsError):
+        return f"cannot use file {where!s}: {exc.strerror or exc}", False
+    if exc.errno == errno.EROFS:
+        return f"cannot write {where}: read-only file system; choose another output folder", True
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    return f"input/output error{' at ' + str(where) if where else ''}: {reason}", True
+
+
+def error_message(exc: InertestError | OSError) -> str:
+    """The one-line message of an error a user or the machine caused (see above)."""
+    return os_error_message(exc)[0] if isinstance(exc, OSError) else str(exc)

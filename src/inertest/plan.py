@@ -375,3 +375,36 @@ def read_test_table(table: Mapping[str, Any], where: str) -> TestConditions:
     if d is not None and not isinstance(d, _dt.date):
         raise PlanError(f"{where}: date must be a date such as date = 2026-11-20, got {d!r}")
     return TestConditions(date=d, **v)
+
+
+def check_finite_document(
+    doc: Any, source: str, *, fix: str, error: type[InertestError] = PlanError,
+    may_be_nan: Iterable[str] = (),
+) -> None:
+    """Refuse a parsed TOML/JSON document holding a NaN or infinite number anywhere.
+
+    TOML and Python's JSON both read ``nan`` and ``inf``; a file that is read back (a
+    calibration, a thermal model, a plan, a lab or specification file, a manifest) must never
+    carry one into a result. Keys in ``may_be_nan`` hold diagnostics that may be undetermined
+    (a p-value without degrees of freedom) and are skipped with everything under them.
+
+    Raises
+    ------
+    error
+        ``"SOURCE: KEY.PATH[3] is nan, not a finite number; FIX"``.
+    """
+    skip = set(may_be_nan)
+
+    def walk(v: Any, path: str) -> None:
+        if isinstance(v, float) and not math.isfinite(v):
+            raise error(f"{source}: {path or 'the document'} is {v!r}, not a finite number; "
+                        f"{fix}")
+        if isinstance(v, Mapping):
+            for k, x in v.items():
+                if k not in skip:
+                    walk(x, f"{path}.{k}" if path else str(k))
+        elif isinstance(v, list | tuple):
+            for i, x in enumerate(v):
+                walk(x, f"{path}[{i}]")
+
+    walk(doc, "")

@@ -1,4 +1,5 @@
 import numpy as np
+import pyarrow as pa
 import pytest
 
 from inertest.errors import DataError
@@ -161,3 +162,25 @@ def test_small_csv_integer_columns_read_whole_equal_the_reparsed_ones(
         np.testing.assert_array_equal(one[name], again[name])
         if one[name].dtype == np.float64:
             np.testing.assert_array_equal(one[name], [float(r[j]) for r in rows])
+
+
+@pytest.mark.parametrize("column, kind", [
+    (pa.array([[1.0, 2.0], [3.0]]), "list<"),
+    (pa.array([{"x": 1.0}, {"x": 2.0}]), "struct<"),
+])
+def test_a_parquet_list_or_record_column_is_refused_with_its_name(tmp_path, column, kind):
+    """Issue 34: a Parquet list column ended in an internal error (unsupported cast)."""
+    import pyarrow.parquet as pq
+
+    p = tmp_path / "l.parquet"
+    pq.write_table(pa.table({"t": [0.0, 1.0], "gyro": column}), p)
+    with pytest.raises(DataError, match=f"column 'gyro' holds {kind}.*own"):
+        read_table(p)
+
+
+def test_a_complex_npy_is_refused(tmp_path):
+    from inertest.io.raw_samples import read_samples
+
+    np.save(tmp_path / "c.npy", np.ones(4) + 1j)
+    with pytest.raises(DataError, match="complex numbers"):
+        read_samples(tmp_path / "c.npy")

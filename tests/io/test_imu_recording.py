@@ -84,3 +84,38 @@ def test_errors(tmp_path):
     bad.write_text("0 0 0 0 0 0\n0 0 0 0 0 0\n0.1 0.1 0.1 125 125 125\n1 2 3\n")
     with pytest.raises(DataError, match="sampling interval"):
         read_imu_recording(bad, fmt="psins")
+
+
+PSINS_HEAD = b"% psins\n0 0 0 0 0 0\n34 108 380 0 10 9.8\n0.1 0.1 0.1 125 125 125\n"
+
+
+@pytest.mark.parametrize("suffix", [".xz", ".gz"])
+def test_a_compression_bomb_is_refused_before_it_is_parsed(tmp_path, monkeypatch, suffix):
+    """Issue 34: a small .xz of a few GB of text ran into out-of-memory after 100 s. It is
+    measured while decompressing, nothing kept, and refused past the cap (here 1 MiB)."""
+    import gzip
+    import lzma
+
+    from inertest.io import imu_recording
+
+    monkeypatch.setattr(imu_recording, "MAX_DECOMPRESSED_BYTES", 1 << 20)
+    body = PSINS_HEAD + b"1 2 3 4 5 6\n" * 100_000  # 1.2 MB of text
+    p = tmp_path / f"bomb.imu{suffix}"
+    p.write_bytes(lzma.compress(body) if suffix == ".xz" else gzip.compress(body))
+    assert p.stat().st_size < 20_000
+    with pytest.raises(DataError, match=r"bomb.imu\.(xz|gz) is larger than 1 MiB when "
+                       "decompressed"):
+        read_imu_recording(p)
+    small = tmp_path / f"ok.imu{suffix}"
+    part = body[:len(PSINS_HEAD) + 12 * 10_000]
+    small.write_bytes(lzma.compress(part) if suffix == ".xz" else gzip.compress(part))
+    assert read_imu_recording(small).gyro.shape[1] == 3
+
+
+def test_a_file_of_one_endless_line_is_sniffed_in_bounded_memory(tmp_path):
+    import lzma
+
+    p = tmp_path / "one.imu.xz"
+    p.write_bytes(lzma.compress(b"1" * 5_000_000))  # more than 40 sniffed lines of 64 KiB
+    with pytest.raises((DataError, InputError)):
+        read_imu_recording(p)

@@ -115,3 +115,37 @@ def test_review19_unit_comments_converted_contradicting_refused_missing_warned(t
     p.write_text("gyroscope_noise_density: 0.002  # [furlong/fortnight]\n")
     with pytest.raises(DataError, match="cannot read"):
         read_kalibr_yaml(p)
+
+
+def _laughs(levels: int) -> str:
+    """A billion-laughs yaml: 9 aliases of the level below, ``levels`` deep."""
+    lines = ["gyroscope_noise_density: 1.0e-4", "a0: &a0 [x, x, x, x, x, x, x, x, x]"]
+    for i in range(1, levels):
+        lines.append(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("text", [_laughs(9), "a: &a [1, *a]\ngyroscope_noise_density: 1\n"])
+def test_an_alias_bomb_is_refused_before_it_is_expanded(tmp_path, text):
+    """Issue 34: 9 levels of 9 aliases (3.9e8 values from 700 bytes) ran out of memory."""
+    import time
+
+    p = tmp_path / "imu.yaml"
+    p.write_text(text)
+    start = time.perf_counter()
+    with pytest.raises(DataError, match="larger than 100000 values once its aliases"):
+        read_kalibr_yaml(p)
+    assert time.perf_counter() - start < 2.0
+
+
+def test_aliases_of_a_small_document_are_read(tmp_path):
+    p = tmp_path / "imu.yaml"
+    p.write_text(_laughs(3))  # 1 + 9 + 81 + 729 values
+    assert read_kalibr_yaml(p, notes=[])["gyroscope_noise_density"] == 1e-4
+
+
+def test_a_yaml_larger_than_the_cap_is_refused_unread(tmp_path):
+    p = tmp_path / "imu.yaml"
+    p.write_text("gyroscope_noise_density: 1.0e-4\n" + "# pad\n" * 200_000)
+    with pytest.raises(DataError, match="larger than 1024 KiB"):
+        read_kalibr_yaml(p)

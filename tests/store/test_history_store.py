@@ -148,3 +148,62 @@ def test_a_new_database_appears_whole(tmp_path, monkeypatch):
     store.add(record())
     assert len(store.runs("FG-1")) == 1
     store.close()
+
+
+def _read_only_storage(folder, monkeypatch):
+    """Make ``folder`` unwritable: by its permissions, and for root (whom they do not stop)
+    also as the store sees it."""
+    import os
+
+    from inertest.store import history
+
+    for p in folder.iterdir():
+        p.chmod(0o444)
+    folder.chmod(0o555)
+    if os.geteuid() == 0:
+        monkeypatch.setattr(history, "_writable", lambda path: False)
+
+
+@pytest.mark.parametrize("name", ["h.db", "a b#1.db"])
+def test_a_database_on_read_only_storage_is_read_read_only(tmp_path, monkeypatch, name):
+    """Issue 34: on read-only storage the WAL database could not be opened at all (its -shm
+    index cannot be created there). It is now opened read-only: nothing written beside it."""
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    url = "sqlite:///" + str(folder / name)
+    store = HistoryStore(url)
+    store.add(record(days=0, di=0.85))
+    store.add(record(days=3, di=0.86))
+    store.close()
+    before = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in folder.iterdir()}
+    _read_only_storage(folder, monkeypatch)
+    try:
+        ro = HistoryStore(url)
+        runs = ro.runs("FG-1")
+        assert [r.estimates[0].value for r in runs] == [0.85, 0.86]
+        assert ro.serials() == ["FG-1"] and ro.runs_with_data("FG-1", "polar-tumble", "x") == []
+        with pytest.raises(StoreError, match="read-only storage; store the run elsewhere"):
+            ro.add(record(days=5))
+        ro.close()
+        after = {p.name: (p.read_bytes(), p.stat().st_mtime_ns) for p in folder.iterdir()}
+        assert after == before  # no -shm, no -wal, not a byte changed
+    finally:
+        folder.chmod(0o755)
+
+
+def test_an_old_schema_on_read_only_storage_names_the_fix(tmp_path, monkeypatch):
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    url = "sqlite:///" + str(folder / "h.db")
+    HistoryStore(url, create=True).close()
+    engine = sa.create_engine(url)
+    with engine.begin() as conn:
+        conn.execute(sa.text("UPDATE alembic_version SET version_num = '0001_old'"))
+    engine.dispose()
+    _read_only_storage(folder, monkeypatch)
+    try:
+        with pytest.raises(StoreError, match="read-only storage and has schema revision "
+                           "0001_old.*open it once where it can be written"):
+            HistoryStore(url)
+    finally:
+        folder.chmod(0o755)

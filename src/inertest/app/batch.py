@@ -30,7 +30,7 @@ from inertest.app.run import (
     source_name,
     spec_of,
 )
-from inertest.errors import InertestError, PlanError
+from inertest.errors import InertestError, PlanError, error_message
 from inertest.io.atomic import check_outputs
 from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
@@ -270,7 +270,7 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
                     budget=budget, conformance=conformance)
                 item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
-                item = BatchItem(t, None, str(exc))
+                item = BatchItem(t, None, error_message(exc))
             out.append(item)
             if progress is not None:
                 progress(item)

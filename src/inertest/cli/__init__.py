@@ -10,7 +10,6 @@ traceback. Database URLs in every message have their password masked, and contro
 
 from __future__ import annotations
 
-import errno
 import importlib
 import os
 import re
@@ -24,7 +23,7 @@ from pathlib import Path
 
 import click
 
-from inertest.errors import InertestError
+from inertest.errors import InertestError, os_error_message
 
 #: name: (module, attribute, one-line help) of each sub-command, in the order of the docs. The
 #: module is imported only when its command runs (or its own --help is asked), so that
@@ -94,20 +93,8 @@ def safe_line(text: str) -> str:
 
 def _oserror_line(exc: OSError) -> tuple[str, int]:
     """One line naming the problem and the fix for an OSError, and the exit status."""
-    where = exc.filename if exc.filename is not None else ""
-    if exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
-        what = "disk full" if exc.errno == errno.ENOSPC else "disk quota exceeded"
-        return (f"{what} at {where or 'the output'}: nothing was written; free space or choose "
-                "another output folder", EXIT_SYSTEM_ERROR)
-    if isinstance(exc, FileNotFoundError | IsADirectoryError | NotADirectoryError
-                  | PermissionError | FileExistsError):
-        return (f"cannot use file {where!s}: {exc.strerror or exc}", EXIT_INPUT_ERROR)
-    if exc.errno == errno.EROFS:
-        return (f"cannot write {where}: read-only file system; choose another output folder",
-                EXIT_SYSTEM_ERROR)
-    reason = exc.strerror or str(exc) or type(exc).__name__
-    return (f"input/output error{' at ' + str(where) if where else ''}: {reason}",
-            EXIT_SYSTEM_ERROR)
+    line, system = os_error_message(exc)
+    return line, EXIT_SYSTEM_ERROR if system else EXIT_INPUT_ERROR
 
 
 def _log_dir() -> Path:
@@ -166,8 +153,6 @@ class _LazyGroup(click.Group):
         from inertest.cli._common import add_overwrite_option  # after this package is ready
 
         add_overwrite_option(command)
-        if "matplotlib" in sys.modules:  # the command draws figures: no math text from labels
-            sys.modules["matplotlib"].rcParams["text.parse_math"] = False
         return command  # type: ignore[no-any-return]
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:

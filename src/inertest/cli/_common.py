@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -104,14 +105,46 @@ def print_identity(doc: Mapping[str, Any], *, warn: bool = True) -> None:
         click.echo(f"warning: {safe_line(w)}", err=True)
 
 
+class FiniteFloat(click.types.FloatParamType):
+    """A number option that refuses NaN and infinity (``--sigma nan``, ``-k inf``).
+
+    Python's ``float()`` reads ``nan``, ``inf`` and ``1e999``; none is a usable setting, and
+    a NaN compares false with every bound (``-k nan`` switched the outlier flags off). Every
+    number option of the command line has this type or :class:`FiniteFloatRange`.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        rv = float(super().convert(value, param, ctx))
+        if not math.isfinite(rv):
+            self.fail(f"{value!r} is not a finite number; give a number such as 2.5", param,
+                      ctx)
+        return rv
+
+
+class FiniteFloatRange(click.FloatRange):
+    """:class:`click.FloatRange` that refuses NaN and infinity first (NaN passes any bound)."""
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> float:
+        return float(super().convert(REAL.convert(value, param, ctx), param, ctx))
+
+
+#: The type of every number option (``type=REAL``).
+REAL = FiniteFloat()
+
+
 def parse_float_list(text: str, *, name: str, count: int | None = None) -> list[float]:
-    """Parse ``"1,2,3"`` into floats; raise a click error naming ``name`` when malformed."""
+    """Parse ``"1,2,3"`` into finite floats; raise a click error naming ``name`` if malformed."""
     try:
         values = [float(t) for t in text.split(",") if t.strip() != ""]
     except ValueError:
         raise click.BadParameter(
             f"expected comma-separated numbers, got {text!r}", param_hint=name
         ) from None
+    if not all(math.isfinite(v) for v in values):
+        raise click.BadParameter(
+            f"expected finite numbers, got {text!r}; give numbers such as 0.5,1", param_hint=name)
     if count is not None and len(values) != count:
         raise click.BadParameter(
             f"expected {count} comma-separated numbers, got {len(values)} in {text!r}",
@@ -136,26 +169,21 @@ def figure_format(path: Path | None, option: str = "--plot") -> str | None:
 
 
 def save_figure(fig: Figure, path: Path, *, dpi: int = 110) -> None:
-    """Write ``fig`` to ``path`` (format by suffix) atomically and close it."""
+    """Write ``fig`` to ``path`` (format by suffix) atomically and close it.
+
+    Its texts are drawn as written (:func:`inertest.report.figure_text.plain_figure_text`).
+    """
     import matplotlib.pyplot as plt
+
+    from inertest.report.figure_text import plain_figure_text
 
     fmt = figure_format(path)
     try:
+        plain_figure_text(fig)
         with target_file(path) as tmp:
             fig.savefig(tmp, format=fmt, dpi=dpi, bbox_inches="tight")
     finally:
         plt.close(fig)
-
-
-def plain_text_figures() -> None:
-    """Draw every figure text as plain text, never as matplotlib math.
-
-    A ``$`` in a file name, serial or data label is then a dollar sign; as math text its parse
-    error would stop the command.
-    """
-    import matplotlib
-
-    matplotlib.rcParams["text.parse_math"] = False
 
 
 _OVERWRITE = "inertest.overwrite"

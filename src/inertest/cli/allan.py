@@ -12,6 +12,7 @@ import numpy as np
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     figure_format,
@@ -19,7 +20,7 @@ from inertest.cli._common import (
     print_table,
     save_figure,
 )
-from inertest.errors import InputError
+from inertest.errors import DataError, InputError
 from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
@@ -76,7 +77,7 @@ def _tau_option(text: str) -> str | list[float]:
 @click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--column", default=None,
               help="Column to analyse (tables; index for a 2-D .npy). Optional if only one.")
-@click.option("--rate", "rate_hz", type=float, required=True, help="Sample rate [Hz].")
+@click.option("--rate", "rate_hz", type=REAL, required=True, help="Sample rate [Hz].")
 @click.option("--input", "data_type", type=click.Choice(["rate", "angle"]), default="rate",
               show_default=True, help="Rate samples, or integrated angle/velocity samples.")
 @click.option("--unit", default=None,
@@ -147,6 +148,10 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     model = None
     checks: list[str] = []
     if not no_noise_id:
+        if not np.any(res["oadev"].var > 0):
+            raise DataError(f"{data.name} is constant (every sample is {float(samples[0]):g} "
+                            f"{unit}): there is no noise to analyse; check the recording and "
+                            "--column")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             model = identify_noise(res["oadev"], instrument=instrument)

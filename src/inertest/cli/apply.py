@@ -82,7 +82,8 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     # thermal models load their procedures (scipy.stats): only when a command runs
     from inertest.io.thermal_model import is_thermal_model, is_triad_thermal_model
 
-    doc = read_json_object(calibration, "calibration")
+    # which kind of file it is; the loader of that kind checks its numbers
+    doc = read_json_object(calibration, "calibration", finite=False)
     if is_thermal_model(doc):
         _apply_thermal(calibration, data, output, temperature_column, time_column,
                        thermal_columns, extrapolate)
@@ -167,7 +168,8 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
     units: dict[str, str] = {}
     unit = "deg/h" if model.quantity == "bias" else ""
     for c in cols:
-        corrected, std = model.compensate(arr[c], temp, rate)
+        with np.errstate(over="ignore", invalid="ignore"):  # refused below, naming the model
+            corrected, std = model.compensate(arr[c], temp, rate)
         out[c] = corrected
         if unit:
             units[c] = unit
@@ -175,10 +177,23 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
             out[f"{c}_correction_std"] = std
             if unit:
                 units[f"{c}_correction_std"] = unit
+    _check_finite_output(model_path, out, cols)
     write_table(output, out, units)
     what = "bias removed" if model.quantity == "bias" else "divided by the scale factor"
     click.echo(f"wrote {temp.size} compensated rows ({', '.join(cols)}: {what}, "
                f"{model.model_type} model) to {output}")
+
+
+def _check_finite_output(model_path: Path, out: dict[str, np.ndarray],
+                         columns: list[str]) -> None:
+    """Refuse to write a corrected column that is not finite (its inputs were checked)."""
+    for c in columns:
+        bad = ~np.isfinite(out[c])
+        if np.any(bad):
+            raise DataError(
+                f"the thermal model {model_path} gives a non-finite {c} at data row "
+                f"{int(np.flatnonzero(bad)[0]) + 1} (finite inputs): its numbers overflow; "
+                "write the model again with inertest thermal fit --model-out; nothing written")
 
 
 def _thermal_inputs(
@@ -260,7 +275,8 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
     table, arr, temp, rate = _thermal_inputs(model, model_path, "triad thermal model", data,
                                              temperature_column, time_column, cols,
                                              "--columns x,y,z", extrapolate)
-    u, std = model.compensate(np.column_stack([arr[c] for c in cols]), temp, rate)
+    with np.errstate(over="ignore", invalid="ignore"):  # refused below, naming the model
+        u, std = model.compensate(np.column_stack([arr[c] for c in cols]), temp, rate)
     hdf5 = is_hdf5(output)
     out: dict[str, np.ndarray] = {}
     units: dict[str, str] = {}
@@ -273,6 +289,7 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
             key = col if hdf5 else f"{col} [{acc_unit}]"
             out[key] = accel_from_si(v, acc_unit)
             units[key] = acc_unit
+    _check_finite_output(model_path, out, list(units))
     write_table(output, out, units)
     click.echo(f"wrote {temp.size} corrected rows ({', '.join(cols)} -> {acc_unit}, K, M, B at "
                f"each row's temperature) to {output}")

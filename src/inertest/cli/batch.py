@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import echo_json, print_table
+from inertest.cli._common import FiniteFloatRange, echo_json, print_table
 from inertest.cli._verdicts import verdict_summary
 from inertest.errors import InputError
 
@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the fits on a Dask cluster instead (scheduler address, e.g. "
                    "tcp://10.0.0.5:8786; needs dask[distributed]).")
-@click.option("--timeout", type=click.FloatRange(min=0, min_open=True), default=None,
+@click.option("--timeout", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
               help="Fail a run whose fit takes longer than this, counted from when every "
                    "earlier run is filed; its worker is stopped (default: no limit).")
@@ -142,8 +142,12 @@ def _dask_client(address: str | None) -> Iterator[Any]:
     except ImportError:
         raise InputError("--scheduler needs Dask: pip install 'dask[distributed]', or use "
                          "--workers N for local processes") from None
+    _check_scheduler_address(address)
     try:
         client = Client(address)  # timeout: distributed.comm.timeouts.connect
+    except ValueError as exc:  # an address distributed's own parser refuses
+        raise InputError(f"--scheduler {address!r} is not a scheduler address ({exc}); "
+                         f"{_ADDRESS_FIX}") from None
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address} ({exc}); check the "
                          "address, or use --workers N for local processes") from None
@@ -151,3 +155,26 @@ def _dask_client(address: str | None) -> Iterator[Any]:
         yield client
     finally:
         client.close()
+
+
+_ADDRESS_FIX = "give it as tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
+
+
+def _check_scheduler_address(address: str) -> None:
+    """Refuse, before connecting, a ``--scheduler`` that is no ``SCHEME://HOST:PORT`` address."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import backends
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except ValueError as exc:
+        raise InputError(f"--scheduler {address!r} is not a scheduler address ({exc}); "
+                         f"{_ADDRESS_FIX}") from None
+    if scheme not in backends or scheme == "inproc":
+        known = ", ".join(f"{b}://" for b in backends if b != "inproc")
+        raise InputError(f"--scheduler {address!r}: unknown protocol {scheme!r} (known: {known}); "
+                         f"{_ADDRESS_FIX}")
+    if not host or any(c.isspace() for c in address) or not 0 < int(port) < 65536:
+        raise InputError(f"--scheduler {address!r} needs a host name and a port from 1 to "
+                         f"65535; {_ADDRESS_FIX}")

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from inertest.cli._common import check_paths, echo_json, print_table
+from inertest.cli._common import REAL, check_paths, echo_json, print_table
 from inertest.errors import InputError, PlanError
 from inertest.plan import Plan
 from inertest.report.rounding import format_number, round_to_uncertainty
@@ -43,11 +43,11 @@ def _rotation_plan(path: Path) -> Plan:
               help="TOML of the triad's K_x..K_z, M_ij [urad], B_x..B_z [deg/h].")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Time-series data file to write (.csv or .parquet).")
-@click.option("--rate-hz", type=float, default=100.0, show_default=True,
+@click.option("--rate-hz", type=REAL, default=100.0, show_default=True,
               help="Sample rate of the counts.")
-@click.option("--rest-s", type=float, default=5.0, show_default=True,
+@click.option("--rest-s", type=REAL, default=5.0, show_default=True,
               help="Time at rest before and after each turn [s].")
-@click.option("--noise", type=float, default=0.0, show_default=True,
+@click.option("--noise", type=REAL, default=0.0, show_default=True,
               help="White noise of each sample's count, in the plan's output unit (x s).")
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def nav_simulate(plan: Path, truth: Path, output: Path, rate_hz: float, rest_s: float,
@@ -106,7 +106,7 @@ def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
 @click.option("--initial", type=_FILE, required=True,
               help="JSON with the starting calibration (inertest fit --json output, or "
                    '{"gyroscope": {...}}).')
-@click.option("--check-interval", type=float, default=1.0, show_default=True,
+@click.option("--check-interval", type=REAL, default=1.0, show_default=True,
               help="Spacing of the attitude comparisons [s].")
 @click.option("--no-bias", is_flag=True, help="Keep the initial bias (correct K and M only).")
 @click.option("--max-iterations", type=int, default=10, show_default=True)

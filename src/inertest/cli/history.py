@@ -7,7 +7,14 @@ from pathlib import Path
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import check_paths, echo_json, figure_format, print_table, save_figure
+from inertest.cli._common import (
+    FiniteFloatRange,
+    check_paths,
+    echo_json,
+    figure_format,
+    print_table,
+    save_figure,
+)
 
 
 @click.command()
@@ -17,7 +24,8 @@ from inertest.cli._common import check_paths, echo_json, figure_format, print_ta
 @click.option("--procedure", default=None, help="Only runs of this procedure kind.")
 @click.option("--db", default=None, help="Database URL or SQLite path (default: $INERTEST_DB or "
               "~/.local/share/inertest/history.db).")
-@click.option("-k", "k", type=float, default=3.0, show_default=True,
+@click.option("-k", "k", type=FiniteFloatRange(min=0, min_open=True), default=3.0,
+              show_default=True,
               help="Flag runs more than k predicted sigma from the others.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,

@@ -10,6 +10,7 @@ import click
 import numpy as np
 
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     figure_format,
@@ -45,9 +46,9 @@ _LIST_OPTIONS = {
 @click.option("--example", is_flag=True,
               help="Start from the worked example of the INS error-propagation report (39 deg, "
               "24 h, all sources).")
-@click.option("--latitude", type=float, help="Latitude L [deg], strictly between -90 and 90.")
-@click.option("--hours", type=float, help="Duration [h] (default 24).")
-@click.option("--step", type=float, help="Output step [s] (default 60); the solution is exact.")
+@click.option("--latitude", type=REAL, help="Latitude L [deg], strictly between -90 and 90.")
+@click.option("--hours", type=REAL, help="Duration [h] (default 24).")
+@click.option("--step", type=REAL, help="Output step [s] (default 60); the solution is exact.")
 @click.option("--accel-bias-ug", help="Accelerometer biases E,N [ug] (g = 9.80665 m/s^2), "
               "output errors: f_out = f_true + bias.")
 @click.option("--gyro-drift-deg-h", help="Gyro drifts E,N,U [deg/h], output errors: "
@@ -57,16 +58,16 @@ _LIST_OPTIONS = {
               "computed - true.")
 @click.option("--initial-attitude-arcsec", help="Initial attitude errors phi E,N,U [arcsec]: the "
               "computed frame is the true ENU frame turned by phi.")
-@click.option("--radius", type=float, help="Earth radius R [m] (default 6378137).")
-@click.option("--gravity", type=float, help="Gravity g [m/s^2] (default: normal gravity at L).")
+@click.option("--radius", type=REAL, help="Earth radius R [m] (default 6378137).")
+@click.option("--gravity", type=REAL, help="Gravity g [m/s^2] (default: normal gravity at L).")
 @click.option("--coriolis/--no-coriolis", default=None,
               help="Keep the 2 W sinL Coriolis terms (default) or use the source's simplified "
                    "model without Foucault modulation.")
-@click.option("--gyro-arw-deg-sqrt-h", type=float, default=0.0,
+@click.option("--gyro-arw-deg-sqrt-h", type=REAL, default=0.0,
               help="Gyro angle random walk [deg/sqrt(h)] -> 1-sigma band.")
-@click.option("--accel-vrw-m-s-sqrt-h", type=float, default=0.0,
+@click.option("--accel-vrw-m-s-sqrt-h", type=REAL, default=0.0,
               help="Accelerometer velocity random walk [m/s/sqrt(h)] -> 1-sigma band.")
-@click.option("--gyro-rrw-deg-h-sqrt-h", type=float, default=0.0,
+@click.option("--gyro-rrw-deg-h-sqrt-h", type=REAL, default=0.0,
               help="Gyro rate random walk [deg/h/sqrt(h)] -> 1-sigma band.")
 @click.option("--closed-forms/--no-closed-forms", default=True, show_default=True,
               help="Print the constant/secular parts (sympy) in the table output.")

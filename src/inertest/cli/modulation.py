@@ -9,6 +9,7 @@ import click
 import numpy as np
 
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     figure_format,
@@ -42,28 +43,28 @@ def modulation() -> None:
 @modulation.command()
 @click.option("--stator-hz", default="1,2,5,10", show_default=True,
               help="Stator rotation frequencies to compare [Hz], comma-separated.")
-@click.option("--sample-hz", type=float, default=1000.0, show_default=True,
+@click.option("--sample-hz", type=REAL, default=1000.0, show_default=True,
               help="Sample rate [Hz]; a multiple of every stator frequency.")
-@click.option("--duration-s", type=float, default=60.0, show_default=True)
+@click.option("--duration-s", type=REAL, default=60.0, show_default=True)
 @click.option("--periods", type=int, default=1, show_default=True,
               help="Stator periods per integral-filter window.")
 @click.option("--drift-deg-h", default="5,-3", show_default=True,
               help="Constant drift X,Y fixed to the stator [deg/h].")
 @click.option("--drift-ramp-deg-h-per-h", default="0,0", show_default=True,
               help="Temperature-like drift trend X,Y [deg/h per h].")
-@click.option("--drift-random-walk", type=float, default=0.0, show_default=True,
+@click.option("--drift-random-walk", type=REAL, default=0.0, show_default=True,
               help="Drift random walk [deg/h/sqrt(h)].")
-@click.option("--drift-sine-deg-h", type=float, default=0.0, show_default=True,
+@click.option("--drift-sine-deg-h", type=REAL, default=0.0, show_default=True,
               help="Amplitude of a stator-fixed periodic drift [deg/h].")
-@click.option("--drift-sine-hz", type=float, default=0.0, show_default=True,
+@click.option("--drift-sine-hz", type=REAL, default=0.0, show_default=True,
               help="Its frequency [Hz] (near the stator frequency it is not cancelled).")
-@click.option("--noise-deg-h", type=float, default=0.0, show_default=True,
+@click.option("--noise-deg-h", type=REAL, default=0.0, show_default=True,
               help="White measurement noise per sample [deg/h].")
 @click.option("--house-rate-deg-s", default="0.01,0", show_default=True,
               help="Constant house rate X,Y [deg/s].")
-@click.option("--house-sine-deg-s", type=float, default=0.0,
+@click.option("--house-sine-deg-s", type=REAL, default=0.0,
               help="Amplitude of a sinusoidal house rate about X [deg/s].")
-@click.option("--house-sine-hz", type=float, default=0.1)
+@click.option("--house-sine-hz", type=REAL, default=0.1)
 @click.option("--seed", type=int, default=0)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object (SI and deg/h).")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None)
@@ -131,21 +132,21 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
 
 
 @modulation.command()
-@click.option("--latitude", "latitude_deg", type=float, default=45.0, show_default=True,
+@click.option("--latitude", "latitude_deg", type=REAL, default=45.0, show_default=True,
               help="Site latitude [deg].")
-@click.option("--hours", type=float, default=24.0, show_default=True, help="Simulated span [h].")
-@click.option("--step", "step_s", type=float, default=60.0, show_default=True,
+@click.option("--hours", type=REAL, default=24.0, show_default=True, help="Simulated span [h].")
+@click.option("--step", "step_s", type=REAL, default=60.0, show_default=True,
               help="Output step [s] (the propagation is exact; the step only samples it).")
 @click.option("--scheme", type=click.Choice(_SCHEMES), default="single-axis",
               show_default=True, help="Rotation scheme (ignored with --compare).")
-@click.option("--rate-deg-s", type=float, default=6.0, show_default=True,
+@click.option("--rate-deg-s", type=REAL, default=6.0, show_default=True,
               help="Rotation rate [deg/s]: continuous rotation, or the turns between positions.")
-@click.option("--dwell-s", type=float, default=60.0, show_default=True,
+@click.option("--dwell-s", type=REAL, default=60.0, show_default=True,
               help="Dwell at each indexing position [s].")
 @click.option("--alternate", is_flag=True,
               help="single-axis: reverse the direction after every --revolutions turns.")
 @click.option("--revolutions", type=int, default=1, show_default=True)
-@click.option("--heading-deg", type=float, default=0.0, show_default=True,
+@click.option("--heading-deg", type=REAL, default=0.0, show_default=True,
               help="Static IMU (scheme none): azimuth of body x from east, CCW [deg].")
 @click.option("--gyro-drift-deg-h", default="0.01,0.01,0.01", show_default=True,
               help="Constant gyro drift on body X,Y,Z [deg/h] (output error: w_out = w_true "

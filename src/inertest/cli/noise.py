@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import check_paths, echo_json, input_identity, print_table
+from inertest.cli._common import REAL, check_paths, echo_json, input_identity, print_table
 from inertest.errors import DataError, InputError
 from inertest.io.imu_recording import FORMATS, TIME_UNITS, read_imu_recording
 from inertest.results import envelope
@@ -31,14 +31,14 @@ _OUTLIERS = ("keep", "refuse", "clip")
               show_default=True, help="Unit of the gyro columns.")
 @click.option("--accel-unit", type=click.Choice(list(ACCEL_UNITS)), default="m/s^2",
               show_default=True, help="Unit of the accelerometer columns (g = 9.80665 m/s^2).")
-@click.option("--rate", "rate_hz", type=float, default=None,
+@click.option("--rate", "rate_hz", type=REAL, default=None,
               help="Sample rate [Hz]: needed without time stamps, else checked against them.")
 @click.option("--gaps", type=click.Choice(_GAPS), default="refuse", show_default=True,
               help="Gaps or duplicated stamps: refuse, or analyse the longest clean segment.")
 @click.option("--outliers", type=click.Choice(_OUTLIERS), default="keep", show_default=True,
               help="Samples beyond --outlier-threshold robust sigmas: keep (counted), refuse, "
                    "or clip.")
-@click.option("--outlier-threshold", type=float, default=10.0, show_default=True,
+@click.option("--outlier-threshold", type=REAL, default=10.0, show_default=True,
               help="Outlier threshold [robust sigmas from a running median].")
 @click.option("--detrend", is_flag=True, help="Remove a straight line from each channel.")
 @click.option("--kalibr", "kalibr_out", type=click.Path(dir_okay=False, path_type=Path),
@@ -88,6 +88,12 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
     if rec.t is None and rate is None:
         raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
                          "the time column with --time-column")
+    for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
+                          *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3, strict=False)]:
+        if col.size and (col == col[0]).all():  # no noise: nothing to fit (all deviations 0)
+            raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} in "
+                            "every sample): there is no noise to analyse; check the recording, "
+                            "or leave the channel out with --gyro-columns / --accel-columns")
     result = analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
                                accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
                                outliers=outliers, outlier_threshold=outlier_threshold,

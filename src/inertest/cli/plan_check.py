@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import echo_json, print_table
+from inertest.cli._common import REAL, FiniteFloatRange, echo_json, print_table
 from inertest.report.rounding import format_number, round_to_uncertainty
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -29,14 +29,14 @@ EXIT_NOT_VERIFIABLE = 1
               help="Nominal coefficients to simulate with (default zero, with the plan's "
               "nominal scale factor; when the procedure needs a scale factor the plan does not "
               "give, the truth.toml beside the plan).")
-@click.option("--sample-interval", "sample_interval_s", type=float, default=None,
+@click.option("--sample-interval", "sample_interval_s", type=REAL, default=None,
               help="Seconds between readings, to map Allan terms (default: the plan's rate).")
-@click.option("--tur", type=click.FloatRange(min=1.0), default=3.0, show_default=True,
+@click.option("--tur", type=FiniteFloatRange(min=1.0), default=3.0, show_default=True,
               help="Test uncertainty ratio: a limit is verifiable when U <= tolerance / TUR.")
 @click.option("--mc", "n_mc", type=click.IntRange(min=20), default=200, show_default=True,
               help="Most simulated tests of the Monte Carlo (noise other than white or equal "
               "position offsets); it stops earlier once every std is known to --mc-error.")
-@click.option("--mc-error", "rel_error", type=click.FloatRange(min=0.0), default=0.1,
+@click.option("--mc-error", "rel_error", type=FiniteFloatRange(min=0.0), default=0.1,
               show_default=True,
               help="Relative standard error of the Monte Carlo std at which it stops (0: run "
               "all --mc tests).")

@@ -10,9 +10,9 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
-    plain_text_figures,
     print_identity,
     print_table,
 )
@@ -28,7 +28,7 @@ _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
               help="TOML of true coefficients in deg/h, deg/h/g, deg/h/g^2.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Data file to write (.csv or .parquet).")
-@click.option("--noise", type=float, default=0.0, show_default=True,
+@click.option("--noise", type=REAL, default=0.0, show_default=True,
               help="White noise per reading, in the plan's output unit.")
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | None) -> None:
@@ -49,7 +49,7 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
 @click.command()
 @click.argument("plan", type=_FILE)
 @click.argument("data", type=_FILE)
-@click.option("--sigma", type=float, default=None,
+@click.option("--sigma", type=REAL, default=None,
               help="Known noise per reading in the output unit (default: from the residuals).")
 @click.option("--noise-model", default=None,
               help="Noise model of the instrument: auto, white, position-offsets, random-walk or "
@@ -91,8 +91,6 @@ def fit(
     """
     if pdf and report_dir is None:
         raise click.UsageError("--pdf needs --report DIR")
-    if report_dir is not None:
-        plain_text_figures()
     from inertest.app.run import run
 
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),

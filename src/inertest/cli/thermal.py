@@ -8,6 +8,7 @@ import click
 import numpy as np
 
 from inertest.cli._common import (
+    REAL,
     check_paths,
     echo_json,
     figure_format,
@@ -34,13 +35,13 @@ def thermal() -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Data file to write (.csv, .parquet, .h5).")
 @click.option("--cycles", type=int, default=4, show_default=True, help="Temperature cycles.")
-@click.option("--t-min-c", type=float, default=-40.0, show_default=True)
-@click.option("--t-max-c", type=float, default=60.0, show_default=True)
-@click.option("--ramp-c-per-min", type=float, default=1.0, show_default=True)
-@click.option("--lag-s", type=float, default=600.0, show_default=True,
+@click.option("--t-min-c", type=REAL, default=-40.0, show_default=True)
+@click.option("--t-max-c", type=REAL, default=60.0, show_default=True)
+@click.option("--ramp-c-per-min", type=REAL, default=1.0, show_default=True)
+@click.option("--lag-s", type=REAL, default=600.0, show_default=True,
               help="Time constant of the coil behind the temperature sensor [s].")
-@click.option("--noise-ppm", type=float, default=3.0, show_default=True)
-@click.option("--noise-deg-h", type=float, default=0.01, show_default=True)
+@click.option("--noise-ppm", type=REAL, default=3.0, show_default=True)
+@click.option("--noise-deg-h", type=REAL, default=0.01, show_default=True)
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_per_min: float,
              lag_s: float, noise_ppm: float, noise_deg_h: float, seed: int | None) -> None:
@@ -77,7 +78,7 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
               "for inertest apply.")
 @click.option("--model", "model_name", type=click.Choice(["polynomial", "neural-network"]),
               default="polynomial", show_default=True, help="Model written by --model-out.")
-@click.option("--t-ref-c", type=float, default=None,
+@click.option("--t-ref-c", type=REAL, default=None,
               help="Reference temperature of the polynomial [degC] (default: training mean).")
 @click.option("--serial", default="", help="Instrument serial (written into the model; needed "
               "by --store).")
@@ -162,9 +163,9 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
               help="Polynomial degree of each coefficient in (T - T_ref).")
 @click.option("--rate", "use_rate", is_flag=True,
               help="Add a term in the temperature rate (column temperature_rate_c_per_min).")
-@click.option("--t-ref-c", type=float, default=None,
+@click.option("--t-ref-c", type=REAL, default=None,
               help="Reference temperature [degC] (default: mean step temperature).")
-@click.option("--sigma", type=float, default=None,
+@click.option("--sigma", type=REAL, default=None,
               help="Known noise per reading [output unit] (default: from each step).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--model-out", type=click.Path(dir_okay=False, path_type=Path), default=None,
@@ -238,13 +239,13 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
 @click.argument("laws", type=_FILE)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Data file to write (.csv, .parquet, .h5).")
-@click.option("--t-min-c", type=float, default=-40.0, show_default=True)
-@click.option("--t-max-c", type=float, default=60.0, show_default=True)
-@click.option("--step-c", type=float, default=10.0, show_default=True,
+@click.option("--t-min-c", type=REAL, default=-40.0, show_default=True)
+@click.option("--t-max-c", type=REAL, default=60.0, show_default=True)
+@click.option("--step-c", type=REAL, default=10.0, show_default=True,
               help="Temperature step of the chamber [degC].")
 @click.option("--branches", type=click.Choice(["both", "heating", "cooling"]), default="both",
               show_default=True)
-@click.option("--noise", type=float, default=0.0, show_default=True,
+@click.option("--noise", type=REAL, default=0.0, show_default=True,
               help="White noise per reading [plan output unit].")
 @click.option("--seed", type=int, default=None, help="Random seed for the noise.")
 def triad_simulate(plan: Path, laws: Path, output: Path, t_min_c: float, t_max_c: float,

@@ -4,22 +4,97 @@ Files and report folders are written under a hidden temporary name beside their 
 renamed into place at the end; every exit path that Python sees (errors, Ctrl-C, SIGTERM through
 the command line) removes the temporary. A process killed outright (SIGKILL, power loss) leaves
 its hidden temporary behind: the temporary's name carries the host and process id, and the next
-write to the same target removes those whose process is gone.
+write to the same target removes those whose process is gone. An error while writing names the
+user's path, never the hidden temporary.
+
+Every path written or removed inside a folder goes through :func:`path_inside`: it must lie
+inside the folder through real folders only, never behind a symbolic link.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import re
 import shutil
 import socket
 import tempfile
+import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from inertest.errors import OutputPathError
+from inertest.errors import InertestWarning, OutputPathError
+
+
+def path_inside(folder: str | os.PathLike[str], rel: str | os.PathLike[str], *,
+                what: str | None = None) -> Path:
+    """``folder / rel``, refused unless it lies inside ``folder`` through real folders only.
+
+    ``rel`` must be relative, without ``..``; no component from ``folder`` down to the path
+    itself may be a symbolic link (a link could lead anywhere, and ``unlink`` or
+    ``os.replace`` would then act outside the folder); the resolved path must lie under the
+    resolved ``folder``. ``folder`` itself may be a link: it is the path the user gave.
+
+    Raises
+    ------
+    OutputPathError
+        Naming the path, the link and the fix; ``what`` starts the message (default
+        ``"folder FOLDER: the path"``).
+    """
+    base = Path(folder)
+    relative = Path(rel)
+    head = what if what is not None else f"folder {base}: the path"
+    if (relative.is_absolute() or not relative.parts or ".." in relative.parts
+            or relative.drive):
+        raise OutputPathError(
+            f"{head} {str(rel)!r}, which is not a path inside the folder; inertest writes and "
+            "removes files only inside it: correct the path, or give a new folder")
+    current = base
+    for part in relative.parts:
+        current = current / part
+        if current.is_symlink():
+            raise OutputPathError(
+                f"{head} {relative}, which lies behind the symbolic link {current} (to "
+                f"{os.readlink(current)}); inertest writes and removes files only through "
+                "real folders: remove the link, or give a new folder")
+        if not current.exists():
+            break
+    target = base / relative
+    if not target.resolve().is_relative_to(base.resolve()):
+        raise OutputPathError(
+            f"{head} {relative}, which resolves outside the folder; remove the links on the "
+            "way, or give a new folder")
+    return target
+
+
+def _user_path_error(exc: OSError, tmp: Path | None, final: Path) -> OSError:
+    """``exc`` naming ``final`` (or a file in it) where it named the hidden temporary ``tmp``.
+
+    ``tmp`` is None when the temporary could not even be created: any name of this process's
+    temporaries beside ``final`` then stands for ``final``. A full disk that a writer reports
+    without a file name (Arrow, HDF5) is named at ``final``.
+    """
+    if exc.filename is None and exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
+        return type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(final))
+
+    def user(name: object) -> object:
+        if not isinstance(name, str | bytes):
+            return name
+        p = Path(os.fsdecode(name))
+        if tmp is not None and p.is_relative_to(tmp):
+            return str(final / p.relative_to(tmp)) if p != tmp else str(final)
+        if p.parent == final.parent and p.name.startswith(_temp_prefix(final)):
+            return str(final)
+        return name
+
+    new, new2 = user(exc.filename), user(exc.filename2)
+    if new is exc.filename and new2 is exc.filename2:
+        return exc
+    if exc.errno is None:
+        return exc
+    return type(exc)(exc.errno, exc.strerror, new, None, new2)
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> Path:
@@ -69,9 +144,9 @@ def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
         return removed
     for sib in siblings:
         m = pattern.match(sib.name)
-        if m is None or _alive(int(m.group(1))):
-            continue
-        if sib.is_dir() and not sib.is_symlink():
+        if m is None or sib.is_symlink() or _alive(int(m.group(1))):
+            continue  # inertest never makes a temporary that is a link: not ours
+        if sib.is_dir():
             shutil.rmtree(sib, ignore_errors=True)
         else:
             sib.unlink(missing_ok=True)
@@ -85,15 +160,19 @@ def target_file(path: str | os.PathLike[str]) -> Iterator[Path]:
     final = Path(path)
     final.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(final)
-    fd, name = tempfile.mkstemp(prefix=_temp_prefix(final), suffix=".tmp", dir=final.parent)
-    os.close(fd)
-    tmp = Path(name)
-    os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file follows the umask
+    tmp: Path | None = None
     try:
+        fd, name = tempfile.mkstemp(prefix=_temp_prefix(final), suffix=".tmp", dir=final.parent)
+        os.close(fd)
+        tmp = Path(name)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; a written file follows the umask
         yield tmp
         os.replace(tmp, final)
+    except OSError as exc:
+        raise _user_path_error(exc, tmp, final) from None
     finally:
-        tmp.unlink(missing_ok=True)
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
 
 
 #: Manifest of a report folder written by inertest: JSON ``{"written_by": "inertest", "files":
@@ -118,8 +197,25 @@ def check_outputs(outputs: Iterable[str | os.PathLike[str]],
 
 
 def report_manifest(folder: str | os.PathLike[str]) -> list[str] | None:
-    """Files an earlier inertest report in ``folder`` wrote, or None when it has no manifest."""
-    marker = Path(folder) / REPORT_MARKER
+    """Files an earlier inertest report in ``folder`` wrote, or None when it has no manifest.
+
+    A marker that is not inertest's (no ``"written_by": "inertest"``, not JSON) is no manifest.
+    One of inertest's that lists anything but paths inside the folder through real folders
+    (:func:`path_inside`), or that is itself a symbolic link, is refused: inertest would remove
+    those files.
+
+    Raises
+    ------
+    OutputPathError
+        Naming the manifest, the entry and the fix.
+    """
+    base = Path(folder)
+    marker = base / REPORT_MARKER
+    if marker.is_symlink():
+        raise OutputPathError(
+            f"report folder {base}: its manifest {REPORT_MARKER} is a symbolic link (to "
+            f"{os.readlink(marker)}), not the file inertest wrote; remove it, or give a new "
+            "folder")
     try:
         doc = json.loads(marker.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -127,13 +223,22 @@ def report_manifest(folder: str | os.PathLike[str]) -> list[str] | None:
     if not isinstance(doc, dict) or doc.get("written_by") != "inertest":
         return None
     files = doc.get("files")
-    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
-        return None
-    return [f for f in files if f and not Path(f).is_absolute() and ".." not in Path(f).parts]
+    if not isinstance(files, list) or not all(isinstance(f, str) and f for f in files):
+        raise OutputPathError(
+            f"report folder {base}: its manifest {REPORT_MARKER} is damaged (\"files\" must be "
+            "a list of file names); delete the manifest and the report's files, or give a new "
+            "folder")
+    for f in files:
+        path_inside(base, f, what=f"report folder {base}: its manifest {REPORT_MARKER} lists")
+    return list(files)
 
 
 def check_report_directory(path: str | os.PathLike[str]) -> None:
-    """Refuse a report folder that exists, is not empty and holds no inertest report."""
+    """Refuse a report folder that exists, is not empty and holds no inertest report.
+
+    Also one whose manifest lists a path outside the folder or behind a symbolic link
+    (:func:`report_manifest`).
+    """
     final = Path(path)
     if final.name in ("", ".", ".."):
         raise OutputPathError(
@@ -159,16 +264,19 @@ def target_directory(
     other files without a manifest: those raise :class:`~inertest.errors.OutputPathError`
     before the block runs. Into an earlier report, the new files replace the old ones and the
     old report's files that the new one does not write are removed; files the manifest does not
-    list (the user's notes, a history database kept there) are never touched.
+    list (the user's notes, a history database kept there) are never touched. Every file
+    written or removed lies inside ``path`` through real folders (:func:`path_inside`); any
+    that would not is refused before anything is replaced.
     """
     final = Path(path)
     check_report_directory(final)
     check_outputs([final], inputs)
     final.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(final)
-    tmp = Path(tempfile.mkdtemp(prefix=_temp_prefix(final), dir=final.parent))
-    os.chmod(tmp, 0o777 & ~_umask())
+    tmp: Path | None = None
     try:
+        tmp = Path(tempfile.mkdtemp(prefix=_temp_prefix(final), dir=final.parent))
+        os.chmod(tmp, 0o777 & ~_umask())
         yield tmp
         written = sorted(str(f.relative_to(tmp)) for f in tmp.rglob("*")
                          if f.is_file() and f.name != REPORT_MARKER)
@@ -183,15 +291,46 @@ def target_directory(
             return
         check_report_directory(final)  # still a report of ours, also if it changed meanwhile
         old = report_manifest(final) or []
+        # Every path checked before the first is replaced: nothing is written half-way.
+        for rel in [*written, REPORT_MARKER]:
+            _check_replaceable(final, rel)
         for rel in written:
             dest = final / rel
             dest.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(tmp / rel, dest)
+            os.replace(tmp / rel, path_inside(
+                final, rel, what=f"report folder {final}: the report writes"))
         for rel in sorted(set(old) - set(written)):
-            stale = final / rel
-            if stale.is_file() and not stale.is_symlink():
-                stale.unlink()
+            _remove_stale_file(final, rel)
         # The manifest last: until it is in place the folder still describes the old report.
         os.replace(tmp / REPORT_MARKER, final / REPORT_MARKER)
+    except OSError as exc:
+        raise _user_path_error(exc, tmp, final) from None
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _check_replaceable(folder: Path, rel: str) -> None:
+    """Refuse a report file ``rel`` that cannot replace what ``folder`` holds at its path."""
+    head = f"report folder {folder}: the report writes"
+    dest = path_inside(folder, rel, what=head)
+    clash = dest if dest.is_dir() else next(
+        (p for p in dest.parents if p != folder and p.is_relative_to(folder) and p.exists()
+         and not p.is_dir()), None)
+    if clash is not None:
+        kind = "folder" if clash == dest else "file"
+        raise OutputPathError(f"{head} {rel}, but the folder holds a {kind} "
+                              f"{clash.relative_to(folder)} there; move it away, or give a new "
+                              "folder")
+
+
+def _remove_stale_file(folder: Path, rel: str) -> None:
+    """Remove an earlier report's file ``rel`` of ``folder``; one behind a link is left, warned."""
+    try:
+        stale = path_inside(folder, rel, what=f"report folder {folder}: the earlier "
+                            "report's file")
+    except OutputPathError as exc:  # the folder changed since it was checked
+        warnings.warn(f"{exc}; it was left in place", InertestWarning, stacklevel=3)
+        return
+    if stale.is_file():
+        stale.unlink()

@@ -100,8 +100,17 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
             out[name] = _numeric_column(col)
         elif pa.types.is_null(col.type):
             out[name] = np.full(len(col), np.nan)
+        elif pa.types.is_nested(col.type):
+            raise DataError(f"data file {p}: column {name!r} holds {col.type} values (a list or "
+                            "record per row); inertest reads one real number or text per row: "
+                            "store each element as a column of its own")
         else:
-            out[name] = _text_column(col)
+            try:
+                out[name] = _text_column(col)
+            except (pa.ArrowInvalid, pa.ArrowNotImplementedError, pa.ArrowTypeError):
+                raise DataError(f"data file {p}: column {name!r} holds {col.type} values that "
+                                "are neither numbers nor text; store it as numbers or UTF-8 "
+                                "text") from None
         del col
     return out
 

@@ -50,10 +50,12 @@ def read_hdf5_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
                     raise DataError(
                         f"data file {p}: dataset {name!r} keeps its values in other files "
                         "(external or virtual storage); copy the data into the file")
-                if ds.dtype.kind in "SO":
+                if ds.dtype.kind == "S" or h5py.check_string_dtype(ds.dtype) is not None:
                     out[name] = np.asarray(ds.asstr()[()], dtype=str)
-                else:
+                elif ds.dtype.kind in "fiub":
                     out[name] = np.asarray(ds[()], dtype=float)
+                else:
+                    raise DataError(f"data file {p}: column {name!r} {column_kind(ds.dtype)}")
     except DataError:
         raise
     except (OSError, ValueError, TypeError, UnicodeDecodeError) as exc:
@@ -64,6 +66,16 @@ def read_hdf5_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     if not out:
         raise DataError(f"data file {p} has no 1-D datasets at its root (one per column)")
     return out
+
+
+def column_kind(dtype: np.dtype) -> str:
+    """What a column of ``dtype`` that is neither real numbers nor text holds, and the fix."""
+    if dtype.kind == "c":
+        return (f"holds complex numbers ({dtype}); inertest reads real numbers only (a complex "
+                "value's imaginary part would be lost): store the real and imaginary parts, or "
+                "the magnitude, as columns of their own")
+    return (f"holds {dtype} values, not one real number or text per row; store each "
+            "element as a column of real numbers")
 
 
 def _link_target(link: object) -> str:

@@ -49,6 +49,11 @@ FORMATS = ("auto", "csv", "parquet", "hdf5", "psins")
 TIME_UNITS = ("auto", "s", "ns")
 #: Compression suffixes read transparently (PSINS text only) -> opener of the standard library.
 COMPRESSIONS: dict[str, Callable[..., Any]] = {".gz": gzip.open, ".xz": lzma.open}
+#: Largest decompressed size of a compressed recording [bytes]: 1 GiB of PSINS text is about
+#: 25 million samples (70 h at 100 Hz); a compression bomb is refused once it passes this.
+MAX_DECOMPRESSED_BYTES = 1 << 30
+#: Longest line read while telling a file's format [characters].
+_MAX_HEAD_LINE = 1 << 16
 _TABLE_SUFFIXES = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet",
                    **{s: "hdf5" for s in HDF5_SUFFIXES}}
 _TIME_NAMES = ("t", "time", "timestamp", "time_s", "t_s", "%time", "field.header.stamp",
@@ -109,18 +114,40 @@ def _compression(path: Path) -> str | None:
 
 
 def _read_text_lines(path: Path, count: int | None = None) -> list[str]:
-    """Lines of a text file, plain or compressed (:data:`COMPRESSIONS`); ``count`` from the top."""
+    """Lines of a text file, plain or compressed (:data:`COMPRESSIONS`); ``count`` from the top.
+
+    A compressed file is first decompressed without keeping anything, and refused once it
+    passes :data:`MAX_DECOMPRESSED_BYTES` (a few kB of ``.xz`` can hold gigabytes); lines read
+    from the top are cut at :data:`_MAX_HEAD_LINE` characters.
+    """
     comp = _compression(path)
     opener = COMPRESSIONS[comp] if comp is not None else open
     try:
         fh: IO[str]
+        if count is None and comp is not None:
+            _check_decompressed_size(path, opener)
         with opener(path, "rt", encoding="utf-8", errors="replace") as fh:
             if count is None:
                 return fh.readlines()
-            return [fh.readline() for _ in range(count)]
+            return [fh.readline(_MAX_HEAD_LINE) for _ in range(count)]
     except (gzip.BadGzipFile, lzma.LZMAError, EOFError) as exc:
         raise DataError(f"{path} is not a readable {comp} file ({exc or 'truncated'}); "
                         f"check the download, or give the file uncompressed") from None
+
+
+def _check_decompressed_size(path: Path, opener: Callable[..., Any]) -> None:
+    """Refuse a compressed file larger than :data:`MAX_DECOMPRESSED_BYTES` once decompressed."""
+    total = 0
+    with opener(path, "rb") as raw:
+        while block := raw.read(1 << 22):
+            total += len(block)
+            if total > MAX_DECOMPRESSED_BYTES:
+                size = (f"{MAX_DECOMPRESSED_BYTES / (1 << 30):g} GiB"
+                        if MAX_DECOMPRESSED_BYTES >= 1 << 30
+                        else f"{MAX_DECOMPRESSED_BYTES / (1 << 20):g} MiB")
+                raise DataError(f"{path} is larger than {size} when decompressed (a compressed "
+                                "recording is read whole in memory); decompress it yourself "
+                                "and analyse it in parts")
 
 
 def detect_format(path: Path) -> str:

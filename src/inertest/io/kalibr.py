@@ -142,6 +142,53 @@ def _unit_comments(text: str) -> dict[str, str]:
     return out
 
 
+#: Largest yaml file read [bytes]; a Kalibr imu.yaml is under 1 KiB.
+MAX_YAML_BYTES = 1 << 20
+#: Most values (scalars, lists, mappings) a yaml document may hold once its aliases are
+#: expanded: ``&a [x, x, ...]`` referenced nine times nine levels deep (a "billion laughs")
+#: is a small file that expands past any memory.
+MAX_YAML_NODES = 100_000
+
+
+def _check_yaml_size(root: object, path: Path) -> None:
+    """Refuse a composed yaml document that expands (through its aliases) past the cap.
+
+    The composed graph shares an aliased node, so counting with a memo costs the size of the
+    file, not of its expansion; an alias to an enclosing node (a cycle) counts as too large.
+    """
+    import yaml
+
+    sizes: dict[int, int] = {}
+    active: set[int] = set()
+
+    def size(node: object) -> int:
+        key = id(node)
+        if key in sizes:
+            return sizes[key]
+        if key in active:
+            return MAX_YAML_NODES + 1
+        active.add(key)
+        n = 1
+        if isinstance(node, yaml.SequenceNode):
+            for child in node.value:
+                n += size(child)
+                if n > MAX_YAML_NODES:
+                    break
+        elif isinstance(node, yaml.MappingNode):
+            for k, v in node.value:
+                n += size(k) + size(v)
+                if n > MAX_YAML_NODES:
+                    break
+        active.discard(key)
+        sizes[key] = n
+        return n
+
+    if root is not None and size(root) > MAX_YAML_NODES:
+        raise DataError(f"{path} is larger than {MAX_YAML_NODES} values once its aliases (*name) "
+                        "are expanded; a Kalibr imu.yaml holds a few numbers: give the IMU's "
+                        "yaml without aliases")
+
+
 def read_kalibr_yaml(path: str | os.PathLike[str], *, notes: list[str] | None = None
                      ) -> dict[str, float | None]:
     """The noise parameters of a Kalibr or OpenVINS IMU yaml (missing keys -> None).
@@ -164,12 +211,16 @@ def read_kalibr_yaml(path: str | os.PathLike[str], *, notes: list[str] | None = 
     from inertest.errors import UnitError
 
     p = Path(path)
+    if p.stat().st_size > MAX_YAML_BYTES:
+        raise DataError(f"{p} is larger than {MAX_YAML_BYTES // 1024} KiB; a Kalibr imu.yaml "
+                        "holds a few lines: give the IMU's yaml, not another file")
     text = p.read_text(encoding="utf-8")
     stated = _unit_comments(text)
     lines = text.splitlines()
     if lines and lines[0].startswith("%YAML:"):
         text = "\n".join(lines[1:])
     try:
+        _check_yaml_size(yaml.compose(text, Loader=yaml.SafeLoader), p)
         doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         raise DataError(f"{p} is not valid YAML ({str(exc).splitlines()[0]}); fix the file") \

@@ -15,6 +15,7 @@ from inertest.plan import (
     Field,
     Instrument,
     Plan,
+    check_finite_document,
     check_known_keys,
     read_fields,
     read_test_table,
@@ -24,17 +25,19 @@ from inertest.procedures import procedure
 
 
 def read_toml(path: str | os.PathLike[str], what: str) -> dict[str, Any]:
-    """Parse a TOML file; syntax errors become a :class:`PlanError` naming the file."""
+    """Parse a TOML file; syntax errors and NaN/inf numbers are a PlanError naming the file."""
     p = Path(path)
     try:
         with p.open("rb") as fh:
-            return tomllib.load(fh)
+            doc = tomllib.load(fh)
     except tomllib.TOMLDecodeError as exc:
         raise PlanError(f"{what} file {p} is not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise PlanError(f"{what} file {p} is not UTF-8 text; save it as UTF-8") from None
     except IsADirectoryError:
         raise PlanError(f"{what} file {p} is a folder; give the TOML file") from None
+    check_finite_document(doc, f"{what} file {p}", fix="give a finite number")
+    return doc
 
 
 #: Top-level tables of a plan file.

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from inertest.errors import DataError, InputError
 from inertest.io.data_file import read_table
+from inertest.io.hdf5_table import column_kind
 
 
 class SampleFile:
@@ -104,14 +105,14 @@ def read_samples(
             arr = np.load(p, mmap_mode="r", allow_pickle=False)
         except ValueError as exc:
             raise DataError(f"data file {p} cannot be read as .npy: {exc}") from None
-        if arr.ndim == 1 and arr.dtype.kind in "fiu":
+        if arr.dtype.kind not in "fiu":
+            raise DataError(f"data file {p} {column_kind(arr.dtype)}")
+        if arr.ndim == 1:
             return SampleFile(p, arr.dtype, int(arr.offset), arr.shape[0])
         if arr.ndim == 2 and column is not None and column.isdigit():
             if int(column) >= arr.shape[1]:
                 raise DataError(f"{p} has {arr.shape[1]} columns (0 to {arr.shape[1] - 1}); "
                                 f"--column {column} is out of range")
-            if arr.dtype.kind not in "fiu":
-                raise DataError(f"{p} holds {arr.dtype} values, not numbers")
             return arr[:, int(column)]
         raise DataError(
             f"{p} holds an array of shape {arr.shape}; save one column (1-D), or give "

@@ -26,6 +26,9 @@ from inertest.procedures.thermal_triad import MODEL_KIND as TRIAD_MODEL_KIND
 from inertest.procedures.thermal_triad import TriadThermalModel
 
 _M = TypeVar("_M", ThermalModel, TriadThermalModel)
+#: Keys of a model document that may be NaN: goodness-of-fit figures that a fit without
+#: degrees of freedom or validation cycles cannot determine. Nothing under them is computed with.
+DIAGNOSTICS = ("validation_rms", "noise", "chi2", "p_value")
 
 
 def is_thermal_model(doc: dict) -> bool:
@@ -53,7 +56,8 @@ def load_thermal_model(path: str | os.PathLike[str]) -> ThermalModel:
 def _load_model(path: str | os.PathLike[str], what: str, from_dict: Callable[[dict], _M], *,
                 result_kind: str, command: str, args: str) -> _M:
     """The model in ``path``; the ``result_kind`` result of ``command`` is refused with the fix."""
-    doc = read_json_object(path, what)
+    doc = read_json_object(path, what, fix=f"write the model again with inertest {command} "
+                           f"{args} --model-out MODEL.json", may_be_nan=DIAGNOSTICS)
     if doc.get("kind") == result_kind:
         raise InputError(f"{path} is a {command} result, not a model; write the model with "
                          f"inertest {command} {args} --model-out MODEL.json")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -94,7 +95,12 @@ def known_sigma(sigma: float | None, si_per_output_unit: float) -> float | None:
         return None
     if not np.isfinite(sigma) or sigma <= 0:
         raise PlanError(f"noise sigma must be finite and positive, got {sigma}")
-    return float(sigma) * si_per_output_unit
+    s = float(sigma) * si_per_output_unit
+    if not (math.isfinite(s * s) and s * s > 0):  # variances are computed with it
+        size, what = ("large", "overflows") if s > 1 else ("small", "underflows to 0")
+        raise PlanError(f"noise sigma {sigma:g} (output unit) is too {size} to compute with (its "
+                        f"square {what}); give the noise per reading in the plan's output unit")
+    return s
 
 
 #: Names of a time column [s] that :func:`check_sample_rate` compares with the plan's rate.
@@ -110,7 +116,8 @@ def check_sample_rate(
     A rate 10 times too low silently makes every integral over the samples (the Ferraris
     turns) 10 times too large, and so the gyro scale factors. The median step of the first
     column in :data:`TIME_COLUMNS` [s] must match ``1 / sample_rate_hz`` within ``tolerance``
-    (relative); steps that are not positive (a new segment restarting its clock) are ignored.
+    (relative); steps that are not positive (a new segment restarting its clock) are ignored,
+    unless most steps are negative: a time column running backwards is refused as such.
     Data without a time column are not checked.
 
     Raises
@@ -125,6 +132,12 @@ def check_sample_rate(
     if t.dtype.kind not in "fiu" or t.size < 3:
         return
     dt = np.diff(t.astype(float))
+    back = np.flatnonzero(dt < 0)
+    if back.size > np.count_nonzero(dt > 0):  # restarts of the clock are few; this is most
+        raise DataError(
+            f"{source}: the time column {name!r} runs backwards ({back.size} of {dt.size} steps "
+            f"are negative, the first at data row {int(back[0]) + 2}); sort the rows by time, "
+            "or fix the time column")
     dt = dt[np.isfinite(dt) & (dt > 0)]
     if dt.size < 2:
         return

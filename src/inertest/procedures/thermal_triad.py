@@ -602,6 +602,8 @@ def fit_triad_thermal(
         raise DataError("column temperature_c must be numeric [degC]") from None
     if not np.all(np.isfinite(temp)):
         raise DataError("column temperature_c has NaN/inf; repair or remove those rows")
+    if temp.size == 0:
+        raise DataError("thermal triad data has no rows (only a header); give the chamber steps")
     branch = np.char.lower(np.char.strip(np.asarray(data["branch"]).astype(str)))
     unknown = sorted(set(branch) - set(BRANCHES))
     if unknown:

@@ -32,7 +32,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from inertest.errors import PlanError
-from inertest.plan import Field, TestConditions, check_known_keys, did_you_mean, read_fields
+from inertest.plan import (
+    Field,
+    TestConditions,
+    check_finite_document,
+    check_known_keys,
+    did_you_mean,
+    read_fields,
+)
 from inertest.units import ARCSEC_TO_RAD, DEG_TO_RAD, MICRORAD_TO_RAD, PPM_TO_RATIO
 
 
@@ -231,13 +238,15 @@ def read_toml_file(path: str | os.PathLike[str], *, source: str, error: type[Pla
     """
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            doc = tomllib.load(fh)
     except FileNotFoundError:
         raise error(f"{source} does not exist; {missing}") from None
     except OSError as exc:
         raise error(f"{source} cannot be read: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{source} is not valid TOML: {exc}") from None
+    check_finite_document(doc, source, fix="give a finite number", error=error)
+    return doc
 
 
 def select_equipment(

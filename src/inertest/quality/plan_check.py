@@ -335,6 +335,9 @@ def _number(doc: Mapping[str, Any], key: str, source: str, default: float | None
                              "sigma = 0.002 (in the plan's output unit)")
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
         raise NoiseFileError(f"{source}: {key} must be a number >= 0, got {v!r}")
+    if not math.isfinite(float(v) * v):  # variances are computed with it
+        raise NoiseFileError(f"{source}: {key} = {v!r} is too large to compute with (its square "
+                             "overflows); give the level per reading in the plan's output unit")
     return float(v)
 
 

@@ -15,6 +15,7 @@ from inertest.models.triad import AXES
 from inertest.procedures.accelerometer_multipoint import AccelerometerMultipointResult
 from inertest.procedures.triad_multiposition import TriadMultipositionResult
 from inertest.report.calibration import calibration_rows
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 
@@ -49,7 +50,7 @@ def multipoint_figure(result: AccelerometerMultipointResult):
             ax.set_ylabel("E/K1 − aI [µg]")
             axr.set_ylabel(f"residual [{result.output_unit}]")
             ax.legend(fontsize=8)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -156,7 +157,7 @@ def triad_residual_figure(result: TriadMultipositionResult):
     ax.set_ylabel(f"residual [{result.output_unit}]")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionResult
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
 from inertest.report.rounding import format_column, format_number, round_to_uncertainty
@@ -37,7 +38,7 @@ def runs_figure(result: CentrifugeNinePositionResult):
     axr.set_xlabel("position")
     axr.set_xticks(range(1, 10))
     axr.grid(alpha=0.3)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

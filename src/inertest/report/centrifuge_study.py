@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import matplotlib.pyplot as plt
 import numpy as np
 
+from inertest.report.figure_text import plain_figure_text
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
 from inertest.report.rounding import format_number, round_to_uncertainty
 from inertest.studies.centrifuge_study import REFERENCE, StudyResult
@@ -81,6 +82,7 @@ def error_figure(result: StudyResult):
     ax.set_title("Identification error caused by each machine error alone (ideal regressors)")
     ax.legend(fontsize=7, ncol=2)
     ax.grid(axis="y", which="both", alpha=0.3)
+    plain_figure_text(fig)
     return fig
 
 

@@ -12,6 +12,7 @@ from inertest.equipment.ferraris_session import FACE_LABELS, TURN_LABELS
 from inertest.models.triad import AXES
 from inertest.procedures.ferraris import FACE_GRAVITY_TOLERANCE_M_S2, FerrarisResult
 from inertest.report.calibration import result_calibration_rows
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
 from inertest.report.rounding import format_number
@@ -44,7 +45,7 @@ def ferraris_figure(result: FerrarisResult) -> Figure:
                   fontsize=9)
     axr.tick_params(axis="x", labelrotation=45, labelsize=7)
     axr.grid(alpha=0.3, axis="y")
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

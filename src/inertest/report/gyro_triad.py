@@ -19,6 +19,7 @@ from inertest.procedures.navigation_calibration import (
     NavigationCalibrationResult,
 )
 from inertest.report.calibration import calibration_rows
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, page, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 from inertest.report.rounding import format_number, format_with_std
@@ -49,7 +50,7 @@ def rate_table_figure(result: GyroRateTableResult):
     axr.set_ylabel("deviation from line [ppm FS]")
     axr.grid(alpha=0.3)
     axr.legend(fontsize=8)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -98,7 +99,7 @@ def rotation_residual_figure(result: GyroTriadRotationResult):
     ax.set_ylabel(f"residual [{result.output_unit}]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -174,7 +175,7 @@ def convergence_figure(result: NavigationCalibrationResult):
     a2.legend(fontsize=8)
     for ax in (a1, a2):
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

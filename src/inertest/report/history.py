@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.estimation.trend import QuantityHistory
+from inertest.report.figure_text import finish_figure
 from inertest.report.identification import fmt
 from inertest.report.rounding import format_number
 
@@ -72,5 +73,5 @@ def history_figure(histories: Sequence[QuantityHistory], times: Sequence[Sequenc
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     axes.flat[0].legend(fontsize=7)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig

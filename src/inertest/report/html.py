@@ -54,6 +54,9 @@ def figure_to_data_uri(fig: Figure, *, dpi: int = 110) -> str:
     """Render ``fig`` to PNG and return it as a ``data:`` URI; the figure is closed."""
     import matplotlib.pyplot as plt
 
+    from inertest.report.figure_text import plain_figure_text
+
+    plain_figure_text(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
     plt.close(fig)

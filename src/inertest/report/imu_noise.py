@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from inertest.noise.identification import BOUND_DEFINITION
 from inertest.noise.imu import ChannelNoise, ImuNoiseResult, KalibrTerm, TermComparison
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number, format_with_std
 
@@ -60,7 +61,7 @@ def channel_figure(ch: ChannelNoise, comparisons: Sequence[TermComparison] = ())
     bx.set_ylabel(f"PSD [({ch.unit})^2/Hz]")
     bx.grid(alpha=0.3, which="both")
     bx.legend(fontsize=7)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

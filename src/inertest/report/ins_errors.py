@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 
 from inertest.ins.error_model import SIGN_CONVENTION, STATES
 from inertest.ins.propagation import SOURCES, CharacteristicPeriods, SourceResponses
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number
 from inertest.units import ARCMIN_TO_RAD, ARCSEC_TO_RAD, HOUR_TO_S
@@ -88,7 +89,7 @@ def responses_figure(
     leg_ax.legend(handles, labels, loc="center", ncol=2, fontsize=9, title="error source")
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

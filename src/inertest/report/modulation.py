@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.ins.error_model import SIGN_CONVENTION
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number
 from inertest.studies.rotation_modulation import SystemRun
@@ -70,7 +71,7 @@ def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarra
                 f"bandwidth {first.cost.bandwidth_hz:.3g} Hz")
     d.legend(fontsize=8)
     d.grid(alpha=0.3)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -104,7 +105,7 @@ def system_figure(runs: Sequence[SystemRun]):
     lat = np.degrees(runs[0].site.latitude_rad)
     fig.suptitle(f"Static-base INS errors with and without IMU rotation (latitude {lat:g} deg; "
                  "vertical channel not modelled)")
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from inertest.noise.deviations import DeviationResult
 from inertest.noise.identification import BOUND_DEFINITION, TERMS, NoiseModel
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number, format_with_std, round_to_uncertainty
 
@@ -49,7 +50,7 @@ def allan_figure(
     ax.legend(fontsize=7)
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

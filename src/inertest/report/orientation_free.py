@@ -10,6 +10,7 @@ from matplotlib.figure import Figure
 
 from inertest.procedures.orientation_free import OrientationFreeResult
 from inertest.report.calibration import result_calibration_rows
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import identification_section
 from inertest.units import MILLI_G_TO_M_PER_S2
@@ -51,7 +52,7 @@ def orientation_free_figure(result: OrientationFreeResult) -> Figure:
     ax2.legend(fontsize=7)
     for a in (ax0, ax1, ax2):
         a.grid(alpha=0.3)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

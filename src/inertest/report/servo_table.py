@@ -8,6 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from inertest.procedures.servo_table import ServoTableResult
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 from inertest.report.rounding import format_number
@@ -44,7 +45,7 @@ def servo_table_figure(result: ServoTableResult):
             ax.set_ylabel("drift [deg/h]")
             axs.set_ylabel("drift − model [deg/h]")
             ax.legend(fontsize=8)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

@@ -12,6 +12,7 @@ from matplotlib.figure import Figure
 
 from inertest.procedures.thermal_compensation import ThermalResult
 from inertest.procedures.thermal_triad import ThermalTriadResult
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number, format_with_std, round_to_uncertainty
 
@@ -55,7 +56,7 @@ def thermal_figure(result: ThermalResult) -> Figure:
     axr.set_ylabel(f"residual [{u}]")
     axr.grid(alpha=0.3)
     axr.legend(fontsize=7)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -138,7 +139,7 @@ def triad_thermal_figure(result: ThermalTriadResult) -> Figure:
     for ax in axes[-1]:
         ax.set_xlabel("temperature [degC]", fontsize=8)
     axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from inertest.procedures.local_level_tumble import LocalLevelTumbleResult
 from inertest.procedures.polar_tumble import PolarTumbleResult
+from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.identification import fmt, identification_section
 
@@ -35,7 +36,7 @@ def polar_tumble_figure(result: PolarTumbleResult):
             ax.set_ylabel("drift S_T·i − ω_I [deg/h]")
             axr.set_ylabel("residual [deg/h]")
             ax.legend(fontsize=8)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 
@@ -59,7 +60,7 @@ def local_level_figure(result: LocalLevelTumbleResult):
     axr.set_xticks(x, labels, rotation=90, fontsize=7)
     axr.set_xlabel("position (I O S directions; S = south)")
     axr.grid(alpha=0.3)
-    fig.tight_layout()
+    finish_figure(fig)
     return fig
 
 

@@ -5,8 +5,10 @@ databases use WAL journaling, a busy timeout and ``BEGIN IMMEDIATE`` so that con
 (two fits at once) queue instead of failing or losing data. The schema is migrated with Alembic
 on open; a database written by a newer inertest (an unknown revision) is refused. A SQLite file
 that does not exist yet is created only when the first run is stored, so a command that fails,
-or only reads, leaves no empty database behind. Serials are checked the same way on every
-backend (:func:`check_label`): printable text of at most 200 characters.
+or only reads, leaves no empty database behind. A SQLite file on storage this process cannot
+write (a read-only mount, an archive) is opened read-only, so ``inertest history`` still reads
+it. Serials are checked the same way on every backend (:func:`check_label`): printable text of
+at most 200 characters.
 """
 
 from __future__ import annotations
@@ -229,6 +231,7 @@ class HistoryStore:
         except (ArgumentError, TypeError, ValueError) as exc:
             raise StoreError(f"unusable database URL {self._shown}: {_reason(exc)}") from None
         self._ready = False
+        self._read_only = False
         if (self.path is not None and not self._is_default
                 and not self.path.expanduser().parent.is_dir()):
             raise StoreError(f"cannot open the history database {self._shown}: its folder "
@@ -244,6 +247,9 @@ class HistoryStore:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         if self.path is not None and not self.path.exists():
             self._create_sqlite_file(self.path)
+        if self.path is not None and not _writable(self.path):
+            self._open_read_only(self.path)
+            return
         try:
             self._migrate()
         except SQLAlchemyError as exc:
@@ -255,6 +261,31 @@ class HistoryStore:
         except BaseException:
             self.engine.dispose()
             raise
+        self._ready = True
+
+    def _open_read_only(self, path: Path) -> None:
+        """Open a SQLite file on storage this process cannot write, for reading only.
+
+        A WAL database needs its ``-shm`` index, which read-only storage cannot hold: with no
+        write-ahead log left beside it (every writer closed, so all is in the file) the file is
+        opened ``immutable`` (no locks, no ``-shm``); with one it is opened ``mode=ro``, which
+        SQLite can do when the ``-shm`` exists too. Nothing is migrated: a database of an older
+        schema must be opened once where it can be written.
+        """
+        self.engine.dispose()
+        wal = Path(str(path) + "-wal")
+        immutable = not (wal.exists() and wal.stat().st_size > 0)
+        self.engine = _create_engine("sqlite://", "sqlite",
+                                     read_only=_read_only_uri(path, immutable=immutable))
+        self._read_only = True
+        try:
+            _check_revision(self.engine, self._shown)
+        except SQLAlchemyError as exc:
+            self.engine.dispose()
+            raise StoreError(
+                f"cannot read the history database {self._shown} on read-only storage: "
+                f"{_reason(exc)}; copy it (with any -wal and -shm files beside it) to writable "
+                "storage and give that path with --db") from None
         self._ready = True
 
     def _create_sqlite_file(self, path: Path) -> None:
@@ -296,6 +327,9 @@ class HistoryStore:
     def add(self, record: RunRecord) -> None:
         """Store one run and its estimates in a single transaction (creating a new database)."""
         check_label(record.serial, "serial")
+        if self._read_only:
+            raise StoreError(f"the history database {self._shown} is on read-only storage; "
+                             "store the run elsewhere with --db, or use --no-store")
         created = None
         if not self._ready:
             created = self.path if self.path is not None and not self.path.exists() else None
@@ -436,6 +470,33 @@ def _migrate_engine(engine: Engine, shown: str) -> None:
         command.upgrade(cfg, "head")
 
 
+def _check_revision(engine: Engine, shown: str) -> None:
+    """Refuse a database that is not at this inertest's newest schema (read-only: no migration)."""
+    cfg = Config()
+    cfg.set_main_option("script_location", str(_MIGRATIONS))
+    head = ScriptDirectory.from_config(cfg).get_current_head()
+    with engine.connect() as conn:
+        current = MigrationContext.configure(conn).get_current_revision()
+    if current != head:
+        raise StoreError(
+            f"the history database {shown} is on read-only storage and has schema revision "
+            f"{current}, not this inertest's {head}; open it once where it can be written (it "
+            "is then migrated), or use the inertest that wrote it")
+
+
+def _writable(path: Path) -> bool:
+    """Whether this process may write the SQLite file and create its journal files beside it."""
+    return os.access(path, os.W_OK) and os.access(path.parent, os.W_OK | os.X_OK)
+
+
+def _read_only_uri(path: Path, *, immutable: bool) -> str:
+    """SQLite URI opening ``path`` read-only (``mode=ro``, and ``immutable=1`` if asked)."""
+    from urllib.parse import quote
+
+    flags = "mode=ro" + ("&immutable=1" if immutable else "")
+    return f"file:{quote(str(path.resolve()))}?{flags}"
+
+
 def _check_sqlite_file(path: Path, shown: str) -> None:
     """Refuse to turn a user's file that is not a SQLite database into one."""
     try:
@@ -448,25 +509,33 @@ def _check_sqlite_file(path: Path, shown: str) -> None:
                          "path with --db, or use --no-store")
 
 
-def _create_engine(url: str, backend: str) -> Engine:
+def _create_engine(url: str, backend: str, *, read_only: str | None = None) -> Engine:
+    """An engine for ``url``; ``read_only``: a SQLite URI (``file:...?mode=ro``) opened as is."""
     if backend != "sqlite":
         return sa.create_engine(url, pool_pre_ping=True)
-    engine = sa.create_engine(url, connect_args={"timeout": 60})
+    if read_only is not None:
+        import sqlite3
+
+        engine = sa.create_engine("sqlite://", poolclass=sa.pool.NullPool, creator=lambda: (
+            sqlite3.connect(read_only, uri=True, timeout=60, check_same_thread=False)))
+    else:
+        engine = sa.create_engine(url, connect_args={"timeout": 60})
 
     @event.listens_for(engine, "connect")
     def _on_connect(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]
         # Let SQLAlchemy emit BEGIN itself (pysqlite's implicit transactions are not used).
         dbapi_connection.isolation_level = None
         cur = dbapi_connection.cursor()
-        cur.execute("PRAGMA journal_mode=WAL")
+        if read_only is None:  # setting the journal mode writes the file
+            cur.execute("PRAGMA journal_mode=WAL")
         cur.execute("PRAGMA foreign_keys=ON")
         cur.close()
 
     @event.listens_for(engine, "begin")
     def _on_begin(conn) -> None:  # type: ignore[no-untyped-def]
         # IMMEDIATE takes the write lock at once: concurrent writers queue (busy timeout)
-        # instead of failing on lock upgrade.
-        conn.exec_driver_sql("BEGIN IMMEDIATE")
+        # instead of failing on lock upgrade. A read-only connection only reads.
+        conn.exec_driver_sql("BEGIN IMMEDIATE" if read_only is None else "BEGIN")
 
     return engine
 

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
 
+from inertest.errors import InputError
 from inertest.estimation.trend import DEFAULT_ALPHA, QuantityHistory, summarize
 from inertest.results import envelope
 from inertest.store.history import RunRecord, StoreError
@@ -22,6 +24,8 @@ def summarize_runs(
     inflation). A quantity's unit must be the same in every run; runs without the quantity are
     skipped.
     """
+    if not (math.isfinite(k) and k > 0):  # a NaN k compares false: no run would be flagged
+        raise InputError(f"k must be a finite number > 0 (sigmas of the outlier test), got {k!r}")
     if not runs:
         return []
     t0 = runs[0].tested_at
