@@ -16,20 +16,7 @@ from inertest.report.html import page
 from inertest.report.sections import envelope_sections
 from inertest.results import ENVELOPE_KEYS, OPTIONAL_KEYS, SCHEMA_VERSION, envelope
 from inertest.store import HistoryStore, RunRecord
-
-#: Procedure kind -> (plan folder, truth file relative to it, noise) of the examples.
-EXAMPLES = {
-    "polar-tumble": ("polar_tumble", "truth.toml", 0.002),
-    "local-level-tumble": ("local_level_tumble", "../polar_tumble/truth.toml", 0.002),
-    "gyro-rate-table": ("gyro_rate_table", "truth.toml", 0.01),
-    "gyro-triad-rotation": ("gyro_triad_rotation", "truth.toml", 1.0),
-    "ferraris": ("ferraris", "truth.toml", 0.0),  # its truth file gives the noise
-    "triad-multiposition": ("triad_multiposition", "truth.toml", 1e-4),
-    "accelerometer-multipoint": ("accelerometer_multipoint", "truth.toml", 1e-6),
-    "centrifuge-nine-position": ("centrifuge", "truth.toml", 1e-9),
-    "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
-    "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
-}
+from procedure_examples import EXAMPLES
 
 
 def check_envelope(doc: dict, kind: str) -> None:

@@ -16,7 +16,8 @@ from scipy.spatial.transform import Rotation
 
 from inertest.errors import DataError, IdentifiabilityError, InertestWarning, InputError
 from inertest.io.plan_file import plan_from_mapping
-from inertest.procedures.thermal_triad import TriadThermalModel, fit_triad_thermal
+from inertest.models.thermal_triad import TriadThermalModel
+from inertest.procedures.thermal_triad import fit_triad_thermal
 
 G = 9.8  # m/s^2, the plan's local gravity
 MG = 9.80665e-3  # m/s^2 per mg

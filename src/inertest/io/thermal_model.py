@@ -22,8 +22,8 @@ from inertest.errors import InputError
 from inertest.io.atomic import write_text
 from inertest.io.calibration_file import read_json_object
 from inertest.models.thermal import MODEL_KIND, ThermalModel, model_from_dict
-from inertest.procedures.thermal_triad import MODEL_KIND as TRIAD_MODEL_KIND
-from inertest.procedures.thermal_triad import TriadThermalModel
+from inertest.models.thermal_triad import MODEL_KIND as TRIAD_MODEL_KIND
+from inertest.models.thermal_triad import TriadThermalModel
 
 _M = TypeVar("_M", ThermalModel, TriadThermalModel)
 #: Keys of a model document that may be NaN: goodness-of-fit figures that a fit without

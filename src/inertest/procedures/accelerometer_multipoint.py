@@ -281,6 +281,10 @@ class AccelerometerMultipoint(Procedure[AccelerometerMultipointSpec, HeadObserva
         return {"mounting": mounting, "angle_deg": angle, "output": e}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = AccelerometerMultipoint()
+
+
 def _identify(
     A: NDArray[np.float64], y: NDArray[np.float64], sigma: float | None, unit: str, explain,
     groups: NDArray, noise_model: str,

@@ -382,6 +382,10 @@ class CentrifugeNinePosition(Procedure[CentrifugeNinePositionSpec, CentrifugeObs
         return {"position": pos, "omega": omega, "t": t, "output": output}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = CentrifugeNinePosition()
+
+
 def machine_inputs(
     centrifuge: machine.Centrifuge, position: ArrayLike, omega: ArrayLike, t: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -908,6 +908,10 @@ class Ferraris(Procedure[FerrarisSpec, SessionObservations, FerrarisResult]):
         return out
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = Ferraris()
+
+
 def _tilt_second_order(d_off: NDArray[np.float64], var_d: NDArray[np.float64],
                        A_a: NDArray[np.float64], g: float) -> tuple[float, float]:
     """``E[1 - cos t]`` of the face tilts from the six off-axis pair sums, and its variance.

@@ -402,6 +402,10 @@ class GyroRateTable(Procedure[GyroRateTableSpec, RateObservations, GyroRateTable
         return {"rate_deg_s": rates, "output": output}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = GyroRateTable()
+
+
 def _input_rate(
     motion: table.ConstantRates, rate_rad_s: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], float]:

@@ -590,6 +590,10 @@ class GyroTriadRotation(Procedure[GyroTriadRotationSpec, WindowObservations,
         return cols
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = GyroTriadRotation()
+
+
 #: Unit of each drift component per count unit of the output (its name: the noise model's).
 _COMPONENT_UNITS = {"position-offsets": "/s", "random-walk": "/s/sqrt(s)", "flicker": "/s"}
 

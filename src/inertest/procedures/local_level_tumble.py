@@ -209,6 +209,10 @@ class LocalLevelTumble(Procedure[LocalLevelTumbleSpec, LevelObservations,
         return {"I_dir": cols[0], "O_dir": cols[1], "S_dir": cols[2], "output": output}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = LocalLevelTumble()
+
+
 def _balance_messages(labels: NDArray) -> list[str]:
     """Each axis should be up and down: otherwise its linear term mixes with DF."""
     out = []

@@ -1100,3 +1100,7 @@ class OrientationFree(Procedure[OrientationFreeSpec, RecordingObservations,
         for k in range(3):
             out[GYR_COLUMNS[k]] = gyr[:, k]
         return out
+
+
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = OrientationFree()

@@ -331,6 +331,10 @@ class PolarTumble(Procedure[PolarTumbleSpec, TumbleObservations, PolarTumbleResu
         return {"mounting": mounting, "angle_deg": angle_deg, "output": output}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = PolarTumble()
+
+
 def _check_latitude(latitude_rad: float) -> None:
     if np.cos(latitude_rad) < _MIN_COS_LAT:
         raise PlanError(

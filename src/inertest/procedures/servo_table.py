@@ -444,6 +444,10 @@ class ServoTableDrift(Procedure[ServoTableSpec, ServoObservations, ServoTableRes
         return {"mounting": mounting, "time_s": t_all, "table_angle_deg": theta / 3600.0}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = ServoTableDrift()
+
+
 def _harmonic_terms(table: ServoTable, m: str, lsq: LinearFit) -> tuple[Estimate, ...]:
     """B0..C2 of the fitted drift against table angle, with std from the covariance."""
     th = np.arange(8) * np.pi / 4

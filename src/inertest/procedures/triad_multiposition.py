@@ -413,6 +413,10 @@ class TriadMultiposition(Procedure[TriadMultipositionSpec, CubeObservations,
         return {"position": labels, **{c: raw[:, i] for i, c in enumerate(OUTPUT_COLUMNS)}}
 
 
+#: The procedure (the registry finds it here by the module's name).
+PROCEDURE = TriadMultiposition()
+
+
 def _with_noise_model(ident: Identification, noises: list[NoiseFit], raw_si_per_raw: float
                       ) -> Identification:
     """The identification with the noise model used and its checks.
