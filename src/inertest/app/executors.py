@@ -113,7 +113,7 @@ class Fits:
         got = self.ready.pop(k)
         if isinstance(got, BaseException):
             raise got
-        return got  # type: ignore[no-any-return]
+        return got
 
     def _wait(self, k: int) -> Any:
         """Wait for run ``k`` (pending): its tuple or its exception, never forever."""

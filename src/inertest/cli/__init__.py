@@ -153,7 +153,7 @@ class _LazyGroup(click.Group):
         from inertest.cli._common import add_overwrite_option  # after this package is ready
 
         add_overwrite_option(command)
-        return command  # type: ignore[no-any-return]
+        return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
         rows = [(name, short) for name, (_, _, short) in _COMMANDS.items()]

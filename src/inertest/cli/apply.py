@@ -45,7 +45,7 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
     if len(names) != 3 or not all(names):
         raise click.BadParameter(f"expected three comma-separated column names, got {text!r}",
                                  param_hint=option)
-    return names  # type: ignore[return-value]
+    return (names[0], names[1], names[2])
 
 
 @click.command(name="apply")
@@ -131,11 +131,13 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
             units[name] = unit
 
     if use_acc:
+        assert cal.accelerometer is not None
         raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
         a_si = cal.accelerometer.apply(raw)
         put(acc_cols, accel_from_si(a_si, acc_unit), acc_unit)
         done.append(f"accelerometer -> {acc_unit}")
     if use_gyr:
+        assert cal.gyroscope is not None
         if cal.gyroscope.g_sensitivity is not None and a_si is None:
             raise DataError("this gyroscope calibration corrects g-sensitivity and needs the "
                             "accelerometer columns and calibration (--acc-columns)")
@@ -235,6 +237,8 @@ def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarra
 
     rate = None
     if model.uses_rate:
+        if time_s is None:
+            raise DataError(f"{data}: the model uses the temperature rate: give the time column")
         rate = temperature_rate(np.zeros(temp.size, dtype=int), time_s, temp)
     dt, dr = model.out_of_range(temp, rate)
     outside = [f"{int(np.count_nonzero(dt))} row(s) up to {np.max(dt):.3g} degC outside the "
@@ -251,6 +255,7 @@ def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarra
         unseen &= dr == 0
     if np.any(unseen):
         k = int(np.flatnonzero(unseen)[0])
+        assert rate is not None  # a model with a support is a model with a rate
         tol_t, tol_r = model.support_tolerance
         outside.append(f"{int(np.count_nonzero(unseen))} row(s) inside the ranges but at "
                        f"temperature x rate combinations not seen in training (first: "

@@ -71,7 +71,8 @@ def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | 
                 rows.append([str(i.task.data), "-", "-", f"failed: {i.error}", "-"])
             else:
                 o = i.outcome
-                rows.append([str(i.task.data), o.result.kind, o.plan.instrument.serial or "-",
+                serial = o.plan.instrument.serial if o.plan is not None else ""
+                rows.append([str(i.task.data), o.result.kind, serial or "-",
                              "stored" if o.stored_run else "fitted (not stored)",
                              _overall(o)])
         print_table(f"batch {manifest}", ["data", "procedure", "serial", "outcome", "verdict"],

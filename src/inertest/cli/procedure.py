@@ -107,7 +107,8 @@ def fit(
     print_result(out.result)
     print_conformance(doc)
     if out.stored_run is not None:
-        click.echo(safe_line(f"stored run of {out.plan.instrument.serial} in {out.database}"))
+        serial = out.plan.instrument.serial if out.plan is not None else ""
+        click.echo(safe_line(f"stored run of {serial} in {out.database}"))
     if out.report is not None:
         click.echo(f"report: {out.report}")
 

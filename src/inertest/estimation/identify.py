@@ -431,9 +431,10 @@ def solve(
                else "add positions")
             + ', or use noise_model = "white"')
     # The correlated candidates: each noise model's kernel of its component over the units.
-    kernels: dict[str, Callable[[], NDArray[np.float64]]] = {
-        m: (lambda m=m: MODELS[m].unit_kernel(u, bias_time_scale=bias_time_scale))
-        for m in CORRELATED}
+    def kernel(m: str) -> Callable[[], NDArray[np.float64]]:
+        return lambda: MODELS[m].unit_kernel(u, bias_time_scale=bias_time_scale)
+
+    kernels = {m: kernel(m) for m in CORRELATED}
     if n == G and not given:
         kernels.pop("position-offsets")  # no repeated readings: offsets are white noise
     consider = [m for m in kernels if noise_model in ("auto", m)]

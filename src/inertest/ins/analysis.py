@@ -62,10 +62,10 @@ class InsErrorAnalysis:
         out["sign_convention"] = SIGN_CONVENTION
         if self.sigma is not None:
             out["sigma"] = {st: self.sigma[:, i].tolist() for i, st in enumerate(STATES)}
-        st = self.scenario.site
+        site = self.scenario.site
         return envelope("ins-errors", result=out, site={
-            "latitude_deg": math.degrees(st.latitude_rad), "gravity_m_s2": st.gravity_m_s2,
-            "radius_m": st.radius_m, "earth_rate_rad_s": st.earth_rate_rad_s})
+            "latitude_deg": math.degrees(site.latitude_rad), "gravity_m_s2": site.gravity_m_s2,
+            "radius_m": site.radius_m, "earth_rate_rad_s": site.earth_rate_rad_s})
 
 
 def analyse(scenario: InsScenario, randoms: RandomSources | None = None) -> InsErrorAnalysis:

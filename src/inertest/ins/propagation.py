@@ -320,7 +320,8 @@ def characteristic_periods(site: InsSite) -> CharacteristicPeriods:
     modes = tuple(sorted(float(2 * math.pi / wi) for wi in w if wi > 0))
     modes = tuple(m for i, m in enumerate(modes) if i == 0 or m > modes[i - 1] * (1 + 1e-6))
     return CharacteristicPeriods(schuler_s=2 * math.pi / schuler_w, foucault_s=foucault_s,
-                                 earth_s=earth_s, modes_s=modes, eigenvalues=ev)
+                                 earth_s=earth_s, modes_s=modes,
+                                 eigenvalues=np.asarray(ev, dtype=np.complex128))
 
 
 def _augmented(site: InsSite) -> NDArray[np.float64]:

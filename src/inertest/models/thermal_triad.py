@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -325,31 +325,31 @@ class TriadThermalModel:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, object]) -> TriadThermalModel:
+    def from_dict(cls, d: Mapping[str, Any]) -> TriadThermalModel:
         """Inverse of :meth:`to_dict`; errors name the key and the fix."""
         check_model_header(d, kind=MODEL_KIND, version=MODEL_FORMAT_VERSION,
                            what="triad thermal model",
                            fix="write one with inertest thermal triad --model-out")
         try:
             su = d["scale_unit"]
-            scale = triad.ScaleUnit(str(su["unit"]), float(su["si_per_unit"]),  # type: ignore[index]
-                                    float(su["raw_si_per_raw"]),  # type: ignore[index]
-                                    None if su.get("nominal") is None  # type: ignore[union-attr]
-                                    else float(su["nominal"]))  # type: ignore[index]
+            scale = triad.ScaleUnit(str(su["unit"]), float(su["si_per_unit"]),
+                                    float(su["raw_si_per_raw"]),
+                                    None if su.get("nominal") is None
+                                    else float(su["nominal"]))
             vr = d["valid_range"]
-            trange = tuple(float(x) for x in vr["temperature_c"])  # type: ignore[index]
-            rr = vr.get("temperature_rate_c_per_min")  # type: ignore[union-attr]
+            trange = tuple(float(x) for x in vr["temperature_c"])
+            rr = vr.get("temperature_rate_c_per_min")
             rrange = None if rr is None else tuple(float(x) for x in rr)
             laws_doc = d["laws"]
             laws = {str(n): CoefficientLaw.from_model_dict(str(n), v)
-                    for n, v in laws_doc.items()}  # type: ignore[union-attr]
+                    for n, v in laws_doc.items()}
             jc = d.get("joint_covariance")
             cov: NDArray[np.float64] | None = (
                 None if jc is None
-                else np.asarray(jc["matrix"], dtype=np.float64))  # type: ignore[index]
+                else np.asarray(jc["matrix"], dtype=np.float64))
             return cls(laws=laws, raw_unit=str(d["raw_unit"]), scale=scale, covariance=cov,
-                       temperature_range_c=trange,  # type: ignore[arg-type]
-                       rate_range_c_per_min=rrange,  # type: ignore[arg-type]
+                       temperature_range_c=(trange[0], trange[1]),
+                       rate_range_c_per_min=None if rrange is None else (rrange[0], rrange[1]),
                        serial=str(d.get("serial", "")),
                        sensor=str(d.get("sensor", "accelerometer")))
         except (KeyError, TypeError, ValueError, AttributeError) as exc:

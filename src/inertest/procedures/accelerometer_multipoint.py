@@ -119,7 +119,7 @@ FIELDS = (
 
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class AccelerometerMultipointResult(LinearTestResult):
     """Outcome of :func:`fit`.
 
@@ -290,7 +290,7 @@ def _identify(
     groups: NDArray, noise_model: str,
 ) -> tuple[LinearFit, Identification]:
     """:func:`identify` on ``theta`` (also with fewer readings than coefficients)."""
-    return identify(  # type: ignore[arg-type]
+    return identify(
         A, y, sigma_si=sigma, names=NAMES, units={n: unit for n in NAMES},
         si_per_unit={n: 1.0 for n in NAMES}, noise_unit=unit, si_per_noise_unit=1.0,
         pivot_order=("K0", "K2", "KPP", "KOO"), normalize_to="K0", explain=explain,
@@ -334,7 +334,7 @@ def _engineering(lsq: LinearFit, ident: Identification, unit: str) -> Identifica
         jw = w @ J  # gradient of w . c_eng with respect to theta
         combos.append(Combination(
             name=c.name, terms=dict(c.terms), value=float(w @ value),
-            std=float(np.sqrt(max(jw @ C @ jw, 0.0))),
+            std=float(np.sqrt(max(float(jw @ C @ jw), 0.0))),
             unit=units[next(iter(c.terms))]))
     return Identification(
         coefficients=coefficients, combinations=tuple(combos), not_separable=ident.not_separable,

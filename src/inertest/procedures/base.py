@@ -149,7 +149,7 @@ class Procedure(ABC, Generic[SpecT, ObsT, ResultT]):
             from inertest.procedures.spec import check_sample_rate
 
             # A plan's sample rate that the data's own clock contradicts scales every integral.
-            check_sample_rate(data, float(rate), source=source)
+            check_sample_rate(data, float(rate), source=source)  # type: ignore[arg-type]
         obs = self.reduce(plan, data, self.motion(plan) if motion is None else motion)
         result = self.identify(plan, obs, sigma=sigma, noise_model=model)
         if dataclasses.is_dataclass(result) and any(

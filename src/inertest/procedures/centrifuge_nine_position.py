@@ -38,7 +38,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -211,7 +211,7 @@ FIELDS = (
 
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class CentrifugeNinePositionResult(LinearTestResult):
     """Outcome of :func:`fit`: the ten drift coefficients from whole-revolution run means.
 
@@ -515,7 +515,7 @@ def run_means(
     groups = group_rows(pos_i, w)
     run_pos, run_w = groups.keys
     m = len(groups)
-    out = {
+    out: dict[str, Any] = {
         "revolutions": np.zeros(m, dtype=np.int64),
         "n_samples": np.zeros(m, dtype=np.int64),
         "n_dropped": np.zeros(m, dtype=np.int64),
@@ -725,7 +725,7 @@ def _identify_runs(
     # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown), so that the
     # observations are O(1) when the noise is known.
     known = sigma_rad_s is not None
-    s = float(sigma_rad_s) if known else 1.0
+    s = float(sigma_rad_s) if sigma_rad_s is not None else 1.0
     k = DEG_PER_H_TO_RAD_PER_S / s
     fit, ident = identify(
         A_rows,

@@ -105,8 +105,9 @@ class GyroRateTableSpec:
         """
         v = read_fields(params, FIELDS, f"[procedure] of kind {KIND}",
                         ignore=("kind", "table_axis"))
-        axis = params.get("table_axis", "U")
-        axis = axis if isinstance(axis, str) else tuple(axis)  # type: ignore[arg-type]
+        given = params.get("table_axis", "U")
+        axis: str | tuple[float, ...] = (given if isinstance(given, str)
+                                         else tuple(given))  # type: ignore[arg-type]
         table.direction_vector(axis)  # validate now, not at fit time
         return cls(table_axis=axis, **v)
 
@@ -121,7 +122,7 @@ FIELDS = (
 )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GyroRateTableResult(LinearTestResult):
     """Outcome of :func:`fit` for a rate-table test.
 

@@ -60,7 +60,7 @@ doi:10.1093/biomet/58.3.545) and the coefficients by GLS with that covariance.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import ClassVar
 
@@ -235,7 +235,7 @@ FIELDS = (
 )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class GyroTriadRotationResult(LinearTestResult):
     """Outcome of :func:`fit` for the 360-degree rotation test.
 
@@ -631,7 +631,7 @@ def _candidates(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.fl
     """
     known = sigma is not None
     reml = Reml.of(X, y, W * sigma**2 if known else W, scale_known=known)  # type: ignore[operator]
-    fitted = components(reml, {m: (lambda K=K: K) for m, K in kernels.items()}, with_white=True)
+    fitted = components(reml, {m: _constant(K) for m, K in kernels.items()}, with_white=True)
     out = {}
     for m, c in fitted.items():
         s2, V = c.fitted(reml)
@@ -641,6 +641,11 @@ def _candidates(X: NDArray[np.float64], y: NDArray[np.float64], W: NDArray[np.fl
             comps[str(MODELS[m].component)] = c.level(s2)
         out[m] = (_GyroFit(sol.x, sol.covariance, m, comps, V), c.aic)
     return out
+
+
+def _constant(K: NDArray[np.float64]) -> Callable[[], NDArray[np.float64]]:
+    """``K``, built on demand (the kernels of the windows are computed once for all gyros)."""
+    return lambda: K
 
 
 def _checks(X: NDArray[np.float64], resid: NDArray[np.float64], fits: list[_GyroFit],

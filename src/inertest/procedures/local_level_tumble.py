@@ -78,7 +78,7 @@ class LocalLevelTumbleSpec:
                 )
             fixture.axes_from_directions(*triple)  # validates letters and handedness
             positions.append(tuple(t.upper() for t in triple))
-        return cls(positions=tuple(positions), **v)  # type: ignore[arg-type]
+        return cls(positions=tuple(positions), **v)
 
 
 #: Parameters of the ``[procedure]`` table besides ``positions`` (a list of direction triples,
@@ -92,7 +92,7 @@ FIELDS = (
 
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class LocalLevelTumbleResult(LinearTestResult):
     """Outcome of :func:`fit` for a local-level tumble.
 

@@ -507,7 +507,7 @@ def calibrate(
         output) and the refined calibration.
     """
     per_si = rate_gyro.raw_rate_per_si(plan.instrument.output_unit)
-    records = records_from_columns(data, raw_per_si=per_si)
+    records = records_from_columns(data, raw_per_si=per_si)  # type: ignore[arg-type]
     it = iterate_calibration(records, initial.forward / per_si, initial.offset / per_si,
                              latitude_rad=plan.site.latitude_rad,
                              check_interval_s=check_interval_s, estimate_bias=estimate_bias,

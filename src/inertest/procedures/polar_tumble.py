@@ -128,7 +128,7 @@ class MountingHarmonics:
     fit: HarmonicFit = field(repr=False)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PolarTumbleResult(LinearTestResult):
     """Outcome of :func:`fit` for a polar-axis tumble.
 
@@ -378,8 +378,7 @@ def _harmonics(
     units = np.flatnonzero(all_counts)  # np.unique(unit), without sorting the rows
     counts = all_counts[units]
     ybar = np.bincount(unit, drift_deg_h, minlength=size)[units] / counts
-    angle = np.bincount(unit, np.mod(angle_deg, 360.0), minlength=size)[units]
-    angle = angle / counts
+    angle = np.bincount(unit, np.mod(angle_deg, 360.0), minlength=size)[units] / counts
     n_angles = np.unique(np.round(np.mod(angle, 360.0), 9)).size
     if n_angles < 5:
         raise IdentifiabilityError(

@@ -196,7 +196,7 @@ class DriftStability:
         }
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class ServoTableResult(LinearTestResult):
     """Outcome of :func:`fit` for a servo-table drift test.
 

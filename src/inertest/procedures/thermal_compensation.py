@@ -30,7 +30,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -484,7 +484,7 @@ def fit_thermal(
     floor = 1.02 * min(cv.values()) + 1e-9 * float(np.sqrt(np.mean(y[train] ** 2)))
     best = min(d for d, v in cv.items() if v <= floor)
     support = observed_support(temp[train], rate[train]) if use_rate else (None, None)
-    common = dict(
+    common: dict[str, Any] = dict(
         quantity=quantity, unit=unit, reference=reference, inputs=inputs,
         temperature_range_c=(float(np.min(temp[train])), float(np.max(temp[train]))),
         rate_range_c_per_min=((float(np.min(rate[train])), float(np.max(rate[train])))

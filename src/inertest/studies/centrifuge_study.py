@@ -250,7 +250,7 @@ def simulate_runs(plan: StudyPlan, case: ErrorCase | None = None, *,
     ``Runs.omega_*`` (inertial rates on I, O, S) in rad/s. ``ideal``, the result of
     ``simulate_runs(plan)``, supplies the error-free machine instead of computing it again.
     """
-    kw = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
+    kw: dict[str, Any] = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
           "latitude_rad": plan.latitude_rad, "platform_heading_rad": plan.platform_heading_rad}
     cols: dict[str, list[NDArray[np.float64]]] = {k: [] for k in Runs.__dataclass_fields__}
     start = 0  # of the run in ``ideal`` (same runs, same order)
@@ -279,7 +279,7 @@ def simulate_runs(plan: StudyPlan, case: ErrorCase | None = None, *,
             for key, v in (("f_ideal", f0), ("omega_ideal", w0), ("f_true", f1),
                            ("omega_true", w1), ("f_model", fm), ("omega_model", wm)):
                 cols[key].append(v)
-    return Runs(**{k: np.concatenate(v) for k, v in cols.items()})
+    return Runs(**{k: np.concatenate(v) for k, v in cols.items()})  # type: ignore[arg-type]
 
 
 def gyro_output(runs: Runs, truth: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -333,7 +333,7 @@ def example_first_harmonic(plan: StudyPlan, case: ErrorCase) -> float:
     """
     pos, w = PARALLELISM_EXAMPLE
     t = cf.run_times(w, plan.sample_rate_hz, 10)
-    kw = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
+    kw: dict[str, Any] = {"radius_m": plan.radius_m, "gravity_m_s2": plan.gravity_m_s2,
           "latitude_rad": plan.latitude_rad, "platform_heading_rad": plan.platform_heading_rad}
     f0, w0, _ = cf.instrument_inputs(t, w, pos, **kw)
     f1, w1, _ = cf.instrument_inputs(t, w, pos, errors=case.errors, dgamma=case.dgamma, **kw)

@@ -321,7 +321,8 @@ def drift_scenario(
     frequency half of it passes (see :func:`drift_gain`), which modulation cannot remove.
     """
     t = np.asarray(t_s, dtype=float)
-    eps = np.broadcast_to(np.asarray(constant, float), (t.size, 2)) + np.outer(t, ramp)
+    eps = np.broadcast_to(np.asarray(constant, float), (t.size, 2)) + np.outer(
+        t, np.asarray(ramp, dtype=float))
     if random_walk:
         gen = np.random.default_rng(rng)
         dt = np.diff(t, prepend=t[0])
