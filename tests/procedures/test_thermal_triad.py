@@ -362,3 +362,14 @@ def test_rate_term_removes_rate_dependent_drift_on_held_out_ramps(plan):
     drift_before = (mean_before[0.3] - mean_before[-0.3]) / MG
     np.testing.assert_allclose(drift_before, 0.6 * RATE_MG, atol=0.03)
     assert np.all(np.abs(mean_after[0.3] - mean_after[-0.3]) < 0.02 * MG)
+
+
+def test_a_degree_the_temperatures_cannot_determine_is_refused(plan):
+    """Issue 28: 11 distinct chamber temperatures (22 steps, heating and cooling) cannot
+    determine a degree-12 law (13 terms); it was accepted with finite +- values."""
+    d = chamber_data(rng=4)
+    with pytest.raises(IdentifiabilityError, match="11 distinct step temperatures .* degree 12"):
+        fit_triad_thermal(plan, d, degree=12)
+    with pytest.raises(IdentifiabilityError, match="lower --degree to at most 10"):
+        fit_triad_thermal(plan, d, degree=11)
+    assert fit_triad_thermal(plan, d, degree=10).laws["K_x"].degree == 10

@@ -254,6 +254,7 @@ def test_std_relative_error_matches_the_spread_of_sample_stds():
         assert predicted == pytest.approx(spread, rel=0.15)
 
 
+@pytest.mark.slow  # a Monte Carlo loop: run by CI, skipped by -m 'not slow'
 def test_random_walk_monte_carlo_stops_early_and_agrees_with_fitted_tests(examples_dir):
     plan = load_plan(examples_dir / "local_level_tumble" / "plan.toml")
     n = len(plan.procedure.positions) * plan.procedure.samples_per_position

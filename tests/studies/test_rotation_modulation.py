@@ -250,6 +250,7 @@ def test_bad_input_is_refused_with_the_fix():
 # ----------------------------------------------------------------------------- Monte Carlo
 
 
+@pytest.mark.slow  # a Monte Carlo loop: run by CI, skipped by -m 'not slow'
 def test_isotropic_white_noise_keeps_the_static_covariance_under_rotation():
     # white noise, isotropic in the body: C_b^n w has the same covariance for any rotation
     t = np.arange(0.0, 3601.0, 1.0)
@@ -293,6 +294,7 @@ def test_misalignment_with_rotation_cancels_over_a_cycle():
         np.testing.assert_allclose(tot / s.cycle_s, 0.0, atol=1e-18)
 
 
+@pytest.mark.slow  # a Monte Carlo loop: run by CI, skipped by -m 'not slow'
 def test_anisotropic_white_noise_is_averaged_over_the_horizontal_axes():
     # gyro noise on body x only, rotating about z at 10 deg/s: the navigation frame sees
     # half the density on E and on N (period 36 s << Schuler period), none on U

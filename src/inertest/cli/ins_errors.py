@@ -98,28 +98,15 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
     figure_format(plot)
     check_paths([plot, report], [scenario_file])
     doc = _base_document(scenario_file, example)
-    lists = {"accel_bias_ug": accel_bias_ug, "gyro_drift_deg_h": gyro_drift_deg_h,
-             "initial_velocity_m_s": initial_velocity_m_s,
-             "initial_position_arcsec": initial_position_arcsec,
-             "initial_attitude_arcsec": initial_attitude_arcsec}
-    errors = doc.setdefault("errors", {})
-    for opt, text in lists.items():
-        if text is None:
-            continue
-        quantity, unit, count = _LIST_OPTIONS[opt]
-        values = parse_float_list(text, name="--" + opt.replace("_", "-"), count=count)
-        for key in [k for k in errors if k.startswith(quantity + "_")]:
-            del errors[key]
-        errors[f"{quantity}_{unit}"] = values
-    site, run = doc.setdefault("site", {}), doc.setdefault("run", {})
-    for key, value in (("latitude_deg", latitude), ("radius_m", radius),
-                       ("gravity_m_s2", gravity), ("coriolis", coriolis)):
-        if value is not None:
-            site[key] = value
-    for key, value in (("hours", hours), ("step_s", step)):
-        if value is not None:
-            run[key] = value
-    if "latitude_deg" not in site:
+    _apply_list_options(doc, {
+        "accel_bias_ug": accel_bias_ug, "gyro_drift_deg_h": gyro_drift_deg_h,
+        "initial_velocity_m_s": initial_velocity_m_s,
+        "initial_position_arcsec": initial_position_arcsec,
+        "initial_attitude_arcsec": initial_attitude_arcsec})
+    _apply_options(doc, "site", (("latitude_deg", latitude), ("radius_m", radius),
+                                 ("gravity_m_s2", gravity), ("coriolis", coriolis)))
+    _apply_options(doc, "run", (("hours", hours), ("step_s", step)))
+    if "latitude_deg" not in doc["site"]:
         raise click.UsageError("give --latitude DEG (or --scenario FILE, or --example)")
     # The INS numerics, scipy and the report (matplotlib) load only when the command runs.
     from inertest.ins.analysis import analyse
@@ -231,3 +218,24 @@ def _closed_form_table(scenario: InsScenario, resp: SourceResponses) -> list[lis
     if resp.t[-1] - resp.t[0] >= 0.99 * periods.earth_s:
         fitted = fit_constant_and_secular(scenario.site, resp.t, resp.per_source)
     return closed_form_rows(forms, c0, c1, fitted, resp.active)
+
+
+def _apply_list_options(doc: dict, lists: dict[str, str | None]) -> None:
+    """The comma-list options override the scenario's errors of the same quantity."""
+    errors = doc.setdefault("errors", {})
+    for opt, text in lists.items():
+        if text is None:
+            continue
+        quantity, unit, count = _LIST_OPTIONS[opt]
+        values = parse_float_list(text, name="--" + opt.replace("_", "-"), count=count)
+        for key in [k for k in errors if k.startswith(quantity + "_")]:
+            del errors[key]
+        errors[f"{quantity}_{unit}"] = values
+
+
+def _apply_options(doc: dict, table: str, options: tuple[tuple[str, object], ...]) -> None:
+    """The options given override the scenario's keys of ``table``."""
+    t = doc.setdefault(table, {})
+    for key, value in options:
+        if value is not None:
+            t[key] = value

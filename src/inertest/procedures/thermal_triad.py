@@ -259,6 +259,57 @@ def fit_triad_thermal(
         Fewer steps than the polynomial (and rate term) needs, or a constant rate with
         ``use_rate``.
     """
+    temp, branch, rate_col = _read_columns(data, degree=degree, alpha=alpha,
+                                           use_rate=use_rate)
+    step = _steps(data, temp, branch)
+    n_steps = int(step.max()) + 1
+    p = degree + 1 + int(use_rate)
+    if n_steps < p:
+        raise IdentifiabilityError(
+            f"{n_steps} temperature step(s) for a law with {p} terms: record at least {p} "
+            "steps, or lower the degree")
+    steps = _step_calibrations(plan, data, temp, branch, rate_col, step, n_steps, sigma)
+    t_step, r_step, b_step, vals, sds, units, step_cov = steps
+    distinct = np.unique(np.round(t_step, 1)).size
+    if distinct < degree + 1:
+        raise IdentifiabilityError(
+            f"{distinct} distinct step temperatures (to 0.1 degC) cannot determine a law of "
+            f"degree {degree} ({degree + 1} terms in T): lower --degree to at most "
+            f"{distinct - 1}, or add temperatures")
+    if use_rate and np.ptp(r_step) == 0:
+        raise IdentifiabilityError("the temperature rate is the same at every step, so its "
+                                   "term cannot be found; fit without use_rate")
+    t_ref = float(np.round(np.mean(t_step), 1)) if t_ref_c is None else float(t_ref_c)
+    A = law_design(t_step - t_ref, degree, r_step, use_rate)
+    span = max(float(np.max(np.abs(t_step - t_ref))), 1e-9)  # the rank of the scaled design
+    if np.linalg.matrix_rank(law_design((t_step - t_ref) / span, degree, r_step / max(
+            float(np.max(np.abs(r_step))), 1e-9), use_rate)) < A.shape[1]:
+        raise IdentifiabilityError(
+            f"the steps' temperatures{' and rates' if use_rate else ''} do not determine the "
+            f"{A.shape[1]} terms of the law; lower --degree or add steps")
+    laws = {n: _law(n, units[n], t_ref, degree, use_rate, A, vals[n], sds[n]) for n in vals}
+    law_cov = _joint_covariance(A, sds, step_cov)
+    messages = []
+    heat, cool = b_step == "heating", b_step == "cooling"
+    hysteresis: dict[str, Hysteresis] = {}
+    if min(heat.sum(), cool.sum()) >= degree + 2:
+        hysteresis = _hysteresis(t_step, heat, cool, vals, sds, units, t_ref, degree, alpha)
+    else:
+        messages.append(f"hysteresis not assessed: each branch needs at least {degree + 2} "
+                        "temperature steps (heating and cooling)")
+    return ThermalTriadResult(
+        step_temperature_c=t_step, step_rate_c_per_min=r_step, step_branch=b_step.astype(str),
+        step_values=vals, step_stds=sds, units=units, laws=laws, hysteresis=hysteresis,
+        alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages),
+        raw_unit=plan.instrument.output_unit,
+        scale=triad.scale_unit(plan.instrument.output_unit, "accelerometer").with_nominal(
+            getattr(plan.procedure, "nominal_scale_factor", None)),
+        law_covariance=law_cov)
+
+
+def _read_columns(data: Mapping[str, object], *, degree: int, alpha: float, use_rate: bool
+                  ) -> tuple[NDArray[np.float64], NDArray, NDArray[np.float64] | None]:
+    """Temperature [degC], branch and (with ``use_rate``) rate [degC/min] of every row."""
     for c in ("temperature_c", "branch"):
         if c not in data:
             raise DataError(f"thermal triad data lack column {c}; it needs temperature_c, "
@@ -283,13 +334,16 @@ def fit_triad_thermal(
         if "temperature_rate_c_per_min" not in data:
             raise DataError("use_rate needs the column temperature_rate_c_per_min [degC/min]")
         rate_col = np.asarray(data["temperature_rate_c_per_min"], dtype=float)
-    step = _steps(data, temp, branch)
-    n_steps = int(step.max()) + 1
-    p = degree + 1 + int(use_rate)
-    if n_steps < p:
-        raise IdentifiabilityError(
-            f"{n_steps} temperature step(s) for a law with {p} terms: record at least {p} "
-            "steps, or lower the degree")
+    return temp, branch, rate_col
+
+
+def _step_calibrations(
+    plan: Plan, data: Mapping[str, object], temp: NDArray[np.float64], branch: NDArray,
+    rate_col: NDArray[np.float64] | None, step: NDArray[np.intp], n_steps: int,
+    sigma: float | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray, dict[str, NDArray[np.float64]],
+           dict[str, NDArray[np.float64]], dict[str, str], NDArray[np.float64]]:
+    """The multi-position calibration of every step: temperature, rate, branch, K, M, B."""
     cols = {k: np.asarray(v) for k, v in data.items()}
     t_step = np.zeros(n_steps)
     r_step = np.zeros(n_steps)
@@ -316,50 +370,36 @@ def fit_triad_thermal(
             stds.setdefault(name, []).append(est.std)
             units[name] = est.unit
         step_cov[k] = res.triads[0].covariance[:12, :12]
-    if use_rate and np.ptp(r_step) == 0:
-        raise IdentifiabilityError("the temperature rate is the same at every step, so its "
-                                   "term cannot be found; fit without use_rate")
-    t_ref = float(np.round(np.mean(t_step), 1)) if t_ref_c is None else float(t_ref_c)
-    vals = {n: np.array(v) for n, v in values.items()}
-    sds = {n: np.array(v) for n, v in stds.items()}
-    laws = {}
-    A = law_design(t_step - t_ref, degree, r_step, use_rate)
+    return (t_step, r_step, b_step, {n: np.array(v) for n, v in values.items()},
+            {n: np.array(v) for n, v in stds.items()}, units, step_cov)
+
+
+def _hysteresis(
+    t_step: NDArray[np.float64], heat: NDArray[np.bool_], cool: NDArray[np.bool_],
+    vals: Mapping[str, NDArray[np.float64]], sds: Mapping[str, NDArray[np.float64]],
+    units: Mapping[str, str], t_ref: float, degree: int, alpha: float,
+) -> dict[str, Hysteresis]:
+    """Heating against cooling, per coefficient: the largest difference of the two laws."""
+    lo = max(t_step[heat].min(), t_step[cool].min())
+    hi = min(t_step[heat].max(), t_step[cool].max())
+    grid = np.linspace(lo, hi, 101)
+    G = law_design(grid - t_ref, degree, None, False)
+    out = {}
     for n in vals:
-        laws[n] = _law(n, units[n], t_ref, degree, use_rate, A, vals[n], sds[n])
-    law_cov = _joint_covariance(A, sds, step_cov)
-    hysteresis: dict[str, Hysteresis] = {}
-    messages = []
-    heat, cool = b_step == "heating", b_step == "cooling"
-    if min(heat.sum(), cool.sum()) >= degree + 2:
-        lo = max(t_step[heat].min(), t_step[cool].min())
-        hi = min(t_step[heat].max(), t_step[cool].max())
-        grid = np.linspace(lo, hi, 101)
-        G = law_design(grid - t_ref, degree, None, False)
-        for n in vals:
-            fits = []
-            for sel in (heat, cool):
-                A = law_design(t_step[sel] - t_ref, degree, None, False)
-                fits.append(weighted_least_squares(A, vals[n][sel], sigma=sds[n][sel]))
-            d = fits[0].x - fits[1].x
-            C = fits[0].covariance + fits[1].covariance
-            stat = float(d @ np.linalg.solve(C, d))
-            pval = float(stats.chi2.sf(stat, d.size))
-            curve = G @ d
-            j = int(np.argmax(np.abs(curve)))
-            sd = float(np.sqrt(G[j] @ C @ G[j]))
-            hysteresis[n] = Hysteresis(n, units[n], float(curve[j]), sd, float(grid[j]), stat,
-                                       d.size, pval, pval < alpha / len(vals))
-    else:
-        messages.append(f"hysteresis not assessed: each branch needs at least {degree + 2} "
-                        "temperature steps (heating and cooling)")
-    return ThermalTriadResult(
-        step_temperature_c=t_step, step_rate_c_per_min=r_step, step_branch=b_step.astype(str),
-        step_values=vals, step_stds=sds, units=units, laws=laws, hysteresis=hysteresis,
-        alpha=alpha, serial=plan.instrument.serial or "", messages=tuple(messages),
-        raw_unit=plan.instrument.output_unit,
-        scale=triad.scale_unit(plan.instrument.output_unit, "accelerometer").with_nominal(
-            getattr(plan.procedure, "nominal_scale_factor", None)),
-        law_covariance=law_cov)
+        fits = []
+        for sel in (heat, cool):
+            A = law_design(t_step[sel] - t_ref, degree, None, False)
+            fits.append(weighted_least_squares(A, vals[n][sel], sigma=sds[n][sel]))
+        d = fits[0].x - fits[1].x
+        C = fits[0].covariance + fits[1].covariance
+        stat = float(d @ np.linalg.solve(C, d))
+        pval = float(stats.chi2.sf(stat, d.size))
+        curve = G @ d
+        j = int(np.argmax(np.abs(curve)))
+        sd = float(np.sqrt(G[j] @ C @ G[j]))
+        out[n] = Hysteresis(n, units[n], float(curve[j]), sd, float(grid[j]), stat, d.size,
+                            pval, pval < alpha / len(vals))
+    return out
 
 
 def _law(name: str, unit: str, t_ref: float, degree: int, use_rate: bool,
