@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from inertest.api import fit, load_data, load_plan
-from inertest.app.executors import Fits, local_pool, slots
+from inertest.app.executors import Fits, local_pool, slots, wait_for_a_worker
 from inertest.app.run import (
     PathLike,
     RunOutcome,
@@ -169,6 +169,7 @@ def run_batch(
     progress: Callable[[BatchItem], None] | None = None,
     max_pending: int | None = None,
     timeout: float | None = None,
+    worker_wait: float = 60.0,
 ) -> list[BatchItem]:
     """Run many tests: fits on ``executor``, then each filed here as its own transaction.
 
@@ -196,6 +197,9 @@ def run_batch(
         then at the head of the queue); a run over it fails and its worker is stopped (a
         process pool is restarted; on Dask the future is cancelled). Default: no limit. With
         a timeout and no ``executor`` the fits run in a pool even for ``workers=1``.
+    worker_wait : float
+        With a Dask client: the longest wait for a first worker before submitting [s]; an
+        error naming the scheduler and the ``dask worker`` command when none joins.
 
     Returns
     -------
@@ -235,6 +239,7 @@ def run_batch(
             check_outputs([t.report_dir], [x for x in (t.plan, t.data, t.spec, t.equipment)
                                            if x is not None])
     _check_judging_files(todo)
+    wait_for_a_worker(executor, worker_wait)
     own = executor is None and (timeout is not None or (workers > 1 and len(todo) > 1))
     return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
                      store=store, allow_duplicate=allow_duplicate, tested_at=tested_at,

@@ -52,6 +52,10 @@ def _single_threaded_blas() -> None:
 WORKER_DIED = "worker process died (killed or out of memory)"
 _POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [s]
 _MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
+#: :meth:`Fits._failed`'s answer when a lost run was submitted again.
+_RESUBMITTED = object()
+
+
 class RunStoppedError(InertestError):
     """A run the batch stopped or lost: its worker died, it timed out, or it was never run."""
 
@@ -78,6 +82,7 @@ class Fits:
         self.submitted = 0
         self.breaks_in_a_row = 0
         self.gave_up: str | None = None
+        self.resubmitted: set[int] = set()  # runs lost once on the executor and sent again
 
     # -- submitting -----------------------------------------------------------------------
 
@@ -129,29 +134,64 @@ class Fits:
             try:
                 value = fut.result(timeout=_POLL_S)
             except TimeoutError:
-                if fut.done():  # the computation's own TimeoutError (an OSError): its error
-                    del self.pending[k]
-                    return fut.exception()
-                if pool_broken(self.executor):
-                    return self._broken(k)
-                if deadline is not None and time.monotonic() > deadline:
-                    return self._timed_out(k)
+                if not fut.done():
+                    if pool_broken(self.executor):
+                        return self._broken(k)
+                    if deadline is not None and time.monotonic() > deadline:
+                        return self._timed_out(k)
+                    continue
+                # Done by now: finished just after the wait timed out (a Dask future's result
+                # is then ready), or the computation's own TimeoutError (an OSError).
+                err = None if fut.cancelled() else fut.exception()
+                if err is None and not fut.cancelled():
+                    value = fut.result()
+                else:
+                    got = self._failed(k, err)
+                    if got is not _RESUBMITTED:
+                        return got
+                    fut = self.pending[k]
+                    continue
+            except Exception as exc:  # noqa: BLE001 - sorted in _failed; the unknown re-raised
+                got = self._failed(k, exc)
+                if got is not _RESUBMITTED:
+                    return got
+                fut = self.pending[k]
                 continue
-            except Exception as exc:  # noqa: BLE001 - sorted below; the unknown re-raised
-                if is_broken_pool(exc):
-                    return self._broken(k)
-                del self.pending[k]
-                lost = worker_lost(exc)
-                if lost is not None:
-                    self.breaks_in_a_row = 0
-                    return RunStoppedError(lost)
-                if isinstance(exc, InertestError | OSError):
-                    self.breaks_in_a_row = 0
-                    return exc
-                raise
+            if value is None:  # a result lost on the way (a Dask future with nothing in it)
+                got = self._failed(k, None)
+                if got is not _RESUBMITTED:
+                    return got
+                fut = self.pending[k]
+                continue
             del self.pending[k]
             self.breaks_in_a_row = 0
+            self.resubmitted.discard(k)
             return value
+
+    def _failed(self, k: int, exc: BaseException | None) -> Any:
+        """Run ``k`` failed with ``exc``: its error, a restart, or resubmitted once when lost.
+
+        A run lost on the executor (a cancelled future, a Dask worker gone with it, or a future
+        that finished without a result) is submitted again once; lost twice, it fails alone.
+        """
+        if exc is not None and is_broken_pool(exc):
+            return self._broken(k)
+        from concurrent.futures import CancelledError
+
+        lost = "lost on the executor (no result came back)" if exc is None else worker_lost(exc)
+        again = exc is None or isinstance(exc, CancelledError)  # not a task that kills workers
+        if again and k not in self.resubmitted and not self._restartable():
+            self.resubmitted.add(k)
+            self.pending[k] = self._submit(k)
+            return _RESUBMITTED
+        del self.pending[k]
+        if lost is not None:
+            self.breaks_in_a_row = 0
+            return RunStoppedError(lost)
+        if isinstance(exc, InertestError | OSError):
+            self.breaks_in_a_row = 0
+            return exc
+        raise exc  # type: ignore[misc]
 
     def _timed_out(self, k: int) -> RunStoppedError:
         fut = self.pending.pop(k)
@@ -331,3 +371,21 @@ class Immediate:
     def cancel(self) -> bool:
         """Nothing to cancel: computed on demand."""
         return False
+
+
+def wait_for_a_worker(executor: Any, timeout_s: float) -> None:
+    """A Dask client: wait until a worker has joined its scheduler (others: nothing to wait).
+
+    Submitting to a scheduler without workers leaves the fits queued forever.
+    """
+    wait = getattr(executor, "wait_for_workers", None)
+    if wait is None:
+        return
+    try:
+        wait(1, timeout=timeout_s)
+    except TimeoutError:
+        address = getattr(getattr(executor, "scheduler", None), "address", "the scheduler")
+        raise InertestError(
+            f"no Dask worker joined the scheduler at {address} within {timeout_s:g} s; start "
+            f"one with `dask worker {address}` (or wait longer: --worker-wait SECONDS)"
+        ) from None

@@ -27,6 +27,10 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the fits on a Dask cluster instead (scheduler address, e.g. "
                    "tcp://10.0.0.5:8786; needs dask[distributed]).")
+@click.option("--worker-wait", type=FiniteFloatRange(min=0, min_open=True), default=60.0,
+              show_default=True, metavar="SECONDS",
+              help="With --scheduler: how long to wait for a first Dask worker before giving "
+                   "up.")
 @click.option("--timeout", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
               help="Fail a run whose fit takes longer than this, counted from when every "
@@ -41,7 +45,8 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar (as --no-progress).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: the result envelope of every run, or its error.")
-def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | None,
+def batch(manifest: Path, workers: int, scheduler: str | None, worker_wait: float,
+          timeout: float | None,
           no_store: bool, db: str | None, allow_duplicate: bool, progress: bool | None,
           quiet: bool, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
@@ -60,7 +65,8 @@ def batch(manifest: Path, workers: int, scheduler: str | None, timeout: float | 
     show = False if quiet else progress
     with _progress_bar(len(tasks), show) as advance, _dask_client(scheduler) as client:
         items = run_batch(tasks, executor=client, workers=workers, store=store,
-                          allow_duplicate=allow_duplicate, progress=advance, timeout=timeout)
+                          allow_duplicate=allow_duplicate, progress=advance, timeout=timeout,
+                          worker_wait=worker_wait)
     failed = [i for i in items if i.error is not None]
     if as_json:
         echo_json({"kind": "batch", "runs": [_run_json(i) for i in items]})

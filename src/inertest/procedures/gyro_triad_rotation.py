@@ -439,13 +439,6 @@ class GyroTriadRotation(Procedure[GyroTriadRotationSpec, WindowObservations,
         An axis never rotated about, one direction only without static windows, too few rows.
     DataError
         Missing or bad columns, mislabelled axis or direction.
-
-    Raises
-    ------
-    IdentifiabilityError
-        An axis never rotated about, one direction only without static windows, too few rows.
-    DataError
-        Missing or bad columns, mislabelled axis or direction.
     """
 
     kind = KIND

@@ -1,0 +1,216 @@
+"""A batch on a real Dask cluster: ``dask scheduler`` and ``dask worker`` processes (issue 34).
+
+Not a LocalCluster that the test waits for: the scheduler and the workers are separate
+processes started here on 127.0.0.1, as on a lab's cluster, and the batch goes through
+``inertest batch --scheduler ADDRESS`` and ``run_batch(executor=Client(...))``. The batch is run
+several times (a result that finished just after the driver's wait timed out came back as None
+and crashed the filing in 7 tries of 9), and once with a worker killed in the middle of it:
+nothing is lost, every run is filed exactly once.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import inertest
+from inertest.app.batch import run_batch
+from inertest.cli import main
+from inertest.io.data_file import write_table
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+DASK = Path(sys.executable).with_name("dask")
+
+
+def _start(args: list[str], log: Path) -> subprocess.Popen:
+    with log.open("wb") as out:  # the child keeps its own copy of the file descriptor
+        return subprocess.Popen([str(DASK), *args], stdout=out, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(timeout=30)
+
+
+@pytest.fixture(scope="module")
+def scheduler(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("dask")
+    sfile = folder / "scheduler.json"
+    proc = _start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                   "--scheduler-file", str(sfile)], folder / "scheduler.log")
+    for _ in range(600):
+        if sfile.exists() and sfile.stat().st_size:
+            break
+        time.sleep(0.1)
+    else:
+        _stop(proc)
+        pytest.fail("dask scheduler did not start: " + (folder / "scheduler.log").read_text())
+    address = json.loads(sfile.read_text())["address"]
+    try:
+        yield address, folder
+    finally:
+        _stop(proc)
+
+
+def _worker(address: str, folder: Path, name: str) -> subprocess.Popen:
+    # tests/ on the workers' path: the hook module of the killed-worker test lives there.
+    env_path = os.pathsep.join([str(Path(__file__).resolve().parents[1]),
+                                os.environ.get("PYTHONPATH", "")])
+    os.environ["PYTHONPATH"] = env_path
+    return _start(["worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard",
+                   "--name", name], folder / f"{name}.log")
+
+
+@pytest.fixture(scope="module")
+def manifest(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("runs")
+    # Results of some megabytes (64 positions x 1000 readings): fetching one from a worker can
+    # outlast the driver's 0.5 s wait after the future is done, the race of the old crash.
+    plan = folder / "plan.toml"
+    plan.write_text((EXAMPLES / "polar_tumble" / "plan.toml").read_text().replace(
+        "samples_per_position = 5", "samples_per_position = 1000"))
+    truth = EXAMPLES / "polar_tumble" / "truth.toml"
+    lines = []
+    for k in range(12):
+        data = folder / f"d{k}.csv"
+        write_table(data, inertest.simulate(plan, truth, noise=0.002, rng=200 + k))
+        lines.append(f'[[run]]\nplan = "{plan}"\ndata = "{data}"\n')
+    path = folder / "batch.toml"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def _filed(db: Path) -> list[str]:
+    with sqlite3.connect(db) as con:
+        return sorted(r[0] for r in con.execute("SELECT data_sha256 FROM runs"))
+
+
+@pytest.mark.slow
+def test_batch_on_scheduler_and_worker_processes_files_every_run_once(scheduler, manifest,
+                                                                      tmp_path, capsys):
+    address, folder = scheduler
+    workers = [_worker(address, folder, f"w{i}") for i in range(2)]
+    try:
+        for attempt in range(3):
+            db = tmp_path / f"h{attempt}.db"
+            assert main(["batch", str(manifest), "--scheduler", address, "--db", str(db),
+                         "--no-progress", "--json"]) == 0, capsys.readouterr().err
+            doc = json.loads(capsys.readouterr().out)
+            assert [r["error"] for r in doc["runs"]] == [None] * 12
+            shas = _filed(db)
+            assert len(shas) == 12 and len(set(shas)) == 12
+    finally:
+        for w in workers:
+            _stop(w)
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_batch_loses_nothing(scheduler, manifest, tmp_path):
+    from distributed import Client
+
+    address, folder = scheduler
+    workers = [_worker(address, folder, f"k{i}") for i in range(2)]
+    killed = []
+
+    def progress(item):
+        if not killed and item.outcome is not None:
+            killed.append(workers[0].pid)
+            _stop(workers[0])  # the worker process (and its nanny) dies under the batch
+
+    try:
+        with Client(address, timeout="60s") as client:
+            client.wait_for_workers(2, timeout=60)
+            items = run_batch(manifest, executor=client, store=str(tmp_path / "h.db"),
+                              progress=progress, max_pending=12)
+        assert killed
+        failed = [i.error for i in items if i.error is not None]
+        assert not failed, failed  # the lost runs ran again on the other worker
+        shas = _filed(tmp_path / "h.db")
+        assert len(shas) == 12 and len(set(shas)) == 12
+    finally:
+        for w in workers:
+            _stop(w)
+
+
+@pytest.mark.slow
+def test_no_worker_is_a_clean_message(scheduler, manifest, tmp_path, capsys):
+    address, _ = scheduler
+    assert main(["batch", str(manifest), "--scheduler", address, "--no-store",
+                 "--no-progress", "--worker-wait", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "no Dask worker" in err and "dask worker" in err and "Traceback" not in err
+
+
+class _LateFuture:
+    """A Dask future's behaviour in the race: finished, but ``result(timeout)`` times out.
+
+    The task is done on its worker while the driver's 0.5 s wait expires gathering the result
+    over the network; ``exception()`` is then None. ``empty`` futures come back empty (a result
+    lost with its worker) the first time they are submitted.
+    """
+
+    def __init__(self, value, *, late: bool, empty: bool = False) -> None:
+        self.value, self.late, self.empty = value, late, empty
+
+    def result(self, timeout=None):
+        if self.late and timeout is not None:
+            self.late = False
+            raise TimeoutError
+        return None if self.empty else self.value
+
+    def done(self):
+        return True
+
+    def cancelled(self):
+        return False
+
+    def exception(self, timeout=None):
+        return None
+
+    def cancel(self):
+        return False
+
+
+class _Executor:
+    def __init__(self, empty_first: set[int]) -> None:
+        self.calls: list[int] = []
+        self.empty_first = empty_first
+
+    def submit(self, fn, task):
+        self.calls.append(task)
+        empty = task in self.empty_first and self.calls.count(task) == 1
+        return _LateFuture(fn(task), late=task % 2 == 0, empty=empty)
+
+
+def test_a_result_that_arrives_after_the_wait_timed_out_is_collected_not_none():
+    from inertest.app.executors import Fits
+
+    ex = _Executor(empty_first={3})
+    fits = Fits(list(range(6)), ex, own=False, timeout=None, fn=lambda t: (t, t * t))
+    fits.submit_up_to(6)
+    assert [fits.collect(k) for k in range(6)] == [(k, k * k) for k in range(6)]
+    assert ex.calls.count(3) == 2  # the empty result was run again, once
+
+
+def test_a_result_lost_twice_fails_that_run_alone():
+    from inertest.app.executors import Fits, RunStoppedError
+
+    ex = _Executor(empty_first=set())
+    ex.submit = lambda fn, task: (ex.calls.append(task),
+                                  _LateFuture(fn(task), late=False, empty=task == 1))[1]
+    fits = Fits([0, 1, 2], ex, own=False, timeout=None, fn=lambda t: (t,))
+    fits.submit_up_to(3)
+    assert fits.collect(0) == (0,)
+    with pytest.raises(RunStoppedError, match="no result came back"):
+        fits.collect(1)
+    assert fits.collect(2) == (2,) and ex.calls.count(1) == 2
