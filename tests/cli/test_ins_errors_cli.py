@@ -18,7 +18,7 @@ def test_json_contract_and_closed_form_value(capsys):
     assert main(["ins-errors", "--latitude", "39", "--hours", "48", "--step", "60",
                  "--gyro-drift-deg-h", "0,0.1,0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)["result"]
-    assert set(out) == {"t", *STATES, "periods", "units", "sign_convention"}
+    assert set(out) == {"t", *STATES, "periods", "units", "sign_convention", "linear_model"}
     assert "output errors" in out["sign_convention"]
     t = np.array(out["t"])
     assert t[0] == 0 and t[-1] == 48 * 3600 and np.all(np.diff(t) == 60)

@@ -148,9 +148,17 @@ def test_columns_round_trip_and_bad_columns():
 
 @pytest.mark.slow
 def test_monte_carlo_stated_uncertainties():
+    """150 sessions (issue 28: 30 sessions had hinted at a std 9 % small, 2.4 sigma).
+
+    Each estimate's error from the truth over its stated std: the RMS of these z-scores is
+    1 +- 1/sqrt(2 n) = 5.8 % per quantity, so each lies in 0.8-1.2 (3.4 sigma) and their pool
+    over the 12 quantities in 0.9-1.1; the +-1 sigma intervals cover the truth in 68 % of
+    sessions (pooled, +-4 %). Run at 400 sessions on two seeds while writing this test: pooled
+    RMS z 1.011 and 0.999, per quantity 0.92-1.06, coverage 0.679 and 0.692.
+    """
     prof = table.RotationProfile(np.radians(45.0), np.radians(45.0))
     rng = np.random.default_rng(7)
-    n = 100
+    n = 150
     est = np.empty((n, 12))
     std = np.empty((n, 12))
     A0 = A_TRUE @ np.diag([1.0005, 1.0, 0.9995])
@@ -159,8 +167,13 @@ def test_monte_carlo_stated_uncertainties():
         res = nc.iterate_calibration(recs, A0, b_TRUE, latitude_rad=LAT, check_interval_s=1.0)
         est[r] = np.concatenate([res.scale, res.misalignment_rad, res.bias_rad_s])
         std[r] = np.concatenate([res.scale_std, res.misalignment_std_rad, res.bias_std_rad_s])
-    ratio = std.mean(axis=0) / est.std(axis=0, ddof=1)
-    np.testing.assert_allclose(ratio, 1.0, atol=0.2)
+    off = ~np.eye(3, dtype=bool)
+    truth = np.concatenate([np.diag(A_TRUE), M[off], B_TRUE])  # M's off-diagonals row by row
+    z = (est - truth) / std
+    rms = np.sqrt((z**2).mean(axis=0))
+    assert np.all((rms > 0.8) & (rms < 1.2)), rms
+    assert 0.9 < np.sqrt((z**2).mean()) < 1.1
+    assert 0.64 < (np.abs(z) < 1).mean() < 0.72
 
 
 def test_convention_misalignment_scale_bias_by_hand():

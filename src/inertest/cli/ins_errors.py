@@ -136,6 +136,8 @@ def ins_errors(scenario_file: Path | None, example: bool, latitude: float | None
         gyro_rrw=gyro_rrw_deg_h_sqrt_h * DEG_PER_H_PER_SQRT_H_TO_RAD_PER_S_PER_SQRT_S,
     )
     result = analyse(scenario, randoms)
+    if result.linear_model.message:
+        click.echo(f"warning: {result.linear_model.message}", err=True)
     resp, periods, sigma = result.responses, result.periods, result.sigma
     table = None
     if (closed_forms or report) and not as_json and scenario.site.earth_rate_rad_s > 0:

@@ -213,6 +213,8 @@ def system(latitude_deg: float, hours: float, step_s: float, scheme: str, rate_d
                            alternate=alternate, revolutions=revolutions)
         runs = [rm.run_scheme(site, s, imu, t)]
     study = rm.SystemStudy(latitude_deg, imu, tuple(runs), compare)
+    for note in study.messages:
+        click.echo(f"warning: {note}", err=True)
     if plot is not None:
         fig = system_figure(runs)
         save_figure(fig, plot)

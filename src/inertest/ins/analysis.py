@@ -16,7 +16,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.ins.covariance import RandomSources, propagate_covariance
-from inertest.ins.error_model import SIGN_CONVENTION, STATE_UNITS, STATES
+from inertest.ins.error_model import (
+    SIGN_CONVENTION,
+    STATE_UNITS,
+    STATES,
+    LinearValidity,
+    linear_validity,
+)
 from inertest.ins.propagation import (
     CharacteristicPeriods,
     SourceResponses,
@@ -50,6 +56,12 @@ class InsErrorAnalysis:
 
     kind = "ins-errors"
 
+    @property
+    def linear_model(self) -> LinearValidity:
+        """How far the linear error model holds over the span (its largest attitude error)."""
+        phi = [STATES.index(s) for s in ("phiE", "phiN", "phiU")]
+        return linear_validity(self.responses.combined[:, phi])
+
     def to_dict(self) -> dict[str, object]:
         """The ``ins-errors`` result envelope: histories, periods, units, sign convention."""
         resp = self.responses
@@ -62,8 +74,10 @@ class InsErrorAnalysis:
         out["sign_convention"] = SIGN_CONVENTION
         if self.sigma is not None:
             out["sigma"] = {st: self.sigma[:, i].tolist() for i, st in enumerate(STATES)}
+        out["linear_model"] = self.linear_model.to_dict()
         site = self.scenario.site
-        return envelope("ins-errors", result=out, site={
+        note = self.linear_model.message
+        return envelope("ins-errors", result=out, messages=[note] if note else [], site={
             "latitude_deg": math.degrees(site.latitude_rad), "gravity_m_s2": site.gravity_m_s2,
             "radius_m": site.radius_m, "earth_rate_rad_s": site.earth_rate_rad_s})
 

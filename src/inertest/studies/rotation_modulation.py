@@ -136,7 +136,9 @@ from inertest.ins.error_model import (
     STATE_UNITS,
     STATES,
     InsSite,
+    LinearValidity,
     input_matrix,
+    linear_validity,
     system_matrix,
 )
 from inertest.models import triad
@@ -848,6 +850,11 @@ class SystemRun:
             "max_phiU_rad": float(ax[6]),
         }
 
+    @property
+    def linear_model(self) -> LinearValidity:
+        """How far the linear error model holds on this run (its largest attitude error)."""
+        return linear_validity(self.x[:, 4:7])
+
     def to_dict(self) -> dict:
         """JSON-ready dict, SI with units (like ``ins-errors``)."""
         d: dict = {"scheme": self.scheme.name, "label": self.scheme.label,
@@ -858,6 +865,7 @@ class SystemRun:
         for i, s in enumerate(STATES):
             d[s] = self.x[:, i].tolist()
         d["summary"] = self.summary()
+        d["linear_model"] = self.linear_model.to_dict()
         d["cycle_mean_inputs"] = dict(zip(INPUTS, self.cycle_mean_inputs.tolist(), strict=True))
         d["sign_convention"] = SIGN_CONVENTION
         d["units"] = {"t": "s", **STATE_UNITS, "cycle_s": "s",
@@ -934,7 +942,14 @@ class SystemStudy:
                   "vertical_channel": "not modelled"}
         result = ({**common, "runs": [r.to_dict() for r in self.runs]} if self.compare
                   else {**common, **self.runs[0].to_dict()})
-        return envelope(self.kind, site={"latitude_deg": self.latitude_deg}, result=result)
+        return envelope(self.kind, site={"latitude_deg": self.latitude_deg}, result=result,
+                        messages=self.messages)
+
+    @property
+    def messages(self) -> list[str]:
+        """Warnings: each run whose attitude error leaves the linear model's range."""
+        return [f"{r.scheme.label}: {r.linear_model.message}" if self.compare
+                else str(r.linear_model.message) for r in self.runs if not r.linear_model.valid]
 
 
 def _discrete(site: InsSite, dt: float) -> tuple[NDArray, NDArray]:
