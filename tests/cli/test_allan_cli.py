@@ -40,6 +40,10 @@ def test_csv_json_layout_and_values(tmp_path, capsys, gyro):
         got = np.array([np.nan if v is None else v for v in out[k]])
         np.testing.assert_allclose(got[: ref[k].dev.size], ref[k].dev, rtol=1e-12)
         assert len(out[f"{k}_lo"]) == len(out["tau"])
+        # the noise type behind each EDF and the rule that decided it (issue 28)
+        assert out[f"{k}_alpha"][: ref[k].dev.size] == ref[k].alpha.tolist()
+        assert out[f"{k}_alpha_rule"][: ref[k].dev.size] == list(ref[k].alpha_rule)
+        assert set(ref[k].alpha_rule) <= set(out["alpha_rules"])
     n = out["noise_terms"]["terms"]["N"]
     assert n["resolved"] and n["unit"] == "deg/sqrt(h)"
     assert n["value_si"] == pytest.approx(1e-4, rel=0.05)

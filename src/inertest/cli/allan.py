@@ -22,6 +22,7 @@ from inertest.cli._common import (
 from inertest.errors import InputError
 from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
+from inertest.noise.confidence import NOISE_RULES
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
@@ -186,7 +187,11 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
             out[f"{k}_hi"] = col(r.dev_hi)
             out[f"{k}_n"] = col(r.n)
             out[f"{k}_edf"] = col(r.edf)
+            out[f"{k}_alpha"] = col(r.alpha)
+            rule = dict(zip(r.taus.tolist(), r.alpha_rule, strict=True))
+            out[f"{k}_alpha_rule"] = [rule.get(t) for t in grid]
         out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
+        out["alpha_rules"] = NOISE_RULES
         out["confidence"] = next(iter(shown.values())).confidence
         out["noise_terms"] = model.to_dict() if model is not None else None
         verdict = "ok" if model is None or not checks else "warning"
