@@ -143,9 +143,9 @@ def test_bad_data_files(tmp_path, capsys):
     np.save(tmp_path / "nan.npy", np.r_[np.ones(10), np.nan, np.ones(10)])
     assert main(["allan", str(tmp_path / "nan.npy"), "--rate", "1"]) != 0
     assert "NaN" in capsys.readouterr().err
-    np.save(tmp_path / "short.npy", np.ones(2))
+    np.save(tmp_path / "short.npy", np.ones(1))
     assert main(["allan", str(tmp_path / "short.npy"), "--rate", "1"]) != 0
-    assert "at least 3" in capsys.readouterr().err
+    assert "too short for oadev: it needs at least 2 rate samples" in capsys.readouterr().err
     (tmp_path / "raw.bin").write_bytes(b"\0" * 40)
     assert main(["allan", str(tmp_path / "raw.bin"), "--rate", "1"]) != 0
     assert "--dtype" in capsys.readouterr().err
@@ -172,3 +172,80 @@ def test_psins_lasergyro_deg_per_h_checks_and_units(tmp_path, capsys, realdata_d
     assert "warning:" in captured.err
     assert not any(t["resolved"] for t in out["noise_terms"]["terms"].values())
     assert out["noise_terms"]["fits"] is False
+
+
+# NIST SP 1065 (Riley 2008) section 12.1, the NBS 9-point frequency data set (tau0 = 1 s) and
+# its published deviations at tau = 1 and 2 s (7 significant digits; allantools' tests carry
+# the same table, tests/nbs14/test_nbs14_10point.py).
+NBS9 = [892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0]
+NBS9_PUBLISHED = {
+    "adev": (91.22945, 115.8082),
+    "oadev": (91.22945, 85.95287),
+    "mdev": (91.22945, 74.78849),
+    "totdev": (91.22945, 93.90379),
+    "hdev": (70.80608, 116.7980),
+    "tdev": (52.67135, 86.35831),
+    "ohdev": (70.80607, 85.61487),
+}
+ALL_STATS = "adev,oadev,mdev,hdev,ohdev,totdev,tdev"
+
+
+def test_sp1065_nbs_9_point_published_values_through_json(tmp_path, capsys):
+    """Issue 28: this set ended in 'internal error (LinAlgError: Singular matrix)', exit 70,
+    in the five-term fit (more active terms than averaging times)."""
+    pacsv.write_csv(pa.table({"y": NBS9}), tmp_path / "nbs9.csv")
+    assert main(["allan", str(tmp_path / "nbs9.csv"), "--rate", "1", "--unit", "1",
+                 "--stats", ALL_STATS, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    out = doc["result"]
+    assert out["tau"][:2] == [1.0, 2.0]
+    for stat, published in NBS9_PUBLISHED.items():
+        np.testing.assert_allclose(out[stat][:2], published, rtol=1e-6, err_msg=stat)
+        assert all(lo <= d <= hi for lo, d, hi in zip(out[f"{stat}_lo"][:2], out[stat][:2],
+                                                      out[f"{stat}_hi"][:2], strict=True))
+    assert out["noise_terms"]["terms"]["N"]["upper_bound"] > 0
+
+
+def test_sp1065_1000_point_published_values_through_json(tmp_path, capsys):
+    """SP 1065 Table 31 (the 1000-point NBS set, tau = 1, 10, 100 s) through the CLI."""
+    n = [1234567890]
+    for _ in range(999):
+        n.append(16807 * n[-1] % 2147483647)
+    np.save(tmp_path / "nbs1000.npy", np.asarray(n, dtype=float) / 2147483647.0)
+    table31 = {
+        "adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
+        "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
+        "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
+        "tdev": (1.687202e-01, 3.563623e-01, 1.253382e00),
+        "hdev": (2.943883e-01, 1.052754e-01, 3.910860e-02),
+        "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02),
+        "totdev": (2.922319e-01, 9.134743e-02, 3.406530e-02),
+    }
+    assert main(["allan", str(tmp_path / "nbs1000.npy"), "--rate", "1", "--unit", "1",
+                 "--taus", "1,10,100", "--stats", ALL_STATS, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)["result"]
+    assert out["tau"] == [1.0, 10.0, 100.0]
+    for stat, published in table31.items():
+        np.testing.assert_allclose(out[stat], published, rtol=1.2e-6, err_msg=stat)
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 6, 7, 8, 9, 12, 17, 31])
+def test_short_records_give_values_bounds_or_too_short(tmp_path, capsys, n):
+    """From 2 samples up: every statistic a value or a 'too short for X' line, the five-term
+    fit a result or upper bounds, never an internal error."""
+    y = np.random.default_rng(n).standard_normal(n)
+    np.save(tmp_path / "s.npy", y)
+    assert main(["allan", str(tmp_path / "s.npy"), "--rate", "1", "--stats", ALL_STATS,
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    out = doc["result"]
+    for stat in ALL_STATS.split(","):
+        if stat in ("hdev", "ohdev") and n < 3:
+            assert stat not in out
+            assert any(f"too short for {stat}" in m for m in doc["messages"])
+        else:
+            assert out[stat][0] > 0 and out[f"{stat}_hi"][0] > out[stat][0]
+    terms = doc["result"]["noise_terms"]["terms"]
+    assert all(t["upper_bound"] > 0 for t in terms.values())
+    if n < 4:
+        assert "too short for the five-term fit" in doc["result"]["noise_terms"]["verdict"]

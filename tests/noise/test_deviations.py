@@ -138,7 +138,8 @@ def test_tau_grids():
 @pytest.mark.parametrize(
     ("kwargs", "error", "words"),
     [
-        ({"data": np.ones(2)}, DataError, "at least 3"),
+        ({"data": np.ones(1)}, DataError, "at least 2 rate samples"),
+        ({"data": np.ones(2), "data_type": "angle"}, DataError, "at least 3 angle samples"),
         ({"data": np.r_[np.ones(50), np.nan, np.ones(50)]}, DataError, "sample 50"),
         ({"rate": 0.0}, InputError, "positive sampling rate"),
         ({"rate": -5.0}, InputError, "positive sampling rate"),

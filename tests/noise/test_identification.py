@@ -221,3 +221,27 @@ def test_bias_instability_never_above_the_floor():
     assert math.sqrt(model.coefficients_sq[2]) <= floor * (1 + 1e-9)
     assert model.terms["B"].resolved
     assert model.terms["B"].value == pytest.approx(2e-4, rel=0.15)
+
+
+def test_short_and_coarse_records_never_crash_the_fit():
+    """Issue 28: records of 4-25 samples ended in LinAlgError (more terms active than
+    averaging times), a zero deviation (coarse counts) in a ValueError. Now every record of
+    2-40 samples, white, random walk, quantized or tiny on an offset, gives a model: fitted
+    terms with finite std, or upper bounds only."""
+    import warnings
+
+    from inertest.noise.identification import NoiseFitWarning
+
+    g = np.random.default_rng(0)
+    for n in range(2, 41):
+        for y in (g.standard_normal(n), np.cumsum(g.standard_normal(n)),
+                  np.round(3.0 * g.standard_normal(n)), 5.0 + 1e-9 * g.standard_normal(n)):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", NoiseFitWarning)
+                model = identify_noise(oadev(y, 1.0), instrument=None)
+            for t in model.terms.values():
+                assert math.isfinite(t.upper_bound) and t.upper_bound >= 0
+                assert not t.resolved or math.isfinite(t.std)
+            if n < 4:
+                assert not model.fits and "too short" in model.verdict
+                assert model.to_dict()["chi2_per_dof"] is None

@@ -435,10 +435,11 @@ def phase_source(
         if data.ndim != 1:
             raise InputError(f"data must be one column of samples, got shape {data.shape}")
     n = len(data)  # type: ignore[arg-type]
-    if n < 3:
+    if n < min_samples("oadev", data_type):
         raise DataError(
-            f"the record has {n} samples; Allan-family statistics need at least 3 (more than "
-            "100 for a useful tau range): record longer"
+            f"the record has {n} samples; Allan-family statistics need at least "
+            f"{min_samples('oadev', data_type)} {data_type} samples (more than 100 for a useful "
+            "tau range): record longer"
         )
     if stream is None:
         # Memory maps and file-backed array-likes stream; arrays in memory stay in memory,
@@ -485,6 +486,17 @@ def phase_source(
 # --------------------------------------------------------------------------- tau grids
 
 
+def min_samples(statistic: str, data_type: str = "rate") -> int:
+    """Fewest samples for which ``statistic`` has one term (at tau0).
+
+    Three phase points (one second difference) for the Allan family and TOTDEV, four (one
+    third difference) for the Hadamard ones; rate samples are one fewer (SP 1065: N rates ->
+    N + 1 phase points).
+    """
+    points = 4 if statistic in ("hdev", "ohdev") else 3
+    return points - 1 if data_type == "rate" else points
+
+
 def max_m(statistic: str, nx: int) -> int:
     """Largest averaging factor with at least one term (TOTDEV: half the record)."""
     if statistic in ("adev", "oadev", "totdev"):
@@ -500,8 +512,9 @@ def averaging_factors(taus: str | Sequence[float] | ArrayLike, rate: float, stat
     mmax = max_m(statistic, nx)
     if mmax < 1:
         raise DataError(
-            f"the record ({nx - 1} samples) is too short for {statistic}; it needs at least "
-            f"{4 if statistic in ('hdev', 'ohdev') else 3} samples"
+            f"the record ({nx} phase points) is too short for {statistic}; it needs at least "
+            f"{min_samples(statistic, 'rate')} rate samples ({min_samples(statistic, 'angle')} "
+            "angle samples)"
         )
     if isinstance(taus, str):
         if taus == "octave":

@@ -208,14 +208,19 @@ class NoiseModel:
             "model": "IEEE Std 952-1997 Annex C five-term Allan variance",
             "instrument": self.instrument,
             "terms": {k: t.to_dict() for k, t in self.terms.items()},
-            "chi2_per_dof": self.chi2_per_dof,
+            "chi2_per_dof": _finite_or_none(self.chi2_per_dof),
             "dof": self.dof,
             "fits": self.fits,
             "verdict": self.verdict,
-            "max_misfit": self.max_misfit,
+            "max_misfit": _finite_or_none(self.max_misfit),
             "checks": list(self.checks),
             "bound_definition": BOUND_DEFINITION,
         }
+
+
+def _finite_or_none(v: float) -> float | None:
+    """``v``, or None where nothing was fitted (NaN): JSON has no NaN."""
+    return v if math.isfinite(v) else None
 
 
 def simulate_noise(
@@ -425,25 +430,29 @@ def _fit(taus: NDArray, var: NDArray, edf: NDArray,
          upper: NDArray | None = None) -> tuple[NDArray, NDArray, float]:
     """Iteratively reweighted bounded least squares of the squares (0 <= p <= upper).
 
-    Returns (p, weights, chi2 per dof) with the weights ``1 / (model sqrt(2/edf))``.
+    Returns (p, weights, chi2 per dof) with the weights ``1 / (model sqrt(2/edf))``. A term
+    whose upper bound is zero is held at zero.
     """
     a = basis(taus)
     sd = var * np.sqrt(2.0 / edf)
     p = np.zeros(5)
     hi = np.full(5, np.inf) if upper is None else upper
+    use = hi > 0
     for _ in range(8):
         w = 1.0 / np.where(sd > 0, sd, np.max(sd) if np.max(sd) > 0 else 1.0)
-        aw = a * w[:, None]
+        aw = a[:, use] * w[:, None]
         scale = np.where(np.max(np.abs(aw), axis=0) > 0, np.max(np.abs(aw), axis=0), 1.0)
-        sol = lsq_linear(aw / scale, var * w, bounds=(np.zeros(5), hi * scale),
+        sol = lsq_linear(aw / scale, var * w, bounds=(np.zeros(int(use.sum())),
+                                                      hi[use] * scale),
                          method="bvls", tol=1e-12)
-        p = sol.x / scale
+        p = np.zeros(5)
+        p[use] = sol.x / scale
         model = a @ p
         sd_new = np.where(model > 0, model, var) * np.sqrt(2.0 / edf)
         if np.allclose(sd_new, sd, rtol=1e-6):
             break
         sd = sd_new
-    w = 1.0 / sd
+    w = 1.0 / np.where(sd > 0, sd, np.max(sd) if np.max(sd) > 0 else 1.0)
     resid = (var - a @ p) * w
     dof = max(1, taus.size - int((p > 0).sum()))
     return p, w, float(np.sum(resid * resid)) / dof
@@ -483,13 +492,29 @@ def _gls(taus: NDArray, var: NDArray, cov_of: Callable[[NDArray], NDArray], uppe
         chi2 = float(r @ r) / dof
         cov_p = np.zeros((5, 5))
         if active.any():
-            sub = aw[:, active]
             idx = idx_free[active]
-            sc = scale[active]
-            cov_p[np.ix_(idx, idx)] = np.linalg.inv(sub.T @ sub) / np.outer(sc, sc)
+            cov_p[np.ix_(idx, idx)] = _square_covariance(aw[:, active], scale[active])
         if done:
             break
     return p, cov_p, chi2
+
+def _square_covariance(aw: NDArray, scale: NDArray) -> NDArray:
+    """``(A' A)^-1`` of the whitened, column-scaled design, back in the units of the squares.
+
+    Where the points do not determine the terms (more terms than points, or columns that the
+    measured taus cannot tell apart: a short record) the combinations left free have no
+    finite variance: every term in them gets an infinite one, so none of them is resolved.
+    """
+    rank = int(np.linalg.matrix_rank(aw))
+    if rank == aw.shape[1]:
+        return np.linalg.inv(aw.T @ aw) / np.outer(scale, scale)
+    _, sv, vt = np.linalg.svd(aw)
+    cov = (vt[:rank].T / sv[:rank] ** 2) @ vt[:rank]
+    free = np.any(np.abs(vt[rank:]) > 1e-9, axis=0)  # terms in the design's null space
+    cov[np.ix_(free, free)] = 0.0
+    cov[free, free] = np.inf
+    return cov / np.outer(scale, scale)
+
 
 def _verdict(var: NDArray, model: NDArray, cov: NDArray, edf: NDArray,
              n_active: int) -> tuple[float, int, NDArray, NDArray]:
@@ -565,6 +590,24 @@ def tangent_bounds(result: DeviationResult, *,
     return np.sqrt(line_sq[k, np.arange(5)]), taus[k]
 
 
+def _bounds_only(result: DeviationResult, instrument: str | None, taus: NDArray,
+                 reason: str) -> NoiseModel:
+    """A :class:`NoiseModel` of upper bounds alone (:func:`tangent_bounds`), nothing fitted."""
+    warnings.warn(reason, NoiseFitWarning, stacklevel=3)
+    bound, bound_tau = tangent_bounds(result)
+    kind = instrument if instrument in _ENG else None
+    terms = {}
+    for i, name in enumerate(TERMS):
+        unit_si = _SI[kind][name]
+        unit, f = _ENG[kind][name] if kind else (unit_si, 1.0)
+        terms[name] = NoiseTerm(name, TERM_NAMES[name], False, None, None, float(bound[i]),
+                                unit_si, None, None, float(bound[i]) * f, unit,
+                                "not resolved: " + reason.split(":")[0], float(bound_tau[i]))
+    return NoiseModel(terms=terms, coefficients_sq=np.zeros(5), covariance_sq=np.zeros((5, 5)),
+                      taus=taus, instrument=kind, chi2_per_dof=math.nan, dof=0, fits=False,
+                      verdict=reason, max_misfit=math.nan, checks=(reason,))
+
+
 def identify_noise(
     result: DeviationResult, *, instrument: str | None = "gyro",
 ) -> NoiseModel:
@@ -587,7 +630,9 @@ def identify_noise(
     -----
     NoiseFitWarning
         When chi2/dof exceeds :data:`CHI2_LIMIT`: the model does not describe the record and
-        no term is resolved (the message is also in ``NoiseModel.checks``).
+        no term is resolved (the message is also in ``NoiseModel.checks``); or when the Allan
+        deviation is known at one averaging time only (2 or 3 rate samples): nothing is
+        fitted, every term gets its upper bound.
     """
     if result.statistic not in ("oadev", "adev"):
         raise DataError(
@@ -604,9 +649,10 @@ def identify_noise(
     var = result.var[keep]
     edf = np.maximum(result.edf[keep], 1.0)
     if taus.size < 2:
-        raise DataError(
-            "noise identification needs the Allan deviation at 2 or more taus; record longer"
-        )
+        return _bounds_only(result, instrument, taus, (
+            f"the record is too short for the five-term fit: the Allan deviation at "
+            f"{taus.size} averaging time (it needs 2 or more; record at least 4 samples); "
+            "upper bounds only"))
     a = basis(taus)
     dev = np.sqrt(var)
     # B is bounded by the flat floor: its deviation 0.664 B never exceeds any measured
@@ -643,7 +689,7 @@ def identify_noise(
     # never the largest one, are dropped one at a time, least significant first, and the rest
     # refitted: a spurious small term correlated with a real one would otherwise inflate (or,
     # at its bound, hide) the real one's std. Dropped terms get upper bounds only.
-    free = np.ones(5, dtype=bool)
+    free = upper > 0  # B is held at zero where a measured deviation is zero
     p, cov, chi2 = _gls(taus, var, cov_of, upper, p, floor, free)
     for _ in range(6):
         sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
