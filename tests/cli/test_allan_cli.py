@@ -15,6 +15,7 @@ from inertest.cli import main
 from inertest.io.data_file import write_table
 from inertest.noise.deviations import deviations
 from inertest.noise.identification import simulate_noise
+from nist_reference_sets import NBS9, NBS9_PUBLISHED, SP1065_TABLE31, nbs_1000
 
 
 @pytest.fixture
@@ -174,26 +175,13 @@ def test_psins_lasergyro_deg_per_h_checks_and_units(tmp_path, capsys, realdata_d
     assert out["noise_terms"]["fits"] is False
 
 
-# NIST SP 1065 (Riley 2008) section 12.1, the NBS 9-point frequency data set (tau0 = 1 s) and
-# its published deviations at tau = 1 and 2 s (7 significant digits; allantools' tests carry
-# the same table, tests/nbs14/test_nbs14_10point.py).
-NBS9 = [892.0, 809.0, 823.0, 798.0, 671.0, 644.0, 883.0, 903.0, 677.0]
-NBS9_PUBLISHED = {
-    "adev": (91.22945, 115.8082),
-    "oadev": (91.22945, 85.95287),
-    "mdev": (91.22945, 74.78849),
-    "totdev": (91.22945, 93.90379),
-    "hdev": (70.80608, 116.7980),
-    "tdev": (52.67135, 86.35831),
-    "ohdev": (70.80607, 85.61487),
-}
 ALL_STATS = "adev,oadev,mdev,hdev,ohdev,totdev,tdev"
 
 
 def test_sp1065_nbs_9_point_published_values_through_json(tmp_path, capsys):
     """Issue 28: this set ended in 'internal error (LinAlgError: Singular matrix)', exit 70,
     in the five-term fit (more active terms than averaging times)."""
-    pacsv.write_csv(pa.table({"y": NBS9}), tmp_path / "nbs9.csv")
+    pacsv.write_csv(pa.table({"y": list(NBS9)}), tmp_path / "nbs9.csv")
     assert main(["allan", str(tmp_path / "nbs9.csv"), "--rate", "1", "--unit", "1",
                  "--stats", ALL_STATS, "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -208,24 +196,12 @@ def test_sp1065_nbs_9_point_published_values_through_json(tmp_path, capsys):
 
 def test_sp1065_1000_point_published_values_through_json(tmp_path, capsys):
     """SP 1065 Table 31 (the 1000-point NBS set, tau = 1, 10, 100 s) through the CLI."""
-    n = [1234567890]
-    for _ in range(999):
-        n.append(16807 * n[-1] % 2147483647)
-    np.save(tmp_path / "nbs1000.npy", np.asarray(n, dtype=float) / 2147483647.0)
-    table31 = {
-        "adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
-        "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
-        "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
-        "tdev": (1.687202e-01, 3.563623e-01, 1.253382e00),
-        "hdev": (2.943883e-01, 1.052754e-01, 3.910860e-02),
-        "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02),
-        "totdev": (2.922319e-01, 9.134743e-02, 3.406530e-02),
-    }
+    np.save(tmp_path / "nbs1000.npy", nbs_1000())
     assert main(["allan", str(tmp_path / "nbs1000.npy"), "--rate", "1", "--unit", "1",
                  "--taus", "1,10,100", "--stats", ALL_STATS, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)["result"]
     assert out["tau"] == [1.0, 10.0, 100.0]
-    for stat, published in table31.items():
+    for stat, published in SP1065_TABLE31.items():
         np.testing.assert_allclose(out[stat], published, rtol=1.2e-6, err_msg=stat)
 
 
