@@ -158,7 +158,9 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     if not no_noise_id:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = identify_noise(res["oadev"], instrument=instrument)
+            model = identify_noise(res["oadev"], instrument=instrument,
+                                   data=samples * factor if isinstance(samples, np.ndarray)
+                                   and not isinstance(samples, np.memmap) else None)
         checks = list(model.checks)
         checks += [str(w.message) for w in caught if str(w.message) not in checks]
         for text in checks:

@@ -427,7 +427,7 @@ def _channel(name: str, kind: str, y: NDArray, rate_hz: float, outliers: int,
     dev = deviations(y, rate_hz, ("oadev",), "octave", "rate")["oadev"]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model = identify_noise(dev, instrument=kind)
+        model = identify_noise(dev, instrument=kind, data=y)
     for w in caught:
         text = f"{name}: {w.message}"
         if text not in messages:

@@ -1418,3 +1418,16 @@ def block_sums(x: NDArray, b: int) -> tuple[NDArray, NDArray]:
     for k in range(npts):
         pts[k] = x[k * b]
     return sums, pts
+
+
+@numba.njit(cache=True, nogil=True)
+def largest_second_diff(x: NDArray, m: int) -> tuple[float, int]:
+    """Largest ``|x[i+2m] - 2 x[i+m] + x[i]|`` over every ``i`` and its ``i`` (one pass)."""
+    best = -1.0
+    at = 0
+    for i in range(x.shape[0] - 2 * m):
+        d = abs(x[i + 2 * m] - 2.0 * x[i + m] + x[i])
+        if d > best:
+            best = d
+            at = i
+    return best, at
