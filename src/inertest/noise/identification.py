@@ -44,6 +44,7 @@ export (:mod:`inertest.noise.imu`) uses the same bound.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 import warnings
@@ -640,8 +641,7 @@ class Event:
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready mapping (``test_level``: :data:`EVENT_ALPHA`)."""
-        return {"tau_s": self.tau_s, "time_s": self.time_s, "ratio": self.ratio,
-                "p_value": self.p_value, "test_level": EVENT_ALPHA}
+        return {**dataclasses.asdict(self), "test_level": EVENT_ALPHA}
 
 
 def largest_event(data: ArrayLike, result: DeviationResult, taus: NDArray,
