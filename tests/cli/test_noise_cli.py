@@ -158,13 +158,18 @@ def test_compare_report_and_no_overwrite(tmp_path, capsys):
     report = tmp_path / "rep"
     assert main(["noise", str(data), "--compare", str(claim), "--report", str(report)]) == 0
     out = capsys.readouterr().out
-    assert "agrees" in out and "consistent" in out
+    assert "meets the claim" in out and "consistent with" in out
     html = (report / "index.html").read_text()
     assert "Claimed values against the record" in html and "gyro_z: Allan deviation" in html
-    claim.write_text("gyroscope_noise_density: 3.0e-3\n")
+    claim.write_text("gyroscope_noise_density: 3.0e-3\n")  # 3x worse than the record
     assert main(["noise", str(data), "--compare", str(claim), "--json"]) == 0
     comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
-    assert [c["verdict"] for c in comp] == ["disagrees"] * 3
+    assert [c["verdict"] for c in comp] == ["meets the claim"] * 3
+    assert "inconsistent with" in {c["consistency"] for c in comp}
+    claim.write_text("gyroscope_noise_density: 3.0e-4\n")  # 3x better than the record
+    assert main(["noise", str(data), "--compare", str(claim), "--json"]) == 0
+    comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
+    assert [c["verdict"] for c in comp] == ["exceeds the claim"] * 3
     existing = tmp_path / "imu.yaml"
     existing.write_text("mine\n")
     assert main(["noise", str(data), "--kalibr", str(existing)]) == 2

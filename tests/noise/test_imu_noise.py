@@ -155,16 +155,48 @@ def test_compare_verdicts():
     y = kalibr_generator(50_000, 1e-3, 0.0, seed=4)
     res = analyse_imu_noise(None, y, None, rate_hz=RATE)
     c = res.channels[0]
-    out = {r.parameter + str(r.claimed): r.verdict for r in compare_kalibr(res, {
-        "gyroscope_noise_density": c.density.value,
-        "gyroscope_random_walk": 0.5 * c.random_walk.value,
-        "accelerometer_noise_density": 1.0,  # no accelerometer channel: skipped
-    })}
-    assert out == {f"gyroscope_noise_density{c.density.value}": "agrees",
-                   f"gyroscope_random_walk{0.5 * c.random_walk.value}": "consistent"}
-    far = compare_kalibr(res, {"gyroscope_noise_density": 2 * c.density.value,
-                               "gyroscope_random_walk": 10 * c.random_walk.bound_95})
-    assert [r.verdict for r in far] == ["disagrees", "disagrees"]
+    out = {r.parameter + str(r.claimed): (r.verdict, r.consistency)
+           for r in compare_kalibr(res, {
+               "gyroscope_noise_density": c.density.value,
+               "gyroscope_random_walk": 0.5 * c.random_walk.value,
+               "accelerometer_noise_density": 1.0,  # no accelerometer channel: skipped
+           })}
+    assert out == {
+        f"gyroscope_noise_density{c.density.value}": ("meets the claim", "consistent with"),
+        # no K in the record: its bound lies above half of it, the record cannot tell
+        f"gyroscope_random_walk{0.5 * c.random_walk.value}": ("not shown", "consistent with"),
+    }
+    # a datasheet 3x worse than the record: met, though not what the record measures
+    worse = compare_kalibr(res, {"gyroscope_noise_density": 3 * c.density.value,
+                                 "gyroscope_random_walk": 3 * c.random_walk.bound_95})
+    assert [(r.verdict, r.consistency) for r in worse] == [
+        ("meets the claim", "inconsistent with"), ("meets the claim", "inconsistent with")]
+    # a claim half of the measured density: exceeded, by far more than its uncertainty
+    better = compare_kalibr(res, {"gyroscope_noise_density": 0.5 * c.density.value})
+    assert [(r.verdict, r.consistency) for r in better] == [
+        ("exceeds the claim", "inconsistent with")]
+
+
+def test_own_kalibr_yaml_read_back_is_consistent_on_every_row(tmp_path):
+    """Issue 28: the yaml holds the largest value over the axes; judged two-sided per axis it
+    'disagreed' on 8 of 12 rows. Three axes of different density and bias random walk."""
+    from inertest.io.kalibr import KEYS, read_kalibr_yaml, write_kalibr_yaml
+
+    g = [kalibr_generator(60_000, 1e-3 * s, 1e-5 * s, seed=20 + k)
+         for k, s in enumerate((1.0, 1.3, 0.8))]
+    a = [kalibr_generator(60_000, 2e-3 * s, 3e-5 * s, seed=30 + k)
+         for k, s in enumerate((1.0, 1.2, 0.9))]
+    res = analyse_imu_noise(None, np.column_stack(g), np.column_stack(a), rate_hz=RATE)
+    write_kalibr_yaml(tmp_path / "imu.yaml", res, source="test")
+    claimed = read_kalibr_yaml(tmp_path / "imu.yaml")
+    rows = compare_kalibr(res, {k: claimed[k] for k in KEYS})
+    assert len(rows) == 12
+    assert {r.consistency for r in rows} == {"consistent with"}
+    assert {r.verdict for r in rows} <= {"meets the claim", "not shown"}
+    # the axis the yaml's number comes from meets it (written to 10 digits)
+    for key in KEYS:
+        top = max((r for r in rows if r.parameter == key), key=lambda r: r.measured.value)
+        assert top.verdict == "meets the claim", top.text
 
 
 def test_bad_input():

@@ -75,8 +75,15 @@ OUTLIER_WINDOW = 51
 MAD_TO_SIGMA = 1.482602218505602
 #: Fewest samples analysed (the Allan variance at a few octaves, the five-term fit).
 MIN_SAMPLES = 64
-#: Agreement of a claimed value with a resolved term: within this many standard deviations.
+#: Two-sided agreement of a claimed value with a resolved term: within this many standard
+#: deviations (``TermComparison.consistency``).
 AGREE_SIGMA = 2.0
+#: One-sided test of a claimed maximum: a resolved term exceeds the claim when it is above it
+#: by more than this many standard deviations (95 %, the level of the upper bounds).
+CLAIM_SIGMA = 1.645
+#: Relative rounding of a claim written with 10 significant digits (a Kalibr yaml of this tool):
+#: a bound equal to the claim to that precision is at the claim.
+_CLAIM_DIGITS = 1e-9
 GAP_POLICIES = ("refuse", "longest")
 OUTLIER_POLICIES = ("keep", "refuse", "clip")
 KINDS = ("gyro", "accelerometer")
@@ -583,10 +590,19 @@ def analyse_imu_noise(
 class TermComparison:
     """A claimed Kalibr parameter (datasheet, another tool) against one measured channel.
 
-    ``verdict`` is ``"agrees"`` (resolved term, within :data:`AGREE_SIGMA` standard
-    deviations), ``"disagrees"`` (resolved and further; or the claim lies above the record's
-    95 % bound), or ``"consistent"`` (not resolved, claim below the bound: the record cannot
-    confirm it).
+    Two answers, as a lab reads a datasheet (:func:`compare_kalibr`):
+
+    ``verdict``, one-sided, the claim read as a maximum: ``"meets the claim"`` (the channel is
+    not worse than claimed beyond its uncertainty: fitted ``value - 1.645 std <= claimed``, or
+    its 95 % upper bound at or below the claim), ``"exceeds the claim"`` (fitted and worse
+    than claimed by more than 1.645 std, one-sided 95 %), or ``"not shown"`` (the term is
+    not resolved and its 95 % upper bound lies above the claim: the record cannot tell).
+
+    ``consistency``, two-sided, the claim read as a Kalibr yaml value (the largest over the
+    sensor's axes): ``"consistent with"`` or ``"inconsistent with"``: a fitted channel above
+    the claim by more than :data:`AGREE_SIGMA` std contradicts it; on the channel that can be
+    largest (highest upper limit: ``value + 2 std``, or the bound) so does a claim above that
+    limit, or a fitted channel more than 2 std above the claim.
     """
 
     channel: str
@@ -595,11 +611,13 @@ class TermComparison:
     measured: KalibrTerm
     verdict: str
     text: str
+    consistency: str = ""
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready mapping."""
         return {"channel": self.channel, "parameter": self.parameter, "claimed": self.claimed,
-                "measured": self.measured.to_dict(), "verdict": self.verdict, "text": self.text}
+                "measured": self.measured.to_dict(), "verdict": self.verdict,
+                "consistency": self.consistency, "text": self.text}
 
 
 def compare_kalibr(result: ImuNoiseResult,
@@ -613,6 +631,15 @@ def compare_kalibr(result: ImuNoiseResult,
         ``{"gyroscope_noise_density", "gyroscope_random_walk", "accelerometer_noise_density",
         "accelerometer_random_walk"}`` in the Kalibr units (SI per sqrt(Hz)); None or missing
         entries are skipped.
+
+    Returns
+    -------
+    tuple of TermComparison
+        One per claimed parameter and channel of its sensor: the one-sided verdict (does the
+        channel meet the claim, read as a maximum: a datasheet) and the two-sided consistency
+        (is the claim, read as the largest over the axes like a Kalibr yaml, what this record
+        says). A record's own yaml, read back, is consistent on every row; a datasheet worse
+        than the record meets it on every row.
     """
     out = []
     for key, value in claimed.items():
@@ -622,21 +649,44 @@ def compare_kalibr(result: ImuNoiseResult,
         kind = {"gyroscope": "gyro", "accelerometer": "accelerometer"}.get(sensor)
         if kind is None or parameter not in ("noise_density", "random_walk"):
             continue
-        for c in result.sensor(kind):
-            m = c.density if parameter == "noise_density" else c.random_walk
-            if m.status == "fitted" and m.std is not None:
-                z = (value - m.value) / m.std if m.std > 0 else math.inf
-                verdict = "agrees" if abs(z) <= AGREE_SIGMA else "disagrees"
-                text = (f"claimed {value:.4g}, measured {m.value:.4g} +/- {m.std:.2g} {m.unit}: "
-                        f"{z:+.2g} sigma ({verdict}, limit {AGREE_SIGMA:g} sigma)")
-            elif value > m.bound_95:
-                verdict = "disagrees"
-                text = (f"claimed {value:.4g} {m.unit} is above the record's 95 % upper bound "
-                        f"{m.bound_95:.4g}: its line lies above the measured Allan deviation")
-            else:
-                verdict = "consistent"
-                text = (f"claimed {value:.4g} {m.unit} is below the record's 95 % upper bound "
-                        f"{m.value:.4g} (tangent at tau = {m.tau_s:.4g} s); the term is not "
-                        "resolved, so the record cannot confirm it")
-            out.append(TermComparison(c.name, key, float(value), m, verdict, text))
+        chans = result.sensor(kind)
+        terms = [c.density if parameter == "noise_density" else c.random_walk for c in chans]
+        fitted = [m.status == "fitted" and m.std is not None for m in terms]
+        upper = [m.value + AGREE_SIGMA * (m.std or 0.0) if f else m.bound_95
+                 for m, f in zip(terms, fitted, strict=True)]
+        top = int(np.argmax(upper)) if upper else 0
+        for i, (c, m) in enumerate(zip(chans, terms, strict=True)):
+            out.append(_compare_one(c.name, key, float(value), m, fitted[i],
+                                    top=(i == top), upper=upper[i]))
     return tuple(out)
+
+
+def _compare_one(channel: str, key: str, value: float, m: KalibrTerm, fitted: bool, *,
+                 top: bool, upper: float) -> TermComparison:
+    """One row of :func:`compare_kalibr`."""
+    z1 = CLAIM_SIGMA
+    if fitted and m.std is not None:
+        z = (m.value - value) / m.std if m.std > 0 else math.copysign(math.inf, m.value - value)
+        verdict = "exceeds the claim" if z > z1 else "meets the claim"
+        above = z > AGREE_SIGMA
+        measured = f"measured {m.value:.4g} +/- {m.std:.2g} {m.unit} ({z:+.2g} sigma from it)"
+    else:
+        verdict = "meets the claim" if m.bound_95 <= value * (1.0 + _CLAIM_DIGITS) else "not shown"
+        above = False
+        measured = (f"not resolved, 95 % upper bound {m.bound_95:.4g} {m.unit} (tangent at "
+                    f"tau = {m.tau_s:.4g} s)")
+    consistent = not above and not (top and value > upper * (1.0 + _CLAIM_DIGITS))
+    consistency = "consistent with" if consistent else "inconsistent with"
+    why = {"meets the claim": ("not worse than claimed beyond its uncertainty" if fitted else
+                               "its bound is at or below the claim"),
+           "exceeds the claim": f"worse than claimed by more than {z1:g} sigma (one-sided 95 %)",
+           "not shown": "its bound lies above the claim: the record cannot tell"}[verdict]
+    if consistent:
+        how = "consistent with it as the largest over the axes"
+    elif above:
+        how = f"inconsistent: more than {AGREE_SIGMA:g} sigma above it"
+    else:
+        how = (f"inconsistent: the claim is above {upper:.4g}, the most this record allows on "
+               "any axis")
+    text = f"claimed {value:.4g}, {measured}: {verdict} ({why}); {how}"
+    return TermComparison(channel, key, value, m, verdict, text, consistency)
