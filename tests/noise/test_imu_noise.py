@@ -20,6 +20,7 @@ from inertest.noise.imu import (
     compare_kalibr,
     find_outliers,
     psd_welch,
+    rate_plausibility,
 )
 
 RATE = 100.0
@@ -247,3 +248,37 @@ def test_issue19_resolved_white_and_random_walk_no_bound_printed_as_a_measuremen
         if not nt.resolved:
             assert nt.value is None and nt.std is None and nt.upper_bound > 0
             assert nt.bound_tau in c.oadev.taus
+
+
+def test_jittered_stamps_are_not_gaps_missing_samples_are():
+    """Issue 28: stamps jittered by +-0.3 of the interval, none missing, gave 818 'gaps' and
+    --gaps longest kept 534 of 60,000 samples. Now: no gap, the jitter reported; samples
+    taken out are found, each with its count."""
+    g = np.random.default_rng(28)
+    n = 60_000
+    t = (np.arange(n) + g.uniform(-0.3, 0.3, n)) * DT
+    rep = check_time_stamps(t)
+    assert rep.gaps == () and rep.segment == (0, n)
+    # intervals: the difference of two uniform +-0.3 errors, std 0.3 sqrt(2/3) intervals
+    assert rep.jitter_s == pytest.approx(0.3 * math.sqrt(2.0 / 3.0) * DT, rel=0.02)
+    keep = np.ones(n, dtype=bool)
+    keep[[1000, 5000, 5001, 5002, 30_000]] = False  # 1, 3 and 1 samples missing
+    rep = check_time_stamps(t[keep], gaps="longest")
+    assert [(gap.index, gap.missing) for gap in rep.gaps] == [(1000, 1), (4999, 3), (29_996, 1)]
+    assert rep.segment == (29_996, n - 5)
+    with pytest.raises(DataError, match=r"3 gap\(s\).*\(sample 1000, 1 sample\(s\) missing\)"):
+        check_time_stamps(t[keep])
+
+
+@pytest.mark.parametrize(("interval", "unit", "words"), [
+    (0.01e-9, "ns", "stamps in s read as ns? Read in s they give 100 Hz: give --time-unit s"),
+    (4000e-9, "ns", "stamps in us read as ns? Read in us they give 250 Hz"),
+    (10.0, "s", "stamps in ms read as s? Read in ms they give 100 Hz"),
+    (10.0, None, "check the unit of the time column"),
+])
+def test_implausible_rate_names_the_unit_mistake(interval, unit, words):
+    y = 1e-3 * np.random.default_rng(1).standard_normal((2000, 1))
+    res = analyse_imu_noise(np.arange(2000) * interval, y, None, time_unit=unit)
+    assert any("outside the 1 Hz - 100000 Hz of an IMU" in m and words in m
+               for m in res.messages), res.messages
+    assert rate_plausibility(100.0, "ns") is None and rate_plausibility(4e4, "s") is None

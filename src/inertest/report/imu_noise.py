@@ -91,7 +91,8 @@ def timing_rows(result: ImuNoiseResult) -> tuple[list[str], list[list[str]]]:
         ["nominal interval", f"{format_number(tm.interval_s)} s "
                              f"({format_number(tm.rate_hz)} Hz)"],
         ["jitter (std of the intervals)", f"{format_number(tm.jitter_s, digits=2)} s"],
-        ["gaps (> 1.5 intervals)", str(len(tm.gaps))],
+        ["gaps (missing samples)", f"{len(tm.gaps)} ({sum(g.missing for g in tm.gaps)} "
+                                   "samples)" if tm.gaps else "0"],
         ["duplicated / non-increasing stamps", str(len(tm.non_increasing))],
         ["segment analysed", f"samples {a} to {b - 1} ({format_number(result.duration_s)} s)"],
         ["straight line removed", "yes" if result.detrended else "no"],
