@@ -99,12 +99,13 @@ def test_intervals_cover_and_edf_is_never_far_too_large(kind):
     """Coverage and EDF excess at every octave tau of records of 1000, 8192, 32768 samples.
 
     * at most 1 % of the intervals of any tau rest on an EDF above twice the true type's;
-    * coverage at least 0.60 at every tau, and at most 0.76 wherever the true type's own
-      interval (the oracle) covers at most 0.74;
-    * where the oracle covers more (3-8 averages: the variance is not chi-squared there; 0.74
-      to 0.79), coverage at most 0.07 above it. Only flicker PM gets near that: at 3-7
-      averages R(n) alone tells it from white FM and the smaller EDF is taken where R(n)
-      points to frequency noise (9-18 % of the records; seed 28: 0.80-0.82 against 0.75-0.79).
+    * coverage at least 0.60 at every tau; at most 0.76 at every tau of 8 or more averages
+      where the true type's own interval (the oracle) covers at most 0.74;
+    * elsewhere (3-7 averages, or an oracle above 0.74: there the variance is not
+      chi-squared, oracle 0.65-0.79) at most 0.07 above the oracle. Only flicker PM gets near
+      that: at 3-7 averages R(n) alone tells it from white FM and the smaller EDF is taken
+      where R(n) points to frequency noise (9-18 % of the records; seed 28: 0.80-0.82 against
+      0.75-0.79).
 
     Before (commit 9b03c44, the lag-1 type of each tau alone, as Stable32): flicker PM
     intervals at 16-4096 averages rested on white PM's EDF in 28-97 % of records (coverage
@@ -115,7 +116,8 @@ def test_intervals_cover_and_edf_is_never_far_too_large(kind):
         where = f"{kind}, {n} samples, m = {ms.tolist()}"
         assert np.all(excess <= 0.01), (where, excess)
         assert np.all(cover >= 0.60), (where, cover)
-        upper = np.where(oracle <= 0.74, 0.76, oracle + 0.07)
+        upper = np.where((averages >= 8) & (oracle <= 0.74), 0.76,
+                         np.maximum(0.76, oracle + 0.07))
         assert np.all(cover <= upper), (where, cover, oracle)
 
 
