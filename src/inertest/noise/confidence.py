@@ -45,6 +45,8 @@ RN_MIN_M = 8
 NOISE_RULES = {
     "lag1": "lag-1 autocorrelation of the decimated phase (Riley & Greenhall 2004), "
             "at least 30 averages",
+    "lag1+cap": "lag-1 autocorrelation says phase noise after frequency noise at the tau "
+                "before: that frequency noise (the type cannot rise with tau)",
     "lag1+rn": "lag-1 autocorrelation says phase noise and R(n) = MVAR/AVAR agrees",
     "lag1|rn": "lag-1 autocorrelation and R(n) = MVAR/AVAR disagree: the type of the two with "
                "the smaller EDF",

@@ -1018,7 +1018,11 @@ def _settle_types(src: _Phase, statistic: str, ms: NDArray, ns: NDArray, raw: ND
     The taus are visited from the shortest; the type settled at the last tau the lag-1 method
     decided is the *anchor* for the longer taus (rules: :data:`NOISE_RULES`):
 
-    * a lag-1 verdict of phase noise (alpha 1, 2) at ``m >= RN_MIN_M`` is checked by R(n) =
+    * a lag-1 verdict of phase noise (alpha 1, 2) after frequency noise at the tau before is
+      capped at that type: for a sum of independent power-law noises the dominant type can
+      only fall as tau grows (``sigma^2 = sum h_alpha tau^(-1-alpha)``), and with a few tens
+      of averages the lag-1 method takes white FM for phase noise at 2-26 % of taus;
+    * any other lag-1 verdict of phase noise at ``m >= RN_MIN_M`` is checked by R(n) =
       MVAR/AVAR (:func:`rn_decide`, R(n) from :func:`_rn_strided` at the power of two at or
       below ``m``); where the two differ the type of smaller EDF of the two is used, and
       R(n)'s type is the anchor. The decimated phase of flicker PM looks white at long taus
@@ -1030,10 +1034,9 @@ def _settle_types(src: _Phase, statistic: str, ms: NDArray, ns: NDArray, raw: ND
       which (never a type above that of the tau before); B1 cannot tell phase from frequency
       noise with so few averages;
     * 3-29 averages, after a frequency-noise anchor: the anchor's type, or one step below it
-      where B1 (8 or more averages, :data:`B1_MIN_AVERAGES`) says lower. For a sum of
-      independent power-law noises the dominant type can only fall as tau grows
-      (``sigma^2 = sum h_alpha tau^(-1-alpha)``), and with 3-7 averages B1 picks the wrong
-      type for 35-75 % of records of one pure type;
+      where B1 (8 or more averages, :data:`B1_MIN_AVERAGES`) says lower (the type cannot
+      rise; with 3-7 averages B1 picks the wrong type for 35-75 % of records of one pure
+      type);
     * fewer than 3 averages: the type of smallest EDF (:func:`_alpha_and_edf`).
 
     Without an anchor (records of fewer than 60 samples) B1 decides, and where it says
@@ -1070,7 +1073,10 @@ def _settle_types(src: _Phase, statistic: str, ms: NDArray, ns: NDArray, raw: ND
 
     for i, m in enumerate(int(v) for v in ms):
         a, how = int(alpha[i]), out[i]
-        if how == "lag1":
+        if how == "lag1" and a >= 1 and i > 0 and 0 >= alpha[i - 1] != _NO_TYPE:
+            a, how = int(alpha[i - 1]), "lag1+cap"  # no phase noise after frequency noise
+            anchor = a
+        elif how == "lag1":
             t = rn_type(m) if a >= 1 else None
             if t is not None and t == a:
                 how = "lag1+rn"
