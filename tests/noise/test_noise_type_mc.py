@@ -107,9 +107,10 @@ def test_intervals_cover_and_edf_is_never_far_too_large(kind):
       where R(n) points to frequency noise (9-18 % of the records; seed 28: 0.80-0.82 against
       0.75-0.79).
 
-    Before (commit 9b03c44, the lag-1 type of each tau alone, as Stable32): flicker PM
-    intervals at 16-4096 averages rested on white PM's EDF in 28-97 % of records (coverage
-    0.12-0.61), white FM at 16-128 averages in 2-26 % (coverage down to 0.52).
+    Before (commit 9b03c44, the lag-1 type of each tau alone, as Stable32; 1000 records per
+    type and length 1000, 8192, 65536): flicker PM intervals at 32-4096 averages rested on an
+    EDF above twice flicker PM's in 33-97 % of records (coverage 0.11-0.62), white FM at 3-128
+    averages in 2-26 % (coverage down to 0.58).
     """
     for n in LENGTHS:
         ms, averages, cover, oracle, excess = _cells(kind, n)
