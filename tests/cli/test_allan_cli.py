@@ -15,6 +15,7 @@ from inertest.cli import main
 from inertest.io.data_file import write_table
 from inertest.noise.deviations import deviations
 from inertest.noise.identification import simulate_noise
+from nist_reference_sets import NBS9, NBS9_PUBLISHED, SP1065_TABLE31, nbs_1000
 
 
 @pytest.fixture
@@ -40,6 +41,10 @@ def test_csv_json_layout_and_values(tmp_path, capsys, gyro):
         got = np.array([np.nan if v is None else v for v in out[k]])
         np.testing.assert_allclose(got[: ref[k].dev.size], ref[k].dev, rtol=1e-12)
         assert len(out[f"{k}_lo"]) == len(out["tau"])
+        # the noise type behind each EDF and the rule that decided it (issue 28)
+        assert out[f"{k}_alpha"][: ref[k].dev.size] == ref[k].alpha.tolist()
+        assert out[f"{k}_alpha_rule"][: ref[k].dev.size] == list(ref[k].alpha_rule)
+        assert set(ref[k].alpha_rule) <= set(out["alpha_rules"])
     n = out["noise_terms"]["terms"]["N"]
     assert n["resolved"] and n["unit"] == "deg/sqrt(h)"
     assert n["value_si"] == pytest.approx(1e-4, rel=0.05)
@@ -139,9 +144,9 @@ def test_bad_data_files(tmp_path, capsys):
     np.save(tmp_path / "nan.npy", np.r_[np.ones(10), np.nan, np.ones(10)])
     assert main(["allan", str(tmp_path / "nan.npy"), "--rate", "1"]) != 0
     assert "NaN" in capsys.readouterr().err
-    np.save(tmp_path / "short.npy", np.ones(2))
+    np.save(tmp_path / "short.npy", np.ones(1))
     assert main(["allan", str(tmp_path / "short.npy"), "--rate", "1"]) != 0
-    assert "at least 3" in capsys.readouterr().err
+    assert "too short for oadev: it needs at least 2 rate samples" in capsys.readouterr().err
     (tmp_path / "raw.bin").write_bytes(b"\0" * 40)
     assert main(["allan", str(tmp_path / "raw.bin"), "--rate", "1"]) != 0
     assert "--dtype" in capsys.readouterr().err
@@ -168,3 +173,55 @@ def test_psins_lasergyro_deg_per_h_checks_and_units(tmp_path, capsys, realdata_d
     assert "warning:" in captured.err
     assert not any(t["resolved"] for t in out["noise_terms"]["terms"].values())
     assert out["noise_terms"]["fits"] is False
+
+
+ALL_STATS = "adev,oadev,mdev,hdev,ohdev,totdev,tdev"
+
+
+def test_sp1065_nbs_9_point_published_values_through_json(tmp_path, capsys):
+    """Issue 28: this set ended in 'internal error (LinAlgError: Singular matrix)', exit 70,
+    in the five-term fit (more active terms than averaging times)."""
+    pacsv.write_csv(pa.table({"y": list(NBS9)}), tmp_path / "nbs9.csv")
+    assert main(["allan", str(tmp_path / "nbs9.csv"), "--rate", "1", "--unit", "1",
+                 "--stats", ALL_STATS, "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    out = doc["result"]
+    assert out["tau"][:2] == [1.0, 2.0]
+    for stat, published in NBS9_PUBLISHED.items():
+        np.testing.assert_allclose(out[stat][:2], published, rtol=1e-6, err_msg=stat)
+        assert all(lo <= d <= hi for lo, d, hi in zip(out[f"{stat}_lo"][:2], out[stat][:2],
+                                                      out[f"{stat}_hi"][:2], strict=True))
+    assert out["noise_terms"]["terms"]["N"]["upper_bound"] > 0
+
+
+def test_sp1065_1000_point_published_values_through_json(tmp_path, capsys):
+    """SP 1065 Table 31 (the 1000-point NBS set, tau = 1, 10, 100 s) through the CLI."""
+    np.save(tmp_path / "nbs1000.npy", nbs_1000())
+    assert main(["allan", str(tmp_path / "nbs1000.npy"), "--rate", "1", "--unit", "1",
+                 "--taus", "1,10,100", "--stats", ALL_STATS, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)["result"]
+    assert out["tau"] == [1.0, 10.0, 100.0]
+    for stat, published in SP1065_TABLE31.items():
+        np.testing.assert_allclose(out[stat], published, rtol=1.2e-6, err_msg=stat)
+
+
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 6, 7, 8, 9, 12, 17, 31])
+def test_short_records_give_values_bounds_or_too_short(tmp_path, capsys, n):
+    """From 2 samples up: every statistic a value or a 'too short for X' line, the five-term
+    fit a result or upper bounds, never an internal error."""
+    y = np.random.default_rng(n).standard_normal(n)
+    np.save(tmp_path / "s.npy", y)
+    assert main(["allan", str(tmp_path / "s.npy"), "--rate", "1", "--stats", ALL_STATS,
+                 "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    out = doc["result"]
+    for stat in ALL_STATS.split(","):
+        if stat in ("hdev", "ohdev") and n < 3:
+            assert stat not in out
+            assert any(f"too short for {stat}" in m for m in doc["messages"])
+        else:
+            assert out[stat][0] > 0 and out[f"{stat}_hi"][0] > out[stat][0]
+    terms = doc["result"]["noise_terms"]["terms"]
+    assert all(t["upper_bound"] > 0 for t in terms.values())
+    if n < 4:
+        assert "too short for the five-term fit" in doc["result"]["noise_terms"]["verdict"]

@@ -158,13 +158,18 @@ def test_compare_report_and_no_overwrite(tmp_path, capsys):
     report = tmp_path / "rep"
     assert main(["noise", str(data), "--compare", str(claim), "--report", str(report)]) == 0
     out = capsys.readouterr().out
-    assert "agrees" in out and "consistent" in out
+    assert "meets the claim" in out and "consistent with" in out
     html = (report / "index.html").read_text()
     assert "Claimed values against the record" in html and "gyro_z: Allan deviation" in html
-    claim.write_text("gyroscope_noise_density: 3.0e-3\n")
+    claim.write_text("gyroscope_noise_density: 3.0e-3\n")  # 3x worse than the record
     assert main(["noise", str(data), "--compare", str(claim), "--json"]) == 0
     comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
-    assert [c["verdict"] for c in comp] == ["disagrees"] * 3
+    assert [c["verdict"] for c in comp] == ["meets the claim"] * 3
+    assert "inconsistent with" in {c["consistency"] for c in comp}
+    claim.write_text("gyroscope_noise_density: 3.0e-4\n")  # 3x better than the record
+    assert main(["noise", str(data), "--compare", str(claim), "--json"]) == 0
+    comp = json.loads(capsys.readouterr().out)["result"]["comparison"]
+    assert [c["verdict"] for c in comp] == ["exceeds the claim"] * 3
     existing = tmp_path / "imu.yaml"
     existing.write_text("mine\n")
     assert main(["noise", str(data), "--kalibr", str(existing)]) == 2
@@ -312,3 +317,32 @@ def test_review19_header_only_csv_and_truncated_psins_refused_in_one_line(tmp_pa
     assert re.search(r"sample row \d+ has 5 numbers where the rows before it have 6", err)
     assert "the file is truncated" in err and "usecols" not in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_jitter_is_not_a_gap_and_a_unit_mistake_is_named(tmp_path, capsys):
+    """Issue 28: stamps jittered by +-0.3 of the interval gave 818 'gaps'; stamps in seconds
+    read with --time-unit ns gave a 1e11 Hz record without a word. ``--time-unit us`` reads
+    microsecond stamps (PX4)."""
+    g = np.random.default_rng(28)
+    n = 60_000
+    t = (np.arange(n) + g.uniform(-0.3, 0.3, n)) * 0.01
+    cols = {"t": t, **{f"gyro_{a}": 1e-2 * g.standard_normal(n) for a in "xyz"}}
+    pacsv.write_csv(pa.table(cols), tmp_path / "jitter.csv")
+    assert main(["noise", str(tmp_path / "jitter.csv"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["result"]["timing"]["gaps"] == []
+    assert doc["result"]["timing"]["segment"] == [0, n]
+    assert any(m.startswith("time-stamp jitter 0.0024") for m in doc["messages"]), doc["messages"]
+    cols["t"] = np.arange(n) * 0.01  # seconds
+    pacsv.write_csv(pa.table(cols), tmp_path / "seconds.csv")
+    assert main(["noise", str(tmp_path / "seconds.csv"), "--time-unit", "ns"]) == 0
+    err = capsys.readouterr().err
+    assert "the time stamps give 1e+11 Hz" in err and "give --time-unit s" in err
+    cols["t"] = np.arange(n, dtype=np.int64) * 4000  # microseconds, 250 Hz
+    pacsv.write_csv(pa.table(cols), tmp_path / "us.csv")
+    assert main(["noise", str(tmp_path / "us.csv"), "--json"]) == 0  # auto: read as ns
+    assert "give --time-unit us" in capsys.readouterr().out
+    assert main(["noise", str(tmp_path / "us.csv"), "--time-unit", "us", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["result"]["rate_hz"] == pytest.approx(250.0)
+    assert not any("outside the 1 Hz" in m for m in doc["messages"])

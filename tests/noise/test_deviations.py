@@ -12,26 +12,7 @@ import pytest
 from inertest.errors import DataError, InputError
 from inertest.noise import deviations as dv
 from inertest.noise.deviations import STATISTICS, deviations
-
-# NIST SP 1065 (Riley 2008) Table 31, 1000-point NBS data set, tau = 1, 10, 100.
-SP1065_TABLE31 = {
-    "adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
-    "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
-    "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
-    "tdev": (1.687202e-01, 3.563623e-01, 1.253382e00),
-    "hdev": (2.943883e-01, 1.052754e-01, 3.910860e-02),
-    "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02),
-    "totdev": (2.922319e-01, 9.134743e-02, 3.406530e-02),
-}
-
-
-def nbs_1000() -> np.ndarray:
-    """SP 1065 pseudo-random test set: n_{i+1} = 16807 n_i mod 2^31-1, seed 1234567890."""
-    n = [1234567890]
-    for _ in range(999):
-        n.append(16807 * n[-1] % 2147483647)
-    assert n[1:4] == [395529916, 1209410747, 633705974]  # first values printed in SP 1065
-    return np.asarray(n, dtype=float) / 2147483647.0
+from nist_reference_sets import SP1065_TABLE31, nbs_1000
 
 
 def _half_last_digit(ref: float) -> float:
@@ -138,7 +119,8 @@ def test_tau_grids():
 @pytest.mark.parametrize(
     ("kwargs", "error", "words"),
     [
-        ({"data": np.ones(2)}, DataError, "at least 3"),
+        ({"data": np.ones(1)}, DataError, "at least 2 rate samples"),
+        ({"data": np.ones(2), "data_type": "angle"}, DataError, "at least 3 angle samples"),
         ({"data": np.r_[np.ones(50), np.nan, np.ones(50)]}, DataError, "sample 50"),
         ({"rate": 0.0}, InputError, "positive sampling rate"),
         ({"rate": -5.0}, InputError, "positive sampling rate"),

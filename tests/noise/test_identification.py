@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ from scipy.stats import chi2
 from inertest.errors import DataError
 from inertest.noise.deviations import mdev, oadev
 from inertest.noise.identification import (
+    NoiseFitWarning,
     allan_covariance_basis,
     basis,
     identify_noise,
@@ -160,7 +162,9 @@ def test_monte_carlo_stated_std_matches_scatter(scenario):
     vals, stds = [], []
     for _ in range(100):
         y = simulate_noise(100_000, 10.0, rng=g, **sim)
-        m = identify_noise(oadev(y, 10.0), instrument=None)
+        with warnings.catch_warnings():  # the model check flags ~1 % of records (its level)
+            warnings.simplefilter("ignore", NoiseFitWarning)
+            m = identify_noise(oadev(y, 10.0), instrument=None)
         if all(m.terms[k].resolved for k in truth):
             vals.append([m.terms[k].value for k in truth])
             stds.append([m.terms[k].std for k in truth])
@@ -221,3 +225,23 @@ def test_bias_instability_never_above_the_floor():
     assert math.sqrt(model.coefficients_sq[2]) <= floor * (1 + 1e-9)
     assert model.terms["B"].resolved
     assert model.terms["B"].value == pytest.approx(2e-4, rel=0.15)
+
+
+def test_short_and_coarse_records_never_crash_the_fit():
+    """Issue 28: records of 4-25 samples ended in LinAlgError (more terms active than
+    averaging times), a zero deviation (coarse counts) in a ValueError. Now every record of
+    2-40 samples, white, random walk, quantized or tiny on an offset, gives a model: fitted
+    terms with finite std, or upper bounds only."""
+    g = np.random.default_rng(0)
+    for n in range(2, 41):
+        for y in (g.standard_normal(n), np.cumsum(g.standard_normal(n)),
+                  np.round(3.0 * g.standard_normal(n)), 5.0 + 1e-9 * g.standard_normal(n)):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", NoiseFitWarning)
+                model = identify_noise(oadev(y, 1.0), instrument=None)
+            for t in model.terms.values():
+                assert math.isfinite(t.upper_bound) and t.upper_bound >= 0
+                assert not t.resolved or math.isfinite(t.std)
+            if n < 4:
+                assert not model.fits and "too short" in model.verdict
+                assert model.to_dict()["chi2_per_dof"] is None

@@ -23,7 +23,8 @@ from inertest.cli._common import (
 from inertest.errors import DataError, InputError
 from inertest.io.atomic import write_text
 from inertest.io.raw_samples import RAW_DTYPES, read_samples
-from inertest.noise.deviations import STATISTICS, DeviationResult, deviations
+from inertest.noise.confidence import NOISE_RULES
+from inertest.noise.deviations import STATISTICS, DeviationResult, deviations, min_samples
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
 
@@ -126,8 +127,16 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     if bad or not names:
         raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
                          f"from {', '.join(STATISTICS)}")
-    want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
     samples = read_samples(data, column, dtype=dtype)
+    short = [f"the record ({len(samples)} samples) is too short for {s}: it needs at least "
+             f"{min_samples(s, data_type)} {data_type} samples; left out"
+             for s in names if len(samples) < min_samples(s, data_type)]
+    names = [s for s in names if len(samples) >= min_samples(s, data_type)]
+    if not names:
+        raise DataError(short[0].removesuffix("; left out"))
+    for text in short:
+        click.echo(safe_line(f"warning: {text}"), err=True)
+    want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
     from rich.console import Console  # ~0.1 s: only when the command runs
     from rich.progress import (
         BarColumn,
@@ -154,7 +163,9 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
                             "--column")
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model = identify_noise(res["oadev"], instrument=instrument)
+            model = identify_noise(res["oadev"], instrument=instrument,
+                                   data=samples * factor if isinstance(samples, np.ndarray)
+                                   and not isinstance(samples, np.memmap) else None)
         checks = list(model.checks)
         checks += [str(w.message) for w in caught if str(w.message) not in checks]
         for text in checks:
@@ -191,12 +202,16 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
             out[f"{k}_hi"] = col(r.dev_hi)
             out[f"{k}_n"] = col(r.n)
             out[f"{k}_edf"] = col(r.edf)
+            out[f"{k}_alpha"] = col(r.alpha)
+            rule = dict(zip(r.taus.tolist(), r.alpha_rule, strict=True))
+            out[f"{k}_alpha_rule"] = [rule.get(t) for t in grid]
         out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
+        out["alpha_rules"] = NOISE_RULES
         out["confidence"] = next(iter(shown.values())).confidence
         out["noise_terms"] = model.to_dict() if model is not None else None
         verdict = "ok" if model is None or not checks else "warning"
         echo_json(envelope(
-            "allan", result=out, messages=checks,
+            "allan", result=out, messages=short + checks,
             checks=[] if model is None else [{"name": "five-term noise model", "verdict": verdict,
                                               "findings": checks}]))
         return

@@ -24,7 +24,8 @@ _OUTLIERS = ("keep", "refuse", "clip")
 @click.option("--time-column", default=None,
               help="Time-stamp column, or 'secs,nsecs' (ROS). Default a common name if any.")
 @click.option("--time-unit", type=click.Choice(TIME_UNITS), default="auto", show_default=True,
-              help="Unit of the time column (auto: ns when the median interval exceeds 100).")
+              help="Unit of the time column (auto: ns when the median interval exceeds 100, "
+                   "else s).")
 @click.option("--gyro-columns", default=None, help="Gyro columns x,y,z (1 to 3).")
 @click.option("--accel-columns", default=None, help="Accelerometer columns x,y,z (1 to 3).")
 @click.option("--gyro-unit", type=click.Choice(list(RATE_UNITS)), default="rad/s",
@@ -97,7 +98,7 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
     result = analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
                                accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
                                outliers=outliers, outlier_threshold=outlier_threshold,
-                               detrend=detrend)
+                               detrend=detrend, time_unit=rec.time_unit)
     comparisons = compare_kalibr(result, {k: claimed[k] for k in KEYS}) if claimed else ()
     if kalibr_out is not None and unresolved == "refuse":
         loose = [f"{c.name} {t.term}" for c in result.channels

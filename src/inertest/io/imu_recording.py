@@ -46,7 +46,9 @@ from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, RATE_UNITS
 #: The PSINS toolbox's gravity unit [m/s^2] (``glv.g0`` in ``glvf.m``); its ug is 1e-6 of it.
 PSINS_G0 = 9.7803267714
 FORMATS = ("auto", "csv", "parquet", "hdf5", "psins")
-TIME_UNITS = ("auto", "s", "ns")
+TIME_UNITS = ("auto", "s", "ms", "us", "ns")
+#: Seconds per unit of a time column.
+_TIME_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 #: Compression suffixes read transparently (PSINS text only) -> opener of the standard library.
 COMPRESSIONS: dict[str, Callable[..., Any]] = {".gz": gzip.open, ".xz": lzma.open}
 #: Largest decompressed size of a compressed recording [bytes]: 1 GiB of PSINS text is about
@@ -88,6 +90,8 @@ class ImuRecording:
         Format read.
     notes : tuple of str
         What was assumed (units, LSBs, columns found).
+    time_unit : str or None
+        Unit the time column was read in ("s", "ms", "us", "ns", "s + ns"); None without one.
     """
 
     t: NDArray | None
@@ -98,6 +102,7 @@ class ImuRecording:
     rate_hz: float | None
     fmt: str
     notes: tuple[str, ...] = ()
+    time_unit: str | None = None
 
 
 def _split(text: str | None) -> list[str] | None:
@@ -214,7 +219,8 @@ def read_psins(path: str | os.PathLike[str]) -> ImuRecording:
     if _compression(p) is not None:
         notes += (f"read through {p.suffix} decompression (in memory)",)
     return ImuRecording(t, gyro, accel, ("gyro_x", "gyro_y", "gyro_z"),
-                        ("accel_x", "accel_y", "accel_z"), 1e3 / interval_ms, "psins", notes)
+                        ("accel_x", "accel_y", "accel_z"), 1e3 / interval_ms, "psins", notes,
+                        None if t is None else "s")
 
 
 def _psins_bad_row(rows: list[str]) -> str:
@@ -278,11 +284,10 @@ def _time_seconds(path: Path, fmt: str, table: dict[str, NDArray], spec: list[st
         d = np.diff(col[np.isfinite(col)])
         med = float(np.median(d[d > 0])) if np.any(d > 0) else 0.0
         unit = "ns" if med > 100.0 else "s"  # no IMU samples slower than once per 100 s
-    exact = _exact_int_column(path, fmt, spec[0]) if unit == "ns" else None
+    exact = _exact_int_column(path, fmt, spec[0]) if unit != "s" else None
     if exact is not None:
-        return (exact - exact[0]).astype(float) * 1e-9, unit
-    scale = 1e-9 if unit == "ns" else 1.0
-    return (col - col[0]) * scale, unit
+        return (exact - exact[0]).astype(float) * _TIME_SCALE[unit], unit
+    return (col - col[0]) * _TIME_SCALE[unit], unit
 
 
 def _pick(table: dict[str, NDArray], given: list[str] | None,
@@ -323,8 +328,8 @@ def read_imu_recording(
     time_column : str, optional
         Time column name, or ``"secs,nsecs"``; default a common name if there is one, else no
         time stamps (then a sample rate must be given to the analysis).
-    time_unit : {"auto", "s", "ns"}
-        ``auto``: nanoseconds when the median interval exceeds 100 (units).
+    time_unit : {"auto", "s", "ms", "us", "ns"}
+        ``auto``: nanoseconds when the median interval exceeds 100 (units), else seconds.
     gyro_columns, accel_columns : str, optional
         Comma-separated columns (x, y, z order; 1 to 3); default common names.
     gyro_unit : {"rad/s", "deg/s", "deg/h"}
@@ -376,6 +381,7 @@ def read_imu_recording(
     notes = [f"gyro columns {', '.join(gyro_names) or '(none)'} in {gyro_unit}; "
              f"accelerometer columns {', '.join(accel_names) or '(none)'} in {accel_unit}"]
     t = None
+    used = None
     if spec is not None:
         t, used = _time_seconds(p, fmt, table, spec, time_unit)
         notes.append(f"time stamps from {', '.join(spec)} in {used}")
@@ -385,4 +391,4 @@ def read_imu_recording(
     accel = (np.column_stack([table[c] for c in accel_names]) * ACCEL_UNITS[accel_unit]
              if accel_names else np.empty((n, 0)))
     return ImuRecording(t, gyro, accel, tuple(gyro_names), tuple(accel_names), None, fmt,
-                        tuple(notes))
+                        tuple(notes), used)

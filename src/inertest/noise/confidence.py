@@ -2,12 +2,15 @@
 
 Noise type
     The power-law exponent ``alpha`` of ``S_y(f) ~ f**alpha`` at each averaging factor ``m`` is
-    identified on the whole record the way SP 1065 section 5.6 and Stable32 do it: the lag-1
+    identified on the whole record with the statistics of SP 1065 section 5.6: the lag-1
     autocorrelation method (Riley & Greenhall, "Power law noise identification using the lag 1
     autocorrelation", EFTF 2004; SP 1065 5.6.4) when there are at least
     :data:`MIN_ACF_AVERAGES` averages at that tau, otherwise the B1 bias ratio (Barnes 1969,
     Howe et al. 1981; SP 1065 5.6.2) with the R(n) ratio MVAR/AVAR to tell white from flicker
-    phase noise (SP 1065 5.6.3). No tau borrows the type of another.
+    phase noise (SP 1065 5.6.3), as Stable32 does. Unlike Stable32, a phase-noise verdict of the
+    lag-1 method is checked by R(n), and a tau of few averages takes the type of the longest
+    lag-1 tau unless R(n) or B1 shows a change (``deviations._settle_types``); which rule
+    decided each tau is recorded (:data:`NOISE_RULES`).
 
 EDF
     Allan, modified Allan, Hadamard (plain and overlapping): Greenhall's algorithm (C. A.
@@ -31,6 +34,32 @@ from numpy.typing import NDArray
 ONE_SIGMA = 0.682689492137086
 #: Fewest averages at a tau for which the lag-1 autocorrelation method is used (SP 1065 5.6.4).
 MIN_ACF_AVERAGES = 30
+#: Fewest averages at which the B1 ratio may move the noise type away from that of the longest
+#: tau the lag-1 method decided (one step): with 3-7 averages B1 is wrong for 35-75 % of
+#: records of one pure noise type (Monte Carlo, tests/noise/test_noise_type_mc.py).
+B1_MIN_AVERAGES = 8
+#: Smallest averaging factor at which R(n) = MVAR/AVAR checks a phase-noise verdict: there the
+#: expected R(n) of flicker PM is 2.5x that of white PM (1.5x at m = 4, equal at m = 2).
+RN_MIN_M = 8
+#: What decided the noise type at a tau (``DeviationResult.alpha_rule``).
+NOISE_RULES = {
+    "lag1": "lag-1 autocorrelation of the decimated phase (Riley & Greenhall 2004), "
+            "at least 30 averages",
+    "lag1+cap": "lag-1 autocorrelation says phase noise after frequency noise at the tau "
+                "before: that frequency noise (the type cannot rise with tau)",
+    "lag1+rn": "lag-1 autocorrelation says phase noise and R(n) = MVAR/AVAR agrees",
+    "lag1|rn": "lag-1 autocorrelation and R(n) = MVAR/AVAR disagree: the type of the two with "
+               "the smaller EDF",
+    "b1": "B1 ratio (SP 1065 5.6.2), 3-29 averages",
+    "b1+rn": "B1 ratio says phase noise, R(n) = MVAR/AVAR tells which (Stable32's rule)",
+    "rn": "3-29 averages after phase noise at the longest lag-1 tau: R(n) = MVAR/AVAR says "
+          "whether phase noise goes on",
+    "anchor": "3-29 averages: the type of the longest lag-1 tau (B1 is not decisive with "
+              "fewer than 8 averages, and the type cannot rise with tau)",
+    "b1-step": "8-29 averages: B1 says a lower type than at the longest lag-1 tau; one step "
+               "lower",
+    "min-edf": "fewer than 3 averages: the type of smallest EDF (the widest interval)",
+}
 #: Greenhall's J_max: longer basic sums are replaced by his asymptotic tables.
 _J_MAX = 100
 
@@ -296,6 +325,19 @@ def b1_decide(var: float, avar: float, n: int, *, alpha_min: int = -2,
         return -1 - mu
     if rn is None:
         return 1
+    r2, r1, r0 = (rn_theory(m, a) for a in (2, 1, 0))
+    if rn < math.sqrt(r2 * r1):
+        return 2
+    return 1 if rn < math.sqrt(r1 * r0) else 0
+
+
+def rn_decide(rn: float, m: int) -> int:
+    """Noise type from the measured R(n) = MVAR/AVAR at averaging factor ``m`` alone.
+
+    2 (white PM), 1 (flicker PM) or 0 (frequency noise, of which R(n) cannot tell the kind
+    reliably), against the geometric means of :func:`rn_theory` (SP 1065 5.6.3), as
+    :func:`b1_decide` uses them.
+    """
     r2, r1, r0 = (rn_theory(m, a) for a in (2, 1, 0))
     if rn < math.sqrt(r2 * r1):
         return 2

@@ -38,8 +38,10 @@ from numpy.typing import ArrayLike, NDArray
 from inertest.errors import DataError, InputError
 from inertest.noise.confidence import (
     _TOTDEV_BC,
+    B1_MIN_AVERAGES,
     MIN_ACF_AVERAGES,
     ONE_SIGMA,
+    RN_MIN_M,
     Lag1,
     alpha_from_lag1,
     b1_alpha,
@@ -47,6 +49,7 @@ from inertest.noise.confidence import (
     chi2_interval,
     edf_greenhall_many,
     r1_of_state,
+    rn_decide,
 )
 
 #: Statistics known, in the order reports list them.
@@ -93,9 +96,13 @@ class DeviationResult:
         Equivalent degrees of freedom of each variance.
     alpha : ndarray of int
         Power-law noise type used for the EDF (``S_y ~ f**alpha``), identified at each tau
-        on the whole record (lag-1 autocorrelation, or B1 and R(n) below 30 averages). Below 3
-        averages nothing can be identified: the type of smallest EDF is used (the widest
-        interval any type would give).
+        on the whole record (lag-1 autocorrelation checked by R(n); below 30 averages the
+        type of the longest lag-1 tau unless R(n) or B1 shows a change). Below 3 averages
+        nothing can be identified: the type of smallest EDF is used (the widest interval any
+        type would give).
+    alpha_rule : tuple of str
+        The rule that decided ``alpha`` at each tau (keys of
+        :data:`inertest.noise.confidence.NOISE_RULES`).
     dev_lo, dev_hi : ndarray
         Chi-squared confidence interval of ``dev`` at level ``confidence``.
     confidence : float
@@ -115,6 +122,7 @@ class DeviationResult:
     data_type: str = "rate"
     name: str = field(default="")
     n_samples: int = 0
+    alpha_rule: tuple[str, ...] = ()
 
     @property
     def var(self) -> NDArray:
@@ -130,6 +138,7 @@ class DeviationResult:
             "n": self.n.tolist(),
             "edf": self.edf.tolist(),
             "alpha": self.alpha.tolist(),
+            "alpha_rule": list(self.alpha_rule),
             "dev_lo": self.dev_lo.tolist(),
             "dev_hi": self.dev_hi.tolist(),
             "confidence": self.confidence,
@@ -426,10 +435,11 @@ def phase_source(
         if data.ndim != 1:
             raise InputError(f"data must be one column of samples, got shape {data.shape}")
     n = len(data)  # type: ignore[arg-type]
-    if n < 3:
+    if n < min_samples("oadev", data_type):
         raise DataError(
-            f"the record has {n} samples; Allan-family statistics need at least 3 (more than "
-            "100 for a useful tau range): record longer"
+            f"the record has {n} samples; Allan-family statistics need at least "
+            f"{min_samples('oadev', data_type)} {data_type} samples (more than 100 for a useful "
+            "tau range): record longer"
         )
     if stream is None:
         # Memory maps and file-backed array-likes stream; arrays in memory stay in memory,
@@ -476,6 +486,17 @@ def phase_source(
 # --------------------------------------------------------------------------- tau grids
 
 
+def min_samples(statistic: str, data_type: str = "rate") -> int:
+    """Fewest samples for which ``statistic`` has one term (at tau0).
+
+    Three phase points (one second difference) for the Allan family and TOTDEV, four (one
+    third difference) for the Hadamard ones; rate samples are one fewer (SP 1065: N rates ->
+    N + 1 phase points).
+    """
+    points = 4 if statistic in ("hdev", "ohdev") else 3
+    return points - 1 if data_type == "rate" else points
+
+
 def max_m(statistic: str, nx: int) -> int:
     """Largest averaging factor with at least one term (TOTDEV: half the record)."""
     if statistic in ("adev", "oadev", "totdev"):
@@ -491,8 +512,9 @@ def averaging_factors(taus: str | Sequence[float] | ArrayLike, rate: float, stat
     mmax = max_m(statistic, nx)
     if mmax < 1:
         raise DataError(
-            f"the record ({nx - 1} samples) is too short for {statistic}; it needs at least "
-            f"{4 if statistic in ('hdev', 'ohdev') else 3} samples"
+            f"the record ({nx} phase points) is too short for {statistic}; it needs at least "
+            f"{min_samples(statistic, 'rate')} rate samples ({min_samples(statistic, 'angle')} "
+            "angle samples)"
         )
     if isinstance(taus, str):
         if taus == "octave":
@@ -801,13 +823,15 @@ _NO_TYPE = 99
 
 def _noise_type(src: _Phase, m: int, family: str,
                 sums: dict[tuple[str, int], float] | None = None,
-                state: NDArray | None = None, points: NDArray | None = None) -> int | None:
-    """Noise type alpha at tau = m tau0 from the whole record (SP 1065 5.6).
+                state: NDArray | None = None, points: NDArray | None = None
+                ) -> tuple[int | None, str]:
+    """Noise type alpha at tau = m tau0 from the whole record (SP 1065 5.6), and the rule.
 
     At least :data:`MIN_ACF_AVERAGES` averages: lag-1 autocorrelation of the decimated phase
     and its differences (Riley & Greenhall 2004; dmax 2 for the Allan family, 3 for Hadamard).
-    Fewer: B1 ratio of the frequency averages, with R(n) = MVAR/AVAR between white and flicker
-    phase noise (Stable32's method for short series). None when fewer than 3 averages.
+    Fewer: B1 ratio of the frequency averages (1 where B1 says phase noise: which one,
+    R(n) tells in :func:`_settle_types`). None when fewer than 3 averages. The rule is
+    ``"lag1"``, ``"b1"`` or ``"min-edf"`` (:data:`NOISE_RULES`).
     ``sums`` caches the OADEV and MDEV sums of squares by (statistic, m). A streamed record
     passes what its one pass gathered: ``state``, the lag-1 sums (at least ``dmax + 1`` rows),
     or ``points``, the decimated phase; in memory ``state`` may hold rows 0-1 already summed.
@@ -826,7 +850,7 @@ def _noise_type(src: _Phase, m: int, family: str,
                 state = kernels.lag1_sums(src.x, m, count, dmax + 1)
                 r1 += [r1_of_state(row) for row in state[2:]]
             return alpha_from_lag1(r1 + [0.0] * (dmax + 1 - len(r1)), phase=True,
-                                   alpha_min=alpha_min)
+                                   alpha_min=alpha_min), "lag1"
         if state is not None:
             state = state[: dmax + 1]
         else:
@@ -836,44 +860,112 @@ def _noise_type(src: _Phase, m: int, family: str,
             state = acc.state
         return alpha_from_lag1([r1_of_state(row, max(0, _DETREND - d))
                                 for d, row in enumerate(state)], phase=True,
-                               alpha_min=alpha_min)
+                               alpha_min=alpha_min), "lag1"
     if count < 3:
-        return None
+        return None, "min-edf"
     if mem:
         var, avar = kernels.b1_stats(src.x, m, count)
         alpha = b1_decide(var, avar, count, alpha_min=alpha_min)
     else:
         xs = points if points is not None else np.concatenate(list(_decimated(src, m, count)))
         alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min)
-    if alpha == 1:  # phase noise: R(n) tells white from flicker
-        mm = min(m, src.size // 3)
-        n_mod, n_oa = _terms("mdev", mm, src.size), _terms("oadev", mm, src.size)
-        if mem:
-            one = np.array([mm], dtype=np.int64)
-            cache = {} if sums is None else sums
-            if ("mdev", mm) not in cache and ("oadev", mm) not in cache:  # one pass for both
-                cache["mdev", mm], cache["oadev", mm] = (
-                    float(v) for v in kernels.modified_allan_pair(src.x, mm, n_mod, n_oa))
-            if ("mdev", mm) not in cache:
-                cache["mdev", mm] = float(kernels.modified_sums(src.x, one, np.array([n_mod]))[0])
-            if ("oadev", mm) not in cache:
-                cache["oadev", mm] = float(kernels.allan_sums(src.x, one, np.array([n_oa]),
-                                                              False)[0])
-            s_mod, s_oa = cache["mdev", mm], cache["oadev", mm]
+    return alpha, "b1"
+
+
+def _rn_ratio(src: _Phase, mm: int,
+              sums: dict[tuple[str, int], float] | None) -> float | None:
+    """R(n) = MVAR/AVAR at averaging factor ``mm`` (SP 1065 5.6.3); None where AVAR is zero.
+
+    The OADEV and MDEV sums of squares are taken from ``sums`` (by (statistic, m)) when there,
+    else computed (in memory: one pass for both; streamed: one more pass over the record) and
+    left there.
+    """
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    n_mod, n_oa = _terms("mdev", mm, src.size), _terms("oadev", mm, src.size)
+    cache = {} if sums is None else sums
+    if isinstance(src, _MemoryPhase):
+        one = np.array([mm], dtype=np.int64)
+        if ("mdev", mm) not in cache and ("oadev", mm) not in cache:  # one pass for both
+            cache["mdev", mm], cache["oadev", mm] = (
+                float(v) for v in kernels.modified_allan_pair(src.x, mm, n_mod, n_oa))
+        if ("mdev", mm) not in cache:
+            cache["mdev", mm] = float(kernels.modified_sums(src.x, one, np.array([n_mod]))[0])
+        if ("oadev", mm) not in cache:
+            cache["oadev", mm] = float(kernels.allan_sums(src.x, one, np.array([n_oa]),
+                                                          False)[0])
+    else:
+        need = [(k, mm) for k in ("mdev", "oadev") if (k, mm) not in cache]
+        if need:
+            cache.update(_stream_pass(src, need, {}, {}, _no_tick)[0])
+    mvar = _variance("mdev", cache["mdev", mm], mm, n_mod, 1.0)
+    avar = _variance("oadev", cache["oadev", mm], mm, n_oa, 1.0)
+    return mvar / avar if avar > 0 else None
+
+
+#: Blocks per averaging window of the strided R(n) (:func:`_rn_strided`): with 30 or more
+#: averages, and with fewer (where every term counts).
+_RN_BLOCKS, _RN_BLOCKS_FEW = 8, 64
+#: R(n) is taken from at most this many averages at the start of the record.
+_RN_MAX_AVERAGES = 1024
+
+
+def _rn_block(mm: int, nx: int) -> int:
+    """Block size of the strided R(n) at ``mm`` (a power of two)."""
+    few = (nx - 1) // mm < MIN_ACF_AVERAGES
+    return max(1, mm // (_RN_BLOCKS_FEW if few else _RN_BLOCKS))
+
+
+def _rn_strided(src: _Phase, mms: Sequence[int],
+                cache: dict[int, tuple[NDArray, NDArray]]) -> dict[int, float | None]:
+    """R(n) = MVAR/AVAR at each power of two ``mm`` from terms ``b`` samples apart.
+
+    The overlapping estimators (SP 1065 eqs. 14, 16) restricted to the terms that start at
+    multiples of ``b`` (:func:`_rn_block`: ``mm / 8``, or ``mm / 64`` below 30 averages):
+    their expectations are those of the full ones, and 8 or 64 starts per tau keep most of
+    their precision (neighbouring terms share most of their data). A window sum of ``mm``
+    phase points is a sum of block sums of ``b`` points (``kernels.rn_block_sums``). Where the
+    record holds more than :data:`_RN_MAX_AVERAGES` averages only its first that many are
+    used (R(n) then varies by a few per cent, where the decision needs a factor of 2).
+    ``cache`` keeps the block sums and ``x[::b]`` over the whole record by ``b``; coarser
+    blocks are summed from the finest there, so the record is read once; streamed, the
+    finest blocks asked for come from one pass. None where the strided AVAR is zero.
+    """
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    nx = src.size
+    whole = [mm for mm in mms if (nx - 1) // mm <= _RN_MAX_AVERAGES]
+    want = sorted({_rn_block(mm, nx) for mm in whole} - set(cache))
+    for b in want:
+        base = max((c for c in cache if c < b and b % c == 0), default=0)
+        if base:  # coarser blocks from finer ones: sums of whole blocks, every r-th point
+            blocks, points = cache[base]
+            cs, _ = kernels.block_sums(blocks, b // base)
+            _, ps = kernels.block_sums(points, b // base)
+            cache[b] = cs[: nx // b], ps
+        elif isinstance(src, _MemoryPhase):
+            x = src.x
+            nb = nx // b
+            cache[b] = ((x, x) if b == 1 else kernels.block_sums(x, b) if b < 32
+                        else (x[: nb * b].reshape(nb, b).sum(axis=1), x[::b].copy()))
         else:
-            cache = {} if sums is None else sums
-            need = [(k, mm) for k in ("mdev", "oadev") if (k, mm) not in cache]
-            if need:
-                cache.update(_stream_pass(src, need, {}, {}, _no_tick)[0])
-            s_mod, s_oa = cache["mdev", mm], cache["oadev", mm]
-        mvar = _variance("mdev", s_mod, mm, n_mod, 1.0)
-        avar_n = _variance("oadev", s_oa, mm, n_oa, 1.0)
-        if avar_n > 0:
-            if mem:
-                alpha = b1_decide(var, avar, count, alpha_min=alpha_min, rn=mvar / avar_n, m=mm)
-            else:
-                alpha = b1_alpha(np.diff(xs), alpha_min=alpha_min, rn=mvar / avar_n, m=mm)
-    return alpha
+            step = max(b, (CHUNK // b) * b)
+            parts = [kernels.block_sums(np.ascontiguousarray(src.read(a, min(nx, a + step))), b)
+                     for a in range(0, nx, step)]
+            cache[b] = (np.concatenate([p[0] for p in parts]),
+                        np.concatenate([p[1] for p in parts]))
+    out: dict[int, float | None] = {}
+    for mm in mms:
+        b = _rn_block(mm, nx)
+        if mm in whole:
+            blocks, points = cache[b]
+        else:  # the first _RN_MAX_AVERAGES averages only
+            head = np.ascontiguousarray(src.read(0, _RN_MAX_AVERAGES * mm + 1))
+            blocks, points = (head, head) if b == 1 else kernels.block_sums(head, b)
+        msum, asum, n_mod, n_oa = kernels.rn_block_sums(blocks, points, mm // b)
+        avar = asum / n_oa if n_oa else 0.0
+        out[mm] = msum / (n_mod * mm * mm) / avar if avar > 0 and n_mod else None
+    return out
 
 
 def _lag1_decide_many(rows: NDArray, alpha_min: int) -> NDArray:
@@ -915,6 +1007,99 @@ def _edf_many(statistic: str, alpha: NDArray, ms: NDArray, ns: NDArray, nx: int)
     d = 3 if statistic in ("hdev", "ohdev") else 2
     return edf_greenhall_many(alpha, d, ms, ns, modified=statistic in ("mdev", "tdev"),
                               overlapping=statistic not in ("adev", "hdev"))
+
+
+def _settle_types(src: _Phase, statistic: str, ms: NDArray, ns: NDArray, raw: NDArray,
+                  rules: list[str], blocks: dict[int, tuple[NDArray, NDArray]],
+                  sums: dict[tuple[str, int], float]) -> tuple[NDArray, list[str]]:
+    """The noise type at each tau from the per-tau decisions, R(n) and the neighbouring taus.
+
+    ``raw`` and ``rules`` are :func:`_noise_type`'s decisions at the taus ``ms`` (ascending).
+    The taus are visited from the shortest; the type settled at the last tau the lag-1 method
+    decided is the *anchor* for the longer taus (rules: :data:`NOISE_RULES`):
+
+    * a lag-1 verdict of phase noise (alpha 1, 2) after frequency noise at the tau before is
+      capped at that type: for a sum of independent power-law noises the dominant type can
+      only fall as tau grows (``sigma^2 = sum h_alpha tau^(-1-alpha)``), and with a few tens
+      of averages the lag-1 method takes white FM for phase noise at 2-26 % of taus;
+    * any other lag-1 verdict of phase noise at ``m >= RN_MIN_M`` is checked by R(n) =
+      MVAR/AVAR (:func:`rn_decide`, R(n) from :func:`_rn_strided` at the power of two at or
+      below ``m``); where the two differ the type of smaller EDF of the two is used, and
+      R(n)'s type is the anchor. The decimated phase of flicker PM looks white at long taus
+      (aliasing: Riley & Greenhall's delta falls from 0.4 at m = 4 to 0.1 at m = 1024 of
+      65536 points), so the lag-1 method alone takes flicker PM, and with a few tens of
+      averages white FM, for white PM: intervals 2-10x too narrow (Monte Carlo,
+      tests/noise/test_noise_type_mc.py);
+    * 3-29 averages, after a phase-noise anchor: R(n) says whether phase noise goes on, and
+      which (never a type above that of the tau before); B1 cannot tell phase from frequency
+      noise with so few averages;
+    * 3-29 averages, after a frequency-noise anchor: the anchor's type, or one step below it
+      where B1 (8 or more averages, :data:`B1_MIN_AVERAGES`) says lower (the type cannot
+      rise; with 3-7 averages B1 picks the wrong type for 35-75 % of records of one pure
+      type);
+    * fewer than 3 averages: the type of smallest EDF (:func:`_alpha_and_edf`).
+
+    Without an anchor (records of fewer than 60 samples) B1 decides, and where it says
+    phase noise, R(n) at ``min(m, N/3)`` tells white from flicker PM from white FM (SP 1065
+    5.6.3, Stable32's rule, the full overlapping MVAR and AVAR: ``sums``).
+    """
+    nx = src.size
+    alpha = raw.copy()
+    out = list(rules)
+    anchor: int | None = None
+    typed: dict[int, int | None] = {}
+
+    def rn_m(m: int) -> int:
+        mm = min(m, nx // 3)
+        return 1 << (mm.bit_length() - 1)  # R(n) at a power of two: one per octave
+
+    if not isinstance(src, _MemoryPhase) and any(
+            r == "lag1" and a >= 1 and rn_m(int(m)) >= RN_MIN_M
+            for r, a, m in zip(rules, raw, ms, strict=True)):
+        # streamed: every R(n) this may need from one more pass over the record
+        need = sorted({rn_m(int(m)) for r, m in zip(rules, ms, strict=True)
+                       if r != "min-edf" and rn_m(int(m)) >= RN_MIN_M})
+        typed.update({mm: None if r is None else rn_decide(r, mm)
+                      for mm, r in _rn_strided(src, need, blocks).items()})
+
+    def rn_type(m: int) -> int | None:
+        mm = rn_m(m)
+        if mm < RN_MIN_M:
+            return None
+        if mm not in typed:
+            r = _rn_strided(src, [mm], blocks)[mm]
+            typed[mm] = None if r is None else rn_decide(r, mm)
+        return typed[mm]
+
+    for i, m in enumerate(int(v) for v in ms):
+        a, how = int(alpha[i]), out[i]
+        if how == "lag1" and a >= 1 and i > 0 and 0 >= alpha[i - 1] != _NO_TYPE:
+            a, how = int(alpha[i - 1]), "lag1+cap"  # no phase noise after frequency noise
+            anchor = a
+        elif how == "lag1":
+            t = rn_type(m) if a >= 1 else None
+            if t is not None and t == a:
+                how = "lag1+rn"
+            anchor = a if t is None else t  # phase noise or not: R(n) is the better judge
+            if t is not None and t != a:
+                e = _edf_many(statistic, np.array([a, t]), ms[[i, i]], ns[[i, i]], nx)
+                a, how = (a if e[0] <= e[1] else t), "lag1|rn"
+        elif how == "b1" and anchor is None and a == 1:  # phase noise: R(n) says which
+            mm = min(m, nx // 3)
+            rn = _rn_ratio(src, mm, sums)
+            if rn is not None:
+                a, how = rn_decide(rn, mm), "b1+rn"
+        elif how != "min-edf" and anchor is not None:
+            t = rn_type(m) if anchor >= 1 else None
+            if t is not None:  # after phase noise: R(n) says whether it goes on (once
+                a, how = min(t, anchor, int(alpha[i - 1])), "rn"  # gone, it stays gone)
+            elif a > anchor or (a < anchor and (nx - 1) // m < B1_MIN_AVERAGES):
+                a, how = anchor, "anchor"
+            elif a < anchor:
+                a, how = anchor - 1, "b1-step"
+        alpha[i] = a
+        out[i] = how
+    return alpha, out
 
 
 def _alpha_and_edf(statistic: str, alpha: NDArray, ms: NDArray, ns: NDArray,
@@ -1021,7 +1206,8 @@ def deviations(
         if progress is not None:
             progress(min(done[0], work), work)
 
-    alpha_cache: dict[tuple[int, str], int | None] = {}
+    alpha_cache: dict[tuple[int, str], tuple[int | None, str]] = {}
+    rn_blocks: dict[int, tuple[NDArray, NDArray]] = {}  # strided R(n) data, by block size
     sums: dict[tuple[str, int], float] = {}  # OADEV, MDEV sums by m, reused for R(n)
     states: dict[int, NDArray] = {}
     points: dict[int, NDArray] = {}
@@ -1102,16 +1288,19 @@ def deviations(
             if todo:
                 got = _lag1_decide_many(np.stack([states[m][:2] for m in todo]),
                                         -4 if fam == "hadamard" else -2)
-                alpha_cache.update({(m, fam): int(a) for m, a in zip(todo, got, strict=True)
-                                    if a != _NO_TYPE})
+                alpha_cache.update({(m, fam): (int(a), "lag1")
+                                    for m, a in zip(todo, got, strict=True) if a != _NO_TYPE})
         alph = np.empty(ms.size, dtype=np.int64)
+        rules: list[str] = []
         for i, m in enumerate(int(v) for v in ms):
             key = (m, _family(s))
             if key not in alpha_cache:
                 alpha_cache[key] = _noise_type(src, m, key[1], sums, states.get(m),
                                                points.get(m))
-            a = alpha_cache[key]
+            a, how = alpha_cache[key]
             alph[i] = _NO_TYPE if a is None else a
+            rules.append(how)
+        alph, rules = _settle_types(src, s, ms, ns, alph, rules, rn_blocks, sums)
         alph, edf = _alpha_and_edf(s, alph, ms, ns, nx)
         lo, hi = chi2_interval(var, edf, confidence)
         t = ms * src.tau0
@@ -1122,7 +1311,7 @@ def deviations(
         out[s] = DeviationResult(
             statistic=s, taus=t, dev=dev, n=ns, edf=edf, alpha=alph, dev_lo=dlo, dev_hi=dhi,
             confidence=confidence, rate_hz=1.0 / src.tau0, data_type=data_type, name=_NAMES[s],
-            n_samples=nx - 1,
+            n_samples=nx - 1, alpha_rule=tuple(rules),
         )
     if done[0] < work:  # streamed MDEV and TDEV share one sum
         tick(work - done[0])

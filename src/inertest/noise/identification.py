@@ -16,15 +16,21 @@ floor: ``0.664 B`` can never exceed the upper 1-sigma limit of any measured devi
 standard uncertainties are those of the generalised least squares (delta method for the square
 root); 100-record Monte Carlo runs (N+K, N+R, Q+N) give scatter/std 0.94-1.12.
 
-The fit is judged by the generalised ``chi2/dof`` of the points with at least
-:data:`VERDICT_MIN_EDF` equivalent degrees of freedom under the fitted model (their marginal
-covariance); each point of fewer averages (the last octave or two: one average at a record / 2)
-is still fitted but judged alone by the chi-squared distribution of its EDF, two-sided at
-:data:`FEW_EDF_ALPHA` (a variance of one average is 1e-3 of its mean with probability 2.5 %,
-so a Gaussian chi2 would call it a gross misfit). Above :data:`CHI2_LIMIT`, or with a
-few-average point outside its chi-squared interval, the five-term model does not describe the
-record (dither, vibration, a bounded angle motion, a trend...), no term is reported as
-resolved and a :class:`NoiseFitWarning` is issued. A term is
+The model is judged on its best fit with all five terms free (before any is dropped for the
+report: a term too weak to report still shapes the variances and their scatter) by a test
+of stated level: the generalised chi2 of the points with at least :data:`VERDICT_MIN_EDF`
+equivalent degrees of freedom under the fitted model (their marginal covariance), with the
+number of those points less the terms off zero as dof, at :data:`MODEL_CHECK_ALPHA`; each
+point of fewer averages (the last octave or two: one average at a record / 2) is judged alone
+by the chi-squared distribution of its EDF, two-sided at :data:`FEW_EDF_ALPHA` (a variance of
+one average is 1e-3 of its mean with probability 2.5 %, so a Gaussian chi2 would call it a
+gross misfit); and, when the record is given, its largest single Allan term against the
+model (:func:`largest_event`, at :data:`EVENT_ALPHA`): a step of the rate or a spike, which
+the Allan variance alone takes for rate random walk or quantization. Records of the model,
+100 s to an hour, are flagged at about 1 % (tests/noise/test_identification_mc.py). Where a
+test fails the five-term model does not describe the record (dither, vibration, a bounded
+angle motion, a step, a trend...), no term is reported as resolved and a
+:class:`NoiseFitWarning` is issued. A term is
 *resolved* only when the model fits, the term is more than :data:`SIGNIFICANCE` standard
 deviations above zero and it is the largest term somewhere on the tau range; otherwise only
 an upper bound is reported. Every term has one bound, :func:`tangent_bounds` (its definition,
@@ -38,13 +44,15 @@ export (:mod:`inertest.noise.imu`) uses the same bound.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.linalg import solve_triangular
 from scipy.optimize import lsq_linear
 from scipy.stats import chi2 as _chi2
@@ -74,11 +82,20 @@ TERM_NAMES = {
 #: How many standard deviations above zero the fitted square of a resolved term must be
 #: (about 97.7 % one-sided for a Gaussian estimate).
 SIGNIFICANCE = 2.0
-#: Largest generalised chi2/dof (full covariance across taus) for which the model is taken to
-#: fit. 300 simulated records of the model (N+K, N+R, Q+N, 1e5 samples) gave a median of 0.95
-#: and at most 2.5 (the variances at the longest taus are skewed, not Gaussian); real records
-#: the model cannot describe give 1e2 and more. Kept at the earlier, conservative 10.
-CHI2_LIMIT = 10.0
+#: Level of the test of the five-term model: the record is said not to fit where the
+#: generalised chi2 of the best five-term fit has a p-value below this (or a point of few
+#: averages lies outside its own chi-squared interval, :data:`FEW_EDF_ALPHA`). Monte Carlo of
+#: records of the model, 100 s to hours (tests/noise/test_identification_mc.py): flag rate
+#: at or below this level.
+MODEL_CHECK_ALPHA = 0.01
+#: Level of the single-event check (:func:`largest_event`): a record is said not to fit
+#: where one Allan term is larger than the fitted model allows at this level (Bonferroni over
+#: every term of every tau checked, so the false-alarm rate is at most this).
+EVENT_ALPHA = 0.01
+#: Records larger than this many samples (or not in memory) skip the single-event check.
+EVENT_CHECK_MAX_SAMPLES = 50_000_000
+#: Fewest averages at a tau for the single-event check (the model variance known there).
+EVENT_MIN_AVERAGES = 30
 #: Points with fewer equivalent degrees of freedom (under the fitted model) are left out of the
 #: chi2/dof of the verdict and judged each by its own chi-squared distribution: with EDF 1-3 the
 #: variance is far from Gaussian (one average: 5 % below 0.004 of its mean), and among octaves
@@ -192,6 +209,8 @@ class NoiseModel:
     verdict: str = ""
     max_misfit: float = 1.0  # largest ratio between model and measured deviation (>= 1)
     checks: tuple[str, ...] = ()
+    p_value: float = math.nan  # of the chi2 test of the five-term fit (MODEL_CHECK_ALPHA)
+    event: Event | None = None  # the largest single Allan term (data given)
 
     def model_dev(self, taus: NDArray, term: str | None = None) -> NDArray:
         """Model deviation at ``taus`` (all terms, or one term's asymptote)."""
@@ -208,14 +227,22 @@ class NoiseModel:
             "model": "IEEE Std 952-1997 Annex C five-term Allan variance",
             "instrument": self.instrument,
             "terms": {k: t.to_dict() for k, t in self.terms.items()},
-            "chi2_per_dof": self.chi2_per_dof,
+            "chi2_per_dof": _finite_or_none(self.chi2_per_dof),
             "dof": self.dof,
             "fits": self.fits,
             "verdict": self.verdict,
-            "max_misfit": self.max_misfit,
+            "max_misfit": _finite_or_none(self.max_misfit),
+            "p_value": _finite_or_none(self.p_value),
+            "test_level": MODEL_CHECK_ALPHA,
+            "largest_event": None if self.event is None else self.event.to_dict(),
             "checks": list(self.checks),
             "bound_definition": BOUND_DEFINITION,
         }
+
+
+def _finite_or_none(v: float) -> float | None:
+    """``v``, or None where nothing was fitted (NaN): JSON has no NaN."""
+    return v if math.isfinite(v) else None
 
 
 def simulate_noise(
@@ -421,29 +448,46 @@ def allan_covariance_basis(ms: NDArray, ns: NDArray, tau0: float) -> tuple[NDArr
     return g, h
 
 
+@functools.lru_cache(maxsize=8)
+def _covariance_basis_cached(ms: tuple[int, ...], ns: tuple[int, ...],
+                             tau0: float) -> tuple[NDArray, NDArray]:
+    """:func:`allan_covariance_basis`, kept for the next record of the same grid and length.
+
+    The channels of a recording and Monte Carlo runs share it; the arrays are read-only.
+    """
+    g, h = allan_covariance_basis(np.asarray(ms), np.asarray(ns), tau0)
+    g.flags.writeable = False
+    h.flags.writeable = False
+    return g, h
+
+
 def _fit(taus: NDArray, var: NDArray, edf: NDArray,
          upper: NDArray | None = None) -> tuple[NDArray, NDArray, float]:
     """Iteratively reweighted bounded least squares of the squares (0 <= p <= upper).
 
-    Returns (p, weights, chi2 per dof) with the weights ``1 / (model sqrt(2/edf))``.
+    Returns (p, weights, chi2 per dof) with the weights ``1 / (model sqrt(2/edf))``. A term
+    whose upper bound is zero is held at zero.
     """
     a = basis(taus)
     sd = var * np.sqrt(2.0 / edf)
     p = np.zeros(5)
     hi = np.full(5, np.inf) if upper is None else upper
+    use = hi > 0
     for _ in range(8):
         w = 1.0 / np.where(sd > 0, sd, np.max(sd) if np.max(sd) > 0 else 1.0)
-        aw = a * w[:, None]
+        aw = a[:, use] * w[:, None]
         scale = np.where(np.max(np.abs(aw), axis=0) > 0, np.max(np.abs(aw), axis=0), 1.0)
-        sol = lsq_linear(aw / scale, var * w, bounds=(np.zeros(5), hi * scale),
+        sol = lsq_linear(aw / scale, var * w, bounds=(np.zeros(int(use.sum())),
+                                                      hi[use] * scale),
                          method="bvls", tol=1e-12)
-        p = sol.x / scale
+        p = np.zeros(5)
+        p[use] = sol.x / scale
         model = a @ p
         sd_new = np.where(model > 0, model, var) * np.sqrt(2.0 / edf)
         if np.allclose(sd_new, sd, rtol=1e-6):
             break
         sd = sd_new
-    w = 1.0 / sd
+    w = 1.0 / np.where(sd > 0, sd, np.max(sd) if np.max(sd) > 0 else 1.0)
     resid = (var - a @ p) * w
     dof = max(1, taus.size - int((p > 0).sum()))
     return p, w, float(np.sum(resid * resid)) / dof
@@ -483,13 +527,29 @@ def _gls(taus: NDArray, var: NDArray, cov_of: Callable[[NDArray], NDArray], uppe
         chi2 = float(r @ r) / dof
         cov_p = np.zeros((5, 5))
         if active.any():
-            sub = aw[:, active]
             idx = idx_free[active]
-            sc = scale[active]
-            cov_p[np.ix_(idx, idx)] = np.linalg.inv(sub.T @ sub) / np.outer(sc, sc)
+            cov_p[np.ix_(idx, idx)] = _square_covariance(aw[:, active], scale[active])
         if done:
             break
     return p, cov_p, chi2
+
+def _square_covariance(aw: NDArray, scale: NDArray) -> NDArray:
+    """``(A' A)^-1`` of the whitened, column-scaled design, back in the units of the squares.
+
+    Where the points do not determine the terms (more terms than points, or columns that the
+    measured taus cannot tell apart: a short record) the combinations left free have no
+    finite variance: every term in them gets an infinite one, so none of them is resolved.
+    """
+    rank = int(np.linalg.matrix_rank(aw))
+    if rank == aw.shape[1]:
+        return np.linalg.inv(aw.T @ aw) / np.outer(scale, scale)
+    _, sv, vt = np.linalg.svd(aw)
+    cov = (vt[:rank].T / sv[:rank] ** 2) @ vt[:rank]
+    free = np.any(np.abs(vt[rank:]) > 1e-9, axis=0)  # terms in the design's null space
+    cov[np.ix_(free, free)] = 0.0
+    cov[free, free] = np.inf
+    return cov / np.outer(scale, scale)
+
 
 def _verdict(var: NDArray, model: NDArray, cov: NDArray, edf: NDArray,
              n_active: int) -> tuple[float, int, NDArray, NDArray]:
@@ -565,8 +625,108 @@ def tangent_bounds(result: DeviationResult, *,
     return np.sqrt(line_sq[k, np.arange(5)]), taus[k]
 
 
+@dataclass(frozen=True)
+class Event:
+    """The largest single Allan term of a record against the fitted model (:func:`largest_event`).
+
+    ``ratio`` is ``d^2 / (2 tau^2 sigma^2)`` of the largest second difference ``d`` of the
+    phase at ``tau_s`` [s] (chi-squared with 1 dof under the model), centred at ``time_s`` [s]
+    from the start; ``p_value`` its Bonferroni p-value over every term of every tau checked.
+    """
+
+    tau_s: float
+    time_s: float
+    ratio: float
+    p_value: float
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready mapping (``test_level``: :data:`EVENT_ALPHA`)."""
+        return {**dataclasses.asdict(self), "test_level": EVENT_ALPHA}
+
+
+def largest_event(data: ArrayLike, result: DeviationResult, taus: NDArray,
+                  model_var: NDArray) -> Event | None:
+    """Single-event check: the largest overlapping Allan term against the fitted model.
+
+    Parameters
+    ----------
+    data : (N,) array
+        The record ``result`` was computed from (rate or angle samples, same unit).
+    result : DeviationResult
+        Its overlapping (or plain) Allan deviation.
+    taus : (k,) array
+        Averaging times [s] to check (those of the fit); only those with at least
+        :data:`EVENT_MIN_AVERAGES` averages are used.
+    model_var : (k,) array
+        Allan variance of the fitted five-term model at ``taus``.
+
+    Returns
+    -------
+    Event or None
+        None when nothing can be checked (no tau with enough averages, a record not in memory
+        or of more than :data:`EVENT_CHECK_MAX_SAMPLES` samples).
+
+    Notes
+    -----
+    Under the five-term model (Gaussian noise) each second difference
+    ``d_i = x_{i+2m} - 2 x_{i+m} + x_i`` of the phase is normal with variance
+    ``2 tau^2 sigma^2(tau)`` (NIST SP 1065 eq. 14), so ``d_i^2 / (2 tau^2 sigma^2)`` is
+    chi-squared with 1 dof; the largest of ``n`` terms at ``L`` taus exceeds ``t`` with
+    probability at most ``n L P(chi2_1 > t)`` (Bonferroni; the terms are correlated, so the
+    true rate is lower). A step of the rate, a spike or a burst is a single event the Allan
+    variance alone takes for rate random walk, quantization or flicker noise: the terms
+    around it stand out at the taus where the noise is small.
+    """
+    if isinstance(data, np.memmap) or not isinstance(data, (np.ndarray, list, tuple)):
+        return None
+    y = np.asarray(data, dtype=np.float64).ravel()
+    if y.size > EVENT_CHECK_MAX_SAMPLES or not np.all(np.isfinite(y)):
+        return None
+    tau0 = 1.0 / result.rate_hz
+    if result.data_type == "rate":
+        x = np.empty(y.size + 1)
+        x[0] = 0.0
+        np.cumsum((y - y.mean()) * tau0, out=x[1:])
+    else:
+        x = y
+    ms = np.rint(np.asarray(taus) / tau0).astype(np.int64)
+    use = ((x.size - 1) // ms >= EVENT_MIN_AVERAGES) & (model_var > 0)
+    if not use.any():
+        return None
+    from inertest.noise import kernels  # numba: loaded on first use
+
+    best: Event | None = None
+    for m, var in zip(ms[use], model_var[use], strict=True):
+        d, i = kernels.largest_second_diff(x, int(m))
+        tau = m * tau0
+        ratio = d * d / (2.0 * tau * tau * var)
+        p = min(1.0, float(_chi2.sf(ratio, 1)) * (x.size - 2 * m) * int(use.sum()))
+        if best is None or p < best.p_value:
+            best = Event(float(tau), float((i + m) * tau0), float(ratio), p)
+    return best
+
+
+def _bounds_only(result: DeviationResult, instrument: str | None, taus: NDArray,
+                 reason: str) -> NoiseModel:
+    """A :class:`NoiseModel` of upper bounds alone (:func:`tangent_bounds`), nothing fitted."""
+    warnings.warn(reason, NoiseFitWarning, stacklevel=3)
+    bound, bound_tau = tangent_bounds(result)
+    kind = instrument if instrument in _ENG else None
+    terms = {}
+    for i, name in enumerate(TERMS):
+        unit_si = _SI[kind][name]
+        unit, f = _ENG[kind][name] if kind else (unit_si, 1.0)
+        terms[name] = NoiseTerm(name, TERM_NAMES[name], False, None, None, float(bound[i]),
+                                unit_si, None, None, float(bound[i]) * f, unit,
+                                "not resolved: " + reason.split(":")[0], float(bound_tau[i]))
+    return NoiseModel(terms=terms, coefficients_sq=np.zeros(5), covariance_sq=np.zeros((5, 5)),
+                      taus=taus, instrument=kind, chi2_per_dof=math.nan, dof=0, fits=False,
+                      verdict=reason, max_misfit=math.nan, checks=(reason,))
+
+
 def identify_noise(
     result: DeviationResult, *, instrument: str | None = "gyro",
+    data: ArrayLike | None = None,
 ) -> NoiseModel:
     """Fit the five IEEE 952 terms to an (overlapping) Allan deviation.
 
@@ -578,6 +738,9 @@ def identify_noise(
     instrument : {"gyro", "accelerometer", None}
         Chooses the engineering units; None: dimensionless input (fractional frequency),
         terms in s, sqrt(s), 1, 1/sqrt(s), 1/s.
+    data : (N,) array, optional
+        The samples ``result`` was computed from (its unit and data type): with them the
+        single-event check (:func:`largest_event`) runs too.
 
     Returns
     -------
@@ -586,8 +749,10 @@ def identify_noise(
     Warns
     -----
     NoiseFitWarning
-        When chi2/dof exceeds :data:`CHI2_LIMIT`: the model does not describe the record and
-        no term is resolved (the message is also in ``NoiseModel.checks``).
+        When the model check fails (:data:`MODEL_CHECK_ALPHA`, :data:`EVENT_ALPHA`): the
+        model does not describe the record and no term is resolved (the message is also in
+        ``NoiseModel.checks``); or when the Allan deviation is known at one averaging time
+        only (2 or 3 rate samples): nothing is fitted, every term gets its upper bound.
     """
     if result.statistic not in ("oadev", "adev"):
         raise DataError(
@@ -604,9 +769,10 @@ def identify_noise(
     var = result.var[keep]
     edf = np.maximum(result.edf[keep], 1.0)
     if taus.size < 2:
-        raise DataError(
-            "noise identification needs the Allan deviation at 2 or more taus; record longer"
-        )
+        return _bounds_only(result, instrument, taus, (
+            f"the record is too short for the five-term fit: the Allan deviation at "
+            f"{taus.size} averaging time (it needs 2 or more; record at least 4 samples); "
+            "upper bounds only"))
     a = basis(taus)
     dev = np.sqrt(var)
     # B is bounded by the flat floor: its deviation 0.664 B never exceeds any measured
@@ -627,7 +793,8 @@ def identify_noise(
         # for the fitted noise mixture (neighbouring octaves share most of their data).
         tau0 = 1.0 / result.rate_hz
         ms = np.rint(taus / tau0).astype(np.int64)
-        g_cov, h_cov = allan_covariance_basis(ms, result.n[keep], tau0)
+        g_cov, h_cov = _covariance_basis_cached(tuple(ms.tolist()),
+                                                tuple(result.n[keep].tolist()), tau0)
 
         def cov_of(q: NDArray) -> NDArray:
             qg = q[:4]
@@ -643,8 +810,20 @@ def identify_noise(
     # never the largest one, are dropped one at a time, least significant first, and the rest
     # refitted: a spurious small term correlated with a real one would otherwise inflate (or,
     # at its bound, hide) the real one's std. Dropped terms get upper bounds only.
-    free = np.ones(5, dtype=bool)
+    free = upper > 0  # B is held at zero where a measured deviation is zero
     p, cov, chi2 = _gls(taus, var, cov_of, upper, p, floor, free)
+    # The verdict: the best fit of the whole five-term model, before terms are dropped for
+    # the report (a term too weak to report still shapes the Allan variance and its scatter)
+    fit_model = a @ p
+    chi2_fit, dof, few, outside = _verdict(var, fit_model, cov_of(p) + np.diag(floor), edf,
+                                           int((p > 0).sum()))
+    p_value = float(_chi2.sf(chi2_fit * dof, dof))
+    event = None if data is None else largest_event(data, result, taus, fit_model)
+    fits = bool(p_value >= MODEL_CHECK_ALPHA and not outside.any()
+                and (event is None or event.p_value >= EVENT_ALPHA))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fit_ratio = np.where(fit_model > 0, np.sqrt(np.maximum(fit_model, 0.0)) / dev, np.inf)
+    fit_miss = np.maximum(fit_ratio, 1.0 / fit_ratio)
     for _ in range(6):
         sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
         top = np.zeros(5, dtype=bool)
@@ -666,28 +845,36 @@ def identify_noise(
         ratio = np.where(model_dev > 0, model_dev / dev, np.inf)
     miss = np.maximum(ratio, 1.0 / ratio)
     max_misfit = float(np.max(miss))
-    chi2, dof, few, outside = _verdict(var, a @ p, cov_of(p) + np.diag(floor), edf,
-                                       int(active.sum()))
-    fits = bool(chi2 <= CHI2_LIMIT) and not outside.any()
     checks: list[str] = []
     few_note = ""
     if few.any():
         few_note = (f"; tau >= {taus[few].min():.4g} s (EDF < {VERDICT_MIN_EDF:g}) judged each "
                     f"by its chi-squared distribution, not in chi2/dof")
+    test = (f"chi2/dof = {chi2_fit:.3g} with {dof} dof, p = {p_value:.2g} (test at "
+            f"{MODEL_CHECK_ALPHA:g})")
+    if event is not None:
+        test += (f"; largest single Allan term {event.ratio:.3g}x the model's at tau = "
+                 f"{event.tau_s:.4g} s, t = {event.time_s:.6g} s, p = {event.p_value:.2g} "
+                 f"(test at {EVENT_ALPHA:g})")
     if fits:
-        verdict = (f"the five-term model fits: chi2/dof = {chi2:.3g} with {dof} dof "
-                   f"(limit {CHI2_LIMIT:g}){few_note}; largest model/measured deviation ratio "
-                   f"{max_misfit:.3g}")
+        verdict = (f"the five-term model fits: {test}{few_note}; largest model/measured "
+                   f"deviation ratio {max_misfit:.3g}")
     else:
         # The point to show: the worst few-average point outside its interval, else the
-        # worst of the points in chi2/dof.
-        k = int(np.argmax(np.where(outside if outside.any() else ~few, miss, -np.inf)))
-        verdict = (f"the five-term model does not fit: chi2/dof = {chi2:.3g} with {dof} dof "
-                   f"(limit {CHI2_LIMIT:g}){few_note}; it misses the Allan deviation by "
-                   f"{miss[k]:.3g}x at tau = {taus[k]:.4g} s"
-                   + (" (outside its chi-squared interval)" if outside.any() else "")
-                   + "; no term is reported as resolved (look for dither, vibration, motion "
-                   "or a trend in the record)")
+        # worst of the points in chi2/dof; and a single event.
+        why = []
+        if p_value < MODEL_CHECK_ALPHA or outside.any():
+            k = int(np.argmax(np.where(outside if outside.any() else ~few, fit_miss, -np.inf)))
+            why.append(f"it misses the Allan deviation by {fit_miss[k]:.3g}x at tau = "
+                       f"{taus[k]:.4g} s"
+                       + (" (outside its chi-squared interval)" if outside.any() else ""))
+        if event is not None and event.p_value < EVENT_ALPHA:
+            why.append(f"a single event near t = {event.time_s:.6g} s (a step, spike or burst: "
+                       f"one Allan term at tau = {event.tau_s:.4g} s is {event.ratio:.3g}x "
+                       "the model's)")
+        verdict = (f"the five-term model does not fit: {test}{few_note}; {'; '.join(why)}"
+                   + "; no term is reported as resolved (look for dither, vibration, motion, "
+                   "steps or a trend in the record)")
         checks.append(verdict)
         warnings.warn(verdict, NoiseFitWarning, stacklevel=2)
     # One definition of the bound (tangent_bounds, also the Kalibr export's): each term alone
@@ -732,5 +919,5 @@ def identify_noise(
                       "smallest upper 1-sigma limit of the measured deviations (the cap, not "
                       "the reported upper bound)")
     return NoiseModel(terms=terms, coefficients_sq=p, covariance_sq=cov, taus=taus,
-                      instrument=kind, chi2_per_dof=chi2, dof=dof, fits=fits, verdict=verdict,
-                      max_misfit=max_misfit, checks=tuple(checks))
+                      instrument=kind, chi2_per_dof=chi2_fit, dof=dof, fits=fits, verdict=verdict,
+                      max_misfit=max_misfit, checks=tuple(checks), p_value=p_value, event=event)

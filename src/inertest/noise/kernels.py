@@ -1366,3 +1366,68 @@ def modified_allan_pair(x: NDArray, m: int, n_mod: int, n_oa: int) -> tuple[floa
     if n_oa > n:
         oa += _ssq2(x[n:n_oa], x[n + m : n_oa + m], x[n + 2 * m : n_oa + 2 * m])
     return mod, oa
+
+
+@numba.njit(cache=True, nogil=True)
+def rn_block_sums(blocks: NDArray, points: NDArray, w: int) -> tuple[float, float, int, int]:
+    """Sums for R(n) = MVAR/AVAR from block sums (``deviations._rn_strided``).
+
+    ``blocks[k]``: sum of the phase points ``x[k b : (k+1) b]``; ``points[k] = x[k b]``; a
+    window is ``w`` blocks (``m = w b`` points). Returns the sum of squared second differences
+    of the window sums at lag ``w`` over every block start, the same of ``points``, and the
+    two term counts. Each window sum is summed afresh from its blocks every 64 starts, so the
+    running sum does not drift.
+    """
+    nb = blocks.shape[0]
+    nw = nb - w + 1  # window starts
+    win = np.empty(max(nw, 0))
+    s = 0.0
+    for k in range(nw):
+        if k % 64 == 0:
+            s = 0.0
+            for j in range(k, k + w):
+                s += blocks[j]
+        else:
+            s += blocks[k + w - 1] - blocks[k - 1]
+        win[k] = s
+    n_mod = max(nw - 2 * w, 0)
+    msum = 0.0
+    for k in range(n_mod):
+        d = win[k + 2 * w] - 2.0 * win[k + w] + win[k]
+        msum += d * d
+    n_oa = max(points.shape[0] - 2 * w, 0)
+    asum = 0.0
+    for k in range(n_oa):
+        d = points[k + 2 * w] - 2.0 * points[k + w] + points[k]
+        asum += d * d
+    return msum, asum, n_mod, n_oa
+
+
+@numba.njit(cache=True, nogil=True)
+def block_sums(x: NDArray, b: int) -> tuple[NDArray, NDArray]:
+    """Sums of ``x`` over blocks of ``b`` points (whole blocks only) and ``x[::b]``."""
+    nb = x.shape[0] // b
+    sums = np.empty(nb)
+    for k in range(nb):
+        s = 0.0
+        for j in range(k * b, (k + 1) * b):
+            s += x[j]
+        sums[k] = s
+    npts = (x.shape[0] + b - 1) // b
+    pts = np.empty(npts)
+    for k in range(npts):
+        pts[k] = x[k * b]
+    return sums, pts
+
+
+@numba.njit(cache=True, nogil=True)
+def largest_second_diff(x: NDArray, m: int) -> tuple[float, int]:
+    """Largest ``|x[i+2m] - 2 x[i+m] + x[i]|`` over every ``i`` and its ``i`` (one pass)."""
+    best = -1.0
+    at = 0
+    for i in range(x.shape[0] - 2 * m):
+        d = abs(x[i + 2 * m] - 2.0 * x[i + m] + x[i])
+        if d > best:
+            best = d
+            at = i
+    return best, at
