@@ -33,7 +33,7 @@ from inertest.io.plan_file import read_toml
 from inertest.models.sdf_gyro import COEFFICIENTS
 from inertest.procedures import procedure
 from inertest.quality.conformance import read_spec
-from inertest.quality.lab import identity_block, read_equipment, select_equipment
+from inertest.quality.lab import identity_block, read_equipment, select_equipment, test_time
 from inertest.report.conformance import conformance_sections
 from inertest.report.html import Section, page, paragraph, software_version
 from inertest.report.identity import identity_section
@@ -175,7 +175,7 @@ def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
         result = fit(plan, data)
         truth = procedure(plan.kind).truth_quantities(truth)
         block = identity_block(
-            plan.test, lab=lab, tested_at=datetime.now(UTC), software_version=version,
+            plan.test, lab=lab, tested=test_time(plan.test), software_version=version,
             data_sha256=columns_sha256(data), plan_source=f"plan {plan_path}",
             lab_source=f"lab file {cpath.parent / str(lab_file)}")
         spec = read_spec(cpath.parent / str(t["spec"])) if t.get("spec") else None

@@ -64,7 +64,8 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               "$INERTEST_DB or ~/.local/share/inertest/history.db).")
 @click.option("--tested-at", type=click.DateTime(formats=["%Y-%m-%d", "%Y-%m-%dT%H:%M:%S",
               "%Y-%m-%d %H:%M:%S"]), default=None,
-              help="When the test was run (UTC; default: now). For filing older data.")
+              help="When the test was performed (UTC). Overrides the plan's [test] date, and "
+              "says so; default: the plan's [test] date, else now. For filing older data.")
 @click.option("--allow-duplicate", is_flag=True,
               help="File a data file that is already stored for this instrument and procedure.")
 @click.option("--equipment", "equipment", type=_FILE, default=None,
@@ -107,9 +108,10 @@ def fit(
     print_result(out.result)
     print_conformance(doc)
     if out.stored_run is not None:
-        click.echo(safe_line(f"stored run of {out.plan.instrument.serial} in {out.database}"))
+        click.echo(safe_line(f"stored run {out.stored_run} of {out.plan.instrument.serial} in "
+                             f"{out.database}, filed {out.filed_at:%Y-%m-%d %H:%M:%S} UTC"))
     if out.report is not None:
-        click.echo(f"report: {out.report}")
+        click.echo(safe_line(f"report: {out.report} (report id {out.report_id})"))
 
 
 def print_conformance(doc: Mapping[str, object]) -> None:

@@ -109,8 +109,6 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
                          t_ref_c=t_ref_c, serial=serial)
-    from datetime import UTC, datetime
-
     from inertest.app.run import data_summary, file_run
     from inertest.io.data_file import file_sha256
     from inertest.plan import Instrument
@@ -131,12 +129,13 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
             f"max_degree = {max_degree}\nuse_rate = {str(not no_rate).lower()}\n"
             f"hidden = {hidden}\nmax_iter = {max_iter}\n"),
         data_sha256=digest, data_summary=data_summary(data, {}, digest),
-        tested_at=datetime.now(UTC), store=(db or True) if store else False,
+        store=(db or True) if store else False,
         report_dir=report_dir, inputs=[data], allow_duplicate=True, outputs=outputs,
-        report_html=lambda history: page(
+        report_html=lambda history, report_id, test: page(
             f"Temperature compensation: {quantity}",
             thermal_sections(result, title=f"{quantity} compensation"),
-            subtitle=f"data: {data}", identity=input_identity([data], serial=serial)))
+            subtitle=f"data: {data}", report_id=report_id,
+            identity=input_identity([data], serial=serial, test=test)))
     stored = outcome.stored_run
     if as_json:
         echo_json(outcome.to_dict())

@@ -59,7 +59,7 @@ def nine_position_sections(
         "one main-axis rate) is reduced to its mean over whole revolutions; the ten regressors, "
         "built from the exact inputs of the error-free machine with the Earth's rotation, are "
         "averaged over the same samples with the same weights, and the mean Earth rate on I is "
-        "subtracted (Ref. [centrifuge paper], eqs. 18-22: Sun Yingbo, Ren Shunqing, Wang "
+        "subtracted (eqs. 18-22 of Sun Yingbo, Ren Shunqing, Wang "
         "Changhong, Harbin Institute of Technology). One observation per run; omega is the "
         "signed arm rate (negative = clockwise seen from above)."))
     ident = result.identification
