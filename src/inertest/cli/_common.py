@@ -298,14 +298,16 @@ def command_line() -> str:
 def input_identity(
     files: Iterable[str | os.PathLike[str] | None] = (), *, source: str | None = None,
     serial: str | None = None, test: Mapping[str, Any] | None = None,
+    site: str | None = None, operator: str | None = None,
 ) -> list[list[str]]:
     """Identity rows of an analysis page: enough to reproduce it and to know whose it is.
 
     Each input file by the path given and its SHA-256 (or ``source`` for an input that is not
     a file: ``"simulated, seed 3"``, ``"built-in example"``), the exact command
     (:func:`command_line`) and the working folder it ran in, and the serial, site and operator
-    (``--serial``, ``--site``, ``--operator``, or ``serial`` and the ``test`` block of a
-    stored run; "not stated" otherwise, :func:`inertest.report.html.page`).
+    (``--serial``, ``--site``, ``--operator``; or ``serial``, ``site``, ``operator`` and the
+    ``test`` block from a plan or a stored run; "not stated" otherwise,
+    :func:`inertest.report.html.page`).
     """
     from inertest.io.data_file import file_sha256
     from inertest.report.identity import test_date_text
@@ -322,8 +324,9 @@ def input_identity(
     rows.append(["working folder", str(Path.cwd())])
     ctx = click.get_current_context(silent=True)
     given = dict(ctx.meta.get(_IDENTITY, {})) if ctx is not None else {}
-    if serial:
-        given.setdefault("serial", str(serial))
+    for key, value in (("serial", serial), ("site", site), ("operator", operator)):
+        if value:
+            given.setdefault(key, str(value))
     if test:
         if test.get("operator"):
             given.setdefault("operator", str(test["operator"]))

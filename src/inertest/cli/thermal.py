@@ -18,6 +18,7 @@ from inertest.cli._common import (
 )
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
+from inertest.plan import Plan
 from inertest.report.rounding import format_with_std
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -185,9 +186,11 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
     """
     from inertest.api import load_plan
     from inertest.procedures.thermal_triad import fit_triad_thermal
+    from inertest.quality.lab import test_time
 
     check_paths([model_out, report_dir], [plan, data])
-    result = fit_triad_thermal(load_plan(plan), read_table(data), degree=degree,
+    p = load_plan(plan)
+    result = fit_triad_thermal(p, read_table(data), degree=degree,
                                use_rate=use_rate, sigma=sigma, t_ref_c=t_ref_c)
     model = result.model() if model_out is not None else None
     if report_dir is not None:
@@ -197,7 +200,10 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         html = page("Triad calibration against temperature",
                     triad_thermal_sections(result, title="K, M, B against temperature"),
                     subtitle=f"plan: {plan}; data: {data}",
-                    identity=input_identity([plan, data]))
+                    identity=input_identity(
+                        [plan, data], serial=p.instrument.serial, site=plan_site_text(p),
+                        operator=p.test.operator if p.test is not None else None,
+                        test=test_time(p.test).to_dict()))
         with target_directory(report_dir, inputs=[plan, data]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if model is not None and model_out is not None:
@@ -231,6 +237,12 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         lo, hi = model.temperature_range_c
         click.echo(f"model: {model_out} (K, M, B laws of degree {degree}; valid {lo:.4g} to "
                    f"{hi:.4g} degC)")
+
+
+def plan_site_text(p: Plan) -> str:
+    """The plan's site as one identity row: latitude and gravity."""
+    return (f"latitude {p.site.latitude_deg:.6f} deg, gravity {p.site.gravity_m_s2:.7f} "
+            "m/s^2")
 
 
 @thermal.command(name="triad-simulate")

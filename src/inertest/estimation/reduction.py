@@ -8,8 +8,7 @@ lie in whole cycles, and :func:`whole_cycle_weights` gives averaging weights ove
 the weighted mean of the motion's low harmonics exactly zero, as the integral over whole cycles
 is. Output and regressors averaged with the same weights keep a linear model exact.
 
-Whole-cycle integration: Sun, Ren & Wang (seed ``004_f16e7c07e7c35fdc.txt``,
-Wang), eqs. 18-22.
+Whole-cycle integration: Sun, Ren & Wang (seed ``004_f16e7c07e7c35fdc.txt``), eqs. 18-22.
 """
 
 from __future__ import annotations

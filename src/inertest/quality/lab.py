@@ -357,6 +357,12 @@ class TestTime:
                                      if self.overrides is not None else ""))
         return "the time of the analysis (the plan gives no [test] date)"
 
+    def to_dict(self) -> dict[str, str | None]:
+        """``{"date", "tested_at", "date_source"}`` as in the envelope's ``test`` block."""
+        return {"date": self.date.isoformat(),
+                "tested_at": self.at.isoformat(timespec="seconds") if self.has_time else None,
+                "date_source": self.source}
+
     def override_message(self) -> str | None:
         """The notice printed when ``--tested-at`` overrides the plan's date, else None."""
         if self.overrides is None:
@@ -448,9 +454,7 @@ def identity_block(
                  for i in c.equipment]
     sig = dict(signatories or {})
     return {
-        "operator": c.operator, "date": date.isoformat(),
-        "tested_at": tested.at.isoformat(timespec="seconds") if tested.has_time else None,
-        "date_source": tested.source,
+        "operator": c.operator, **tested.to_dict(),
         "software_version": software_version, "data_sha256": data_sha256,
         "equipment": items, "environment": c.environment(), "notes": c.notes,
         "certificate": c.certificate or None,

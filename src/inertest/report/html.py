@@ -30,8 +30,8 @@ table { border-collapse: collapse; max-width: 100%; }
 caption { caption-side: top; text-align: left; font-style: italic; padding: 0.2em 0; }
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right;
          overflow-wrap: normal; word-break: normal; hyphens: manual; }
-td { white-space: nowrap; } td.w { white-space: normal; } td.x { white-space: normal;
-     overflow-wrap: anywhere; }
+td { white-space: nowrap; } td.w { white-space: normal; overflow-wrap: break-word; }
+td.x { white-space: normal; overflow-wrap: anywhere; } .nw { white-space: nowrap; }
 th { background: #eee; } td.l, th.l { text-align: left; }
 .note { background: #fff8e0; border-left: 4px solid #e0b000; padding: 0.4em 0.8em; }
 .warning { background: #fde8e8; border-left: 6px solid #c00000; padding: 0.4em 0.8em;
@@ -41,7 +41,7 @@ img { max-width: 100%; height: auto; } code, pre { background: #f3f3f3; }
 figcaption { font-style: italic; }
 pre { padding: 0.5em; font-size: 0.85em; max-width: 100%; white-space: pre-wrap;
       overflow-wrap: anywhere; }
-.sign td { height: 2.4em; min-width: 8em; }
+.sign table { width: 100%; } .sign td { height: 2.4em; width: 25%; white-space: normal; }
 .end { border-top: 2px solid #444; margin-top: 2em; padding-top: 0.4em; font-weight: bold; }
 @page { size: A4; margin: 16mm 14mm 16mm 14mm; }
 @media print {
@@ -72,10 +72,10 @@ _STACKED = (
     "{p}, {p} caption, {p} tbody, {p} tr, {p} td {{ display: block; }} "
     "{p} thead {{ display: none; }} "
     "{p} tr {{ border: 1px solid #bbb; margin: 0 0 0.4em 0; break-inside: avoid; }} "
-    "{p} td {{ border: none; text-align: left; white-space: normal; padding: 0.1em 0.6em; }} "
+    "{p} td {{ border: none; text-align: left; padding: 0.1em 0.6em; }} "
     "{p} td:first-child {{ background: #eee; font-weight: bold; }} "
-    "{p} td:not(:first-child)::before {{ content: attr(data-label) \": \"; "
-    "font-style: italic; }}"
+    "{p} td:not(:first-child)::before {{ content: attr(data-label); display: block; "
+    "white-space: normal; font-style: italic; font-size: 0.85em; color: #555; }}"
 )
 
 
@@ -147,7 +147,7 @@ def table_html(
         attr = f' class="{cls}"' if cls else ""
         if tag == "td":
             attr += f' data-label="{html.escape(labels[i])}"'
-        return f"<{tag}{attr}>{_escape_cell(v)}</{tag}>"
+        return f"<{tag}{attr}>{_escape_cell(v, kind)}</{tag}>"
 
     head = "".join(cell("th", i, h) for i, h in enumerate(labels))
     body = "".join("<tr>" + "".join(cell("td", i, v) for i, v in enumerate(r)) + "</tr>"
@@ -181,12 +181,21 @@ def _longest_word(v: str) -> int:
 
 
 def _glued(v: str) -> str:
-    """``v`` with a value, its ``±`` and its uncertainty held together (no-break spaces)."""
-    return v.replace(" ± ", "\u00a0±\u00a0")
+    """``v`` with value, ``±`` and uncertainty (or ``<`` and bound) held by no-break spaces."""
+    v = v.replace(" ± ", "\u00a0±\u00a0")
+    return "<\u00a0" + v[2:] if v.startswith("< ") else v
 
 
-def _escape_cell(v: str) -> str:
-    return html.escape(_glued(v))
+#: A word that must stay whole when its cell wraps: a number, an id, an option (``--rate``).
+_WHOLE = re.compile(r"\S*\d\S*|-\S+")
+
+
+def _escape_cell(v: str, kind: str = "") -> str:
+    """The cell's text as HTML; in a wrapping cell every number is kept on one line."""
+    text = html.escape(_glued(v))
+    if kind != "w":
+        return text
+    return _WHOLE.sub(lambda m: f'<span class="nw">{m.group()}</span>', text)
 
 
 def _is_float(v: object) -> bool:
