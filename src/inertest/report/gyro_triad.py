@@ -108,8 +108,8 @@ def pair_bias_note(result: GyroRateTableResult) -> str | None:
         return None
     fitted = [n for n in ("asymmetry", "K2") if n in result.identification.coefficients]
     return (f"The pair bias climbs from {format_with_std(lo['B'], u)} deg/h at "
-            f"±{format_number(lo['rate_deg_s'])} deg/s to {format_with_std(hi['B'], u)} deg/h "
-            f"at ±{format_number(hi['rate_deg_s'])} deg/s: the closed form counts the whole "
+            f"±{lo['rate_deg_s']:g} deg/s to {format_with_std(hi['B'], u)} deg/h "
+            f"at ±{hi['rate_deg_s']:g} deg/s: the closed form counts the whole "
             "even part of a pair's outputs as bias, and a scale-factor asymmetry (K+ ≠ K−) "
             "adds (K+ − K−)ω/(2K), growing with the rate, a second-order term K2 adds K2 ω², "
             "growing with its square. It is not the gyro's bias: the least-squares B above is "

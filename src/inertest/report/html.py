@@ -42,6 +42,7 @@ figcaption { font-style: italic; }
 pre { padding: 0.5em; font-size: 0.85em; max-width: 100%; white-space: pre-wrap;
       overflow-wrap: anywhere; }
 .sign table { width: 100%; } .sign td { height: 2.4em; width: 25%; white-space: normal; }
+.closing { break-inside: avoid; page-break-inside: avoid; }
 .end { border-top: 2px solid #444; margin-top: 2em; padding-top: 0.4em; font-weight: bold; }
 @page { size: A4; margin: 16mm 14mm 16mm 14mm; }
 @media print {
@@ -66,14 +67,17 @@ _CELL_PAD_CH = 2.6
 _WRAP_FROM = 40
 
 
-#: The stacked layout of a table (``{p}`` is the table's selector): rows one below the other,
-#: each cell on its own line as ``column: value``.
+#: The stacked layout of a table (``{p}`` is the table's selector): each row a card, its name
+#: on top and its cells side by side as far as they fit, each cell its column's name above
+#: its value (the value kept on one line).
 _STACKED = (
-    "{p}, {p} caption, {p} tbody, {p} tr, {p} td {{ display: block; }} "
+    "{p}, {p} caption, {p} tbody {{ display: block; }} "
     "{p} thead {{ display: none; }} "
-    "{p} tr {{ border: 1px solid #bbb; margin: 0 0 0.4em 0; break-inside: avoid; }} "
-    "{p} td {{ border: none; text-align: left; padding: 0.1em 0.6em; }} "
-    "{p} td:first-child {{ background: #eee; font-weight: bold; }} "
+    "{p} tr {{ display: flex; flex-wrap: wrap; gap: 0.1em 1.2em; border: 1px solid #bbb; "
+    "margin: 0 0 0.4em 0; padding: 0 0 0.2em 0; break-inside: avoid; }} "
+    "{p} td {{ display: block; flex: 0 1 auto; border: none; text-align: left; "
+    "padding: 0.1em 0.6em; }} "
+    "{p} td:first-child {{ flex: 1 1 100%; background: #eee; font-weight: bold; }} "
     "{p} td:not(:first-child)::before {{ content: attr(data-label); display: block; "
     "white-space: normal; font-style: italic; font-size: 0.85em; color: #555; }}"
 )
@@ -186,8 +190,9 @@ def _glued(v: str) -> str:
     return "<\u00a0" + v[2:] if v.startswith("< ") else v
 
 
-#: A word that must stay whole when its cell wraps: a number, an id, an option (``--rate``).
-_WHOLE = re.compile(r"\S*\d\S*|-\S+")
+#: A word that must stay whole when its cell wraps: a number, an id, an option (``--rate``);
+#: not a path (``/data/run 3/x.csv`` may break where it must).
+_WHOLE = re.compile(r"(?<!\S)(?:[^\s/]*\d[^\s/]*|-[^\s/]+)(?!\S)")
 
 
 def _escape_cell(v: str, kind: str = "") -> str:
@@ -256,7 +261,7 @@ class Approval:
 def approval_section(approval: Approval) -> Section:
     """The signature block: performed, reviewed and approved by, with dates."""
     rows = "".join(
-        "<tr>" + "".join(f'<td class="l">{html.escape(v)}</td>' for v in r) + "</tr>"
+        "<tr>" + "".join(f'<td class="l">{_escape_cell(v, "w")}</td>' for v in r) + "</tr>"
         for r in approval.rows())
     head = "".join(f'<th class="l">{h}</th>' for h in ("", "name", "date", "signature"))
     return Section("Approval", [
@@ -321,12 +326,15 @@ def page(title: str, sections: Sequence[Section], *, subtitle: str = "",
     if approval is None:
         op = given.get("operator", "")
         approval = Approval(performed_by="" if op.startswith("not stated") else op)
-    sections = [*sections, approval_section(approval)]
     body = "".join(
         f"<section><h2>{html.escape(s.title)}</h2>{''.join(s.parts)}</section>" for s in sections
     )
-    body += (f'<p class="end">End of report {html.escape(report_id)}'
-             f"{' (serial ' + html.escape(serial) + ')' if serial else ''}: nothing follows.</p>")
+    sign = approval_section(approval)
+    # the signatures and the end of the report are printed together, on the last page
+    body += (f'<section class="closing"><h2>{sign.title}</h2>{"".join(sign.parts)}'
+             f'<p class="end">End of report {html.escape(report_id)}'
+             f"{' (serial ' + html.escape(serial) + ')' if serial else ''}: nothing follows."
+             "</p></section>")
     style = _CSS + _page_boxes(report_id, serial, title) + _stack_rules(body)
     return (
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
