@@ -179,3 +179,16 @@ def test_valid_range_keeps_no_round_off_and_every_training_point(values, expecte
     assert (lo, hi) == expected
     tol = RANGE_RTOL * max(hi - lo, abs(lo), abs(hi), 1e-300)
     assert min(values) >= lo - tol and max(values) <= hi + tol
+
+
+def test_examples_and_reports_cite_sources_not_placeholders(examples_dir):
+    """No "seed 00x" in the example plans' comments and no "Ref. [centrifuge paper]"
+    placeholder in what a user reads: the sources are named by authors and title."""
+    for path in examples_dir.rglob("*"):
+        if path.suffix in (".toml", ".md"):
+            text = path.read_text(encoding="utf-8")
+            assert not re.search(r"seed 00\d", text), path
+            assert "[centrifuge paper]" not in text, path
+    src = examples_dir.parent / "src" / "inertest"
+    for path in [*src.glob("report/*.py"), src / "studies" / "centrifuge_study.py"]:
+        assert "[centrifuge paper]" not in path.read_text(encoding="utf-8"), path
