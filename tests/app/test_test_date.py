@@ -133,6 +133,9 @@ def test_refiling_old_data_puts_it_at_its_test_date(examples_dir, tmp_path, caps
     assert main(["history", "FG-0417", "--db", str(db), "--json"]) == 0
     runs = json.loads(capsys.readouterr().out)["result"]["runs"]
     assert [r["tested_at"][:10] for r in runs] == ["2026-01-01", "2026-02-01", "2026-03-01"]
+    # filed in the other order: March first
+    filed = [datetime.fromisoformat(r["filed_at"]) for r in runs]
+    assert filed[2] <= filed[0] and filed[2] <= filed[1]
     assert main(["history", "FG-0417", "--db", str(db)]) == 0
     assert "2026-01-01 to 2026-03-01, test dates" in capsys.readouterr().out
 

@@ -61,7 +61,10 @@ _LAYOUT_JS = """() => {
         if (tops.size < 2) continue;
         // in a cell a number (any word with a digit) never breaks, other words may wrap;
         // in a header or caption a word breaks only after its own hyphen or slash
-        if (cell.tagName === 'TD') { if (/\\d/.test(m[0])) split.push(m[0]); continue; }
+        if (cell.tagName === 'TD') {
+          if (/\\d/.test(m[0]) && !m[0].includes('/')) split.push(m[0]);  // a path may break
+          continue;
+        }
         for (let i = 1; i < m[0].length; i++) {
           const a = document.createRange(), b = document.createRange();
           a.setStart(node, m.index + i - 1); a.setEnd(node, m.index + i);
@@ -154,7 +157,9 @@ class _CellNumbers(HTMLParser):
 
     def handle_data(self, data):
         if self.depth and not self.skip:
-            self.numbers.update(m.group() for m in _NUMBER.finditer(data.replace("\u00a0", " ")))
+            for word in data.replace("\u00a0", " ").split():
+                if "/" not in word:  # a path is no number
+                    self.numbers.update(m.group() for m in _NUMBER.finditer(word))
 
 
 def _report_id(html: str) -> str:

@@ -142,6 +142,7 @@ def run(
     equipment: PathLike | Mapping[str, Equipment] | None = None,
     spec: PathLike | Spec | None = None,
     noise_model: str | None = None,
+    command: str | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -184,6 +185,9 @@ def run(
         stored run) and the report.
     noise_model : str, optional
         Overrides the plan's ``[procedure] noise_model`` (:func:`inertest.api.fit`).
+    command : str, optional
+        The command line that ran this (``inertest fit ...``), stated in the report beside each
+        input file's path and SHA-256, so that the report can be reproduced from itself.
 
     Returns
     -------
@@ -197,8 +201,10 @@ def run(
     """
     plan_path = None if isinstance(plan, Plan) else Path(plan)
     data_path = None if isinstance(data, Mapping) else Path(data)
+    sources = [Path(x) for x in (plan_path, data_path, equipment, spec)
+               if isinstance(x, str | os.PathLike)]
     if report_dir is not None:
-        check_outputs([report_dir], [p for p in (plan_path, data_path) if p is not None])
+        check_outputs([report_dir], sources)
     if pdf and report_dir is None:
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
@@ -223,7 +229,7 @@ def run(
         result, p, plan_text=plan_text, data_sha256=digest, data_summary=data_summary(
             data_path, d, digest), tested_at=tested_at, store=store, report_dir=report_dir, pdf=pdf,
         allow_duplicate=allow_duplicate, warnings_=messages,
-        inputs=[x for x in (plan_path, data_path) if x is not None], lab=lab,
+        inputs=sources, lab=lab, command=command,
         lab_source=lab_source, plan_source=source_name("plan", plan_path), budget=budget,
         conformance=conformance, signatories=signatories, spec=spec_doc)
 
@@ -303,6 +309,7 @@ def file_run(
     outputs: Callable[[], None] | None = None,
     signatories: Mapping[str, str] | None = None,
     spec: Spec | None = None,
+    command: str | None = None,
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`).
 
@@ -313,7 +320,9 @@ def file_run(
     other files (figures, model files) inside the transaction: when it fails, the run is
     withdrawn and the report not moved into place.
 
-    ``tested_at`` is ``--tested-at`` (None: the plan's ``[test] date``, else now); the one test
+    The report states each of ``inputs`` by its path and SHA-256, and ``command`` (the command
+    line) when given. ``tested_at`` is ``--tested-at`` (None: the plan's ``[test] date``, else
+    now); the one test
     date it resolves to (:func:`inertest.quality.lab.test_time`) dates the record, the report,
     the equipment's calibration status and the history. A stored run also carries when it was
     filed (``test.filed_at``); a run not stored has no filing time. With a report, the folder
@@ -389,7 +398,7 @@ def file_run(
             html = (report_html(history, report_id=report_id, test=test)
                     if report_html is not None else _report_html(
                         result, plan, plan_text, data_summary, tested, version, history, test,
-                        envelope_doc, report_id, spec))
+                        envelope_doc, report_id, spec, source_rows(inputs, command)))
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -440,7 +449,7 @@ def _report_html(result: Any, plan: Plan | None, plan_text: str,
                  tested: TestTime, version: str, history: list,
                  test: Mapping[str, Any] | None = None,
                  doc: Mapping[str, Any] | None = None, report_id: str = "",
-                 spec: Spec | None = None) -> str:
+                 spec: Spec | None = None, sources: Sequence[Sequence[str]] = ()) -> str:
     from inertest.report.campaign import campaign_page
 
     if plan is None:
@@ -454,8 +463,20 @@ def _report_html(result: Any, plan: Plan | None, plan_text: str,
               "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
         plan_text=plan_text, data=data_summary, tested=tested,
         software_version=version, history=history, test=test, report_id=report_id, spec=spec,
+        sources=sources,
         uncertainty_budget=None if doc is None else doc.get("uncertainty_budget"),
         conformance=None if doc is None else doc.get("conformance"))
+
+
+def source_rows(inputs: Sequence[PathLike], command: str | None) -> list[list[str]]:
+    """Identity rows that reproduce a report: each input's path and SHA-256, the command."""
+    rows: list[list[str]] = []
+    for f in inputs:
+        p = Path(f)
+        rows += [["input file", str(p)], [f"SHA-256 of {p.name}", file_sha256(p)]]
+    if command:
+        rows += [["command", command], ["working folder", str(Path.cwd())]]
+    return rows
 
 
 def data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:

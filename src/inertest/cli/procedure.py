@@ -12,6 +12,7 @@ from inertest.cli import safe_line
 from inertest.cli._common import (
     REAL,
     check_paths,
+    command_line,
     echo_json,
     print_identity,
     print_table,
@@ -97,7 +98,7 @@ def fit(
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
               allow_duplicate=allow_duplicate, equipment=equipment, spec=spec,
-              noise_model=noise_model)
+              noise_model=noise_model, command=command_line())
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:

@@ -47,6 +47,7 @@ def campaign_page(
     conformance: Mapping[str, Any] | None = None,
     report_id: str = "",
     spec: Spec | None = None,
+    sources: Sequence[Sequence[str]] = (),
 ) -> str:
     """The complete HTML report of one fit.
 
@@ -74,6 +75,8 @@ def campaign_page(
         Certificate number or run id, printed on every page.
     spec : Spec, optional
         The specification: its limits are drawn in the history.
+    sources : sequence of [item, value]
+        Identity rows that reproduce the report: input paths and SHA-256, the command.
     """
     serial = str(instrument.get("serial") or "unnamed instrument")
     doc = result.to_dict()
@@ -81,7 +84,7 @@ def campaign_page(
         doc = {**doc, "test": dict(test)}
     rows = [[k, v] for k, v in instrument.items() if k not in ("serial", "kind")]
     head = identity_section("Instrument, site and test", doc, extra_rows=[
-        ["report id", report_id], *rows, ["procedure", result.procedure]],
+        ["report id", report_id], *rows, ["procedure", result.procedure], *sources],
         software_version=software_version)
     plan = Section("Plan", [preformatted(plan_text)])
     data_sec = Section("Data", [table_html(["item", "value"], [[k, v] for k, v in data.items()])])

@@ -31,7 +31,7 @@ caption { caption-side: top; text-align: left; font-style: italic; padding: 0.2e
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right;
          overflow-wrap: normal; word-break: normal; hyphens: manual; }
 td { white-space: nowrap; } td.w { white-space: normal; overflow-wrap: break-word; }
-td.x { white-space: normal; overflow-wrap: anywhere; } .nw { white-space: nowrap; }
+td.x, td .p { white-space: normal; overflow-wrap: anywhere; } .nw { white-space: nowrap; }
 th { background: #eee; } td.l, th.l { text-align: left; }
 .note { background: #fff8e0; border-left: 4px solid #e0b000; padding: 0.4em 0.8em; }
 .warning { background: #fde8e8; border-left: 6px solid #c00000; padding: 0.4em 0.8em;
@@ -41,7 +41,7 @@ img { max-width: 100%; height: auto; } code, pre { background: #f3f3f3; }
 figcaption { font-style: italic; }
 pre { padding: 0.5em; font-size: 0.85em; max-width: 100%; white-space: pre-wrap;
       overflow-wrap: anywhere; }
-.sign table { width: 100%; } .sign td { height: 2.4em; width: 25%; white-space: normal; }
+.sign table { width: 100%; } .sign td { height: 2.4em; }
 .closing { break-inside: avoid; page-break-inside: avoid; }
 .end { border-top: 2px solid #444; margin-top: 2em; padding-top: 0.4em; font-weight: bold; }
 @page { size: A4; margin: 16mm 14mm 16mm 14mm; }
@@ -77,7 +77,8 @@ _STACKED = (
     "margin: 0 0 0.4em 0; padding: 0 0 0.2em 0; break-inside: avoid; }} "
     "{p} td {{ display: block; flex: 0 1 auto; border: none; text-align: left; "
     "padding: 0.1em 0.6em; }} "
-    "{p} td:first-child {{ flex: 1 1 100%; background: #eee; font-weight: bold; }} "
+    "{p} td:first-child {{ flex: 1 1 100%; background: #eee; font-weight: bold; "
+    "white-space: normal; }} "
     "{p} td:not(:first-child)::before {{ content: attr(data-label); display: block; "
     "white-space: normal; font-style: italic; font-size: 0.85em; color: #555; }}"
 )
@@ -190,9 +191,15 @@ def _glued(v: str) -> str:
     return "<\u00a0" + v[2:] if v.startswith("< ") else v
 
 
-#: A word that must stay whole when its cell wraps: a number, an id, an option (``--rate``);
-#: not a path (``/data/run 3/x.csv`` may break where it must).
-_WHOLE = re.compile(r"(?<!\S)(?:[^\s/]*\d[^\s/]*|-[^\s/]+)(?!\S)")
+#: A word a browser could break inside when its cell wraps, which must stay whole: a number or
+#: date with a hyphen or sign inside (``-6.2e-11``, ``2026-11-16``, ``517-1974``), an option
+#: (``--rate``); not a path (``/data/run 3/x.csv`` may break where it must).
+_WHOLE = re.compile(r"(?<!\S)(?:[^\s/]*\d[^\s/]*[-+][^\s/]*|[^\s/]*[-+][^\s/]*\d[^\s/]*"
+                    r"|--?[A-Za-z][^\s/]*)(?!\S)")
+
+
+#: A long path in a wrapping cell: it may break anywhere (a narrow page has no room for it).
+_PATH = re.compile(r"(?<!\S)[^\s<>]*/[^\s<>]{20,}(?!\S)")
 
 
 def _escape_cell(v: str, kind: str = "") -> str:
@@ -200,7 +207,8 @@ def _escape_cell(v: str, kind: str = "") -> str:
     text = html.escape(_glued(v))
     if kind != "w":
         return text
-    return _WHOLE.sub(lambda m: f'<span class="nw">{m.group()}</span>', text)
+    text = _WHOLE.sub(lambda m: f'<span class="nw">{m.group()}</span>', text)
+    return _PATH.sub(lambda m: f'<span class="p">{m.group()}</span>', text)
 
 
 def _is_float(v: object) -> bool:
@@ -260,13 +268,9 @@ class Approval:
 
 def approval_section(approval: Approval) -> Section:
     """The signature block: performed, reviewed and approved by, with dates."""
-    rows = "".join(
-        "<tr>" + "".join(f'<td class="l">{_escape_cell(v, "w")}</td>' for v in r) + "</tr>"
-        for r in approval.rows())
-    head = "".join(f'<th class="l">{h}</th>' for h in ("", "name", "date", "signature"))
-    return Section("Approval", [
-        f'<div class="tw sign"><table><caption>Signatures (blank: to be filled in by hand)'
-        f"</caption><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table></div>"])
+    return Section("Approval", ['<div class="sign">' + table_html(
+        ["", "name", "date", "signature"], approval.rows(), left_columns=4,
+        caption="Signatures (blank: to be filled in by hand)") + "</div>"])
 
 
 #: Identity rows every report has; absent ones are printed as not stated, with the option.
