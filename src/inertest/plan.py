@@ -307,18 +307,28 @@ class TestConditions:
     ::
 
         [test]
-        operator = "A. Engineer"
-        date = 2026-11-20            # test date (TOML date; the day of the fit when absent)
+        operator = "A. Engineer"     # performed by
+        date = 2026-11-20            # test date: TOML date, or date-time 2026-11-20T09:30:00Z
         equipment = ["RT-02"]        # ids in the lab equipment file (inertest.quality.lab)
         temperature_C = 22.5
         humidity_pct = 41
         warm_up_min = 60
         notes = "thermal chamber closed"
+        certificate = "CAL-2026-0117"  # certificate number (the report id)
+        reviewed_by = "B. Reviewer"    # approval fields of the report (optional)
+        review_date = 2026-11-23
+        approved_by = "C. Quality-Manager"
+        approval_date = 2026-11-24
 
     Attributes
     ----------
     operator : str
+        Who performed the test.
     date : datetime.date or None
+        The test date (UTC date of a date-time); the date of the analysis when absent.
+    time_utc : datetime.time or None
+        The time of day when ``date`` is a TOML date-time (an offset is converted to UTC; a
+        local date-time is taken as UTC).
     equipment : tuple of str
         Ids of the equipment used, resolved against a lab file by :func:`inertest.quality.lab.
         select_equipment`.
@@ -329,17 +339,28 @@ class TestConditions:
     warm_up_min : float or None
         Warm-up time of the instrument before the first measurement [min].
     notes : str
+    certificate : str
+        Certificate (report) number; the report id when given.
+    reviewed_by, approved_by : str
+        Who reviews and who approves the report (blank lines to sign when absent).
+    review_date, approval_date : datetime.date or None
     """
 
     __test__ = False                     # not a pytest class despite its name
 
     operator: str = ""
     date: _dt.date | None = None
+    time_utc: _dt.time | None = None
     equipment: tuple[str, ...] = ()
     temperature_C: float | None = None
     humidity_pct: float | None = None
     warm_up_min: float | None = None
     notes: str = ""
+    certificate: str = ""
+    reviewed_by: str = ""
+    review_date: _dt.date | None = None
+    approved_by: str = ""
+    approval_date: _dt.date | None = None
 
     def environment(self) -> dict[str, dict[str, object]]:
         """``{name: {"value", "unit"}}`` of the conditions given (JSON and report rows)."""
@@ -356,25 +377,46 @@ TEST_FIELDS = (
     Field("humidity_pct", default=None, unit="%", minimum=0.0, maximum=100.0),
     Field("warm_up_min", default=None, unit="min", minimum=0.0),
     Field("notes", "text", default=""),
+    Field("certificate", "text", default="", doc="the certificate (report) number"),
+    Field("reviewed_by", "text", default="", doc="who reviews the report"),
+    Field("approved_by", "text", default="", doc="who approves the report"),
 )
+#: Date keys of ``[test]`` (read by :func:`read_test_table`, not by :data:`TEST_FIELDS`).
+TEST_DATE_KEYS = ("date", "review_date", "approval_date")
 
 
 def read_test_table(table: Mapping[str, Any], where: str) -> TestConditions:
-    """A plan's ``[test]`` table by :data:`TEST_FIELDS` (plus ``date``); unknown keys are errors."""
+    """A plan's ``[test]`` table by :data:`TEST_FIELDS` (plus its dates); unknown keys are errors.
+
+    ``date`` may be a TOML date or date-time (with its time of day, converted to UTC when it
+    has an offset, taken as UTC when not); ``review_date`` and ``approval_date`` are dates.
+    """
     if not isinstance(table, Mapping):
         raise PlanError(f"{where} must be a table")
-    v = read_fields(table, TEST_FIELDS, where, ignore=("date",))
-    d = table.get("date")
-    if isinstance(d, _dt.datetime):
-        d = d.date()
-    elif isinstance(d, str):
-        try:
-            d = _dt.date.fromisoformat(d)
-        except ValueError:
-            pass
-    if d is not None and not isinstance(d, _dt.date):
-        raise PlanError(f"{where}: date must be a date such as date = 2026-11-20, got {d!r}")
-    return TestConditions(date=d, **v)
+    v = read_fields(table, TEST_FIELDS, where, ignore=TEST_DATE_KEYS)
+    dates: dict[str, _dt.date | None] = {}
+    time_utc = None
+    for key in TEST_DATE_KEYS:
+        d = table.get(key)
+        if isinstance(d, str):
+            try:
+                d = _dt.datetime.fromisoformat(d) if "T" in d or " " in d.strip() \
+                    else _dt.date.fromisoformat(d)
+            except ValueError:
+                pass
+        if isinstance(d, _dt.datetime):
+            if d.tzinfo is not None:
+                d = d.astimezone(_dt.UTC).replace(tzinfo=None)
+            if key == "date":
+                time_utc = d.time()
+            d = d.date()
+        if isinstance(d, _dt.time) or d is not None and not isinstance(d, _dt.date):
+            raise PlanError(f"{where}: {key} must be a date such as {key} = 2026-11-20 (the "
+                            f"test date may have a time: 2026-11-20T09:30:00Z), got {d!r}")
+        dates[key] = d
+    return TestConditions(date=dates["date"], time_utc=time_utc,
+                          review_date=dates["review_date"],
+                          approval_date=dates["approval_date"], **v)
 
 
 def check_finite_document(

@@ -161,3 +161,41 @@ def test_false_flag_rate_matches_the_prediction_interval():
         flags += int(h.flagged[0])
     expected = 2 * stats.t.sf(3.0, df=n - 2)
     assert flags / trials == pytest.approx(expected, abs=0.01)
+
+
+def test_trend_line_and_its_std_against_scipy_curve_fit_prediction():
+    """The trend line at any time (here 60 days past the last run) and its standard uncertainty
+    equal scipy's curve_fit line a + b t with the standard error of a + b t from its covariance
+    (absolute sigma: the run stds are known)."""
+    t = np.array([0.0, 12.0, 40.0, 75.0, 101.0])
+    s = np.array([1.0, 2.0, 1.5, 0.7, 1.2]) * 1e-3
+    x = 0.02 + 3e-5 * t + np.array([0.4, -1.1, 0.6, 0.2, -0.5]) * 1e-3
+    h = summarize("DF", "deg/h", t, x, s)
+    p, cov = optimize.curve_fit(_line, t, x, p0=[0.0, 0.0], sigma=s, absolute_sigma=True)
+    tq = np.array([0.0, 50.0, 161.0])
+    g = np.column_stack([np.ones_like(tq), tq])
+    line, std = h.trend_line(tq)
+    np.testing.assert_allclose(line, _line(tq, *p), rtol=1e-9)
+    np.testing.assert_allclose(std, np.sqrt(np.einsum("ij,jk,ik->i", g, cov, g)), rtol=1e-6)
+
+
+def test_no_trend_line_from_two_runs():
+    h = summarize("DF", "deg/h", [0.0, 5.0], [1.0, 1.1], [0.1, 0.1])
+    with pytest.raises(InputError, match="at least 3 runs"):
+        h.trend_line([1.0])
+
+
+@pytest.mark.slow
+def test_trend_line_std_covers_the_true_line_monte_carlo():
+    """A drifting instrument, four runs: (line - truth) / std at an extrapolated time is
+    N(0, 1) over 4000 records (std within 5 %)."""
+    rng = np.random.default_rng(29)
+    t = np.array([0.0, 30.0, 61.0, 95.0])
+    s = np.array([2.0, 1.0, 1.5, 1.0]) * 1e-3
+    z = []
+    for _ in range(4000):
+        x = 0.05 + 2e-5 * t + rng.normal(0.0, s)
+        line, std = summarize("DF", "deg/h", t, x, s, alpha=1e-9).trend_line([150.0])
+        z.append((line[0] - (0.05 + 2e-5 * 150.0)) / std[0])
+    assert abs(np.std(z) - 1.0) < 0.05
+    assert abs(np.mean(z)) < 0.05

@@ -37,16 +37,22 @@ def reports(tmp_path_factory):
         assert main(["fit", str(plan), str(data), "--no-store", "--equipment", str(lab),
                      "--report", str(tmp / kind)]) == 0
         out[f"fit {kind}"] = tmp / kind / "index.html"
-    # history: a report whose instrument has two stored runs
+    # history: a report whose instrument has three stored runs (a trend), judged against a
+    # spec, the last also printed to PDF by the command line (fit --pdf)
     plan = examples_dir / "polar_tumble" / "plan.toml"
+    spec = examples_dir / "specs" / "floated_gyro.toml"
     db = tmp / "h.db"
-    for i in range(2):
+    for i in range(3):
         data = tmp / f"hist{i}.csv"
         main(["simulate", str(plan), "--truth", str(plan.parent / "truth.toml"), "-o",
               str(data), "--noise", "0.002", "--seed", str(10 + i)])
         assert main(["fit", str(plan), str(data), "--db", str(db), "--equipment", str(lab),
-                     "--report", str(tmp / "history"), "--tested-at", f"2026-0{i + 1}-01"]) == 0
+                     "--spec", str(spec), "--report", str(tmp / "history"), "--tested-at",
+                     f"2026-0{i + 1}-0{i + 1}", *(["--pdf"] if i == 2 else [])]) == 0
     out["history"] = tmp / "history" / "index.html"
+    assert main(["history", "FG-0417", "--db", str(db), "--spec", str(spec), "--report",
+                 str(tmp / "drift" / "index.html")]) == 0
+    out["history figure"] = tmp / "drift" / "index.html"
     assert main(["demo", "--examples", str(examples_dir), "--report", str(tmp / "demo")]) == 0
     out["demo"] = tmp / "demo" / "index.html"
     rng = np.random.default_rng(4)
@@ -71,6 +77,12 @@ def reports(tmp_path_factory):
     assert main(["noise", str(examples_dir / "noise" / "lasergyro.imu.xz"), "--report",
                  str(tmp / "noise")]) == 0
     out["noise"] = tmp / "noise" / "index.html"
+    tplan = examples_dir / "thermal_triad" / "plan.toml"
+    assert main(["thermal", "triad-simulate", str(tplan), str(tplan.parent / "laws.toml"), "-o",
+                 str(tmp / "triad.csv"), "--noise", "2", "--seed", "1"]) == 0
+    assert main(["thermal", "triad", str(tplan), str(tmp / "triad.csv"), "--report",
+                 str(tmp / "thermal-triad")]) == 0
+    out["thermal triad"] = tmp / "thermal-triad" / "index.html"
     return out
 
 

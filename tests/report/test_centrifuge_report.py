@@ -36,9 +36,10 @@ def test_section_has_units_uncertainties_runs_and_figure():
         assert f">{name}<" in html
     for unit in ("deg/h", "deg/h/g", "deg/h/g^2"):
         assert f">{unit}<" in html
-    assert "±" in html and "residual [mA]" in html
+    # residuals in deg/h beside the drift in deg/h, never in the output unit (issue 29)
+    assert "±" in html and "residual [deg/h]" in html and "residual [mA]" not in html
     # one table row per run: 9 positions x 2 rates, each naming its rate
-    assert len(re.findall(r"<tr><td[^>]*>\d</td><td>(?:4\.43|8\.85)0?</td>", html)) == 18
+    assert len(re.findall(r"<tr><td[^>]*>\d</td><td[^>]*>(?:4\.43|8\.85)0?</td>", html)) == 18
     # the coefficient errors against the truth are reported in units of their std
     assert "error/std" in html
 

@@ -17,6 +17,7 @@ are skipped.
 
 import html
 import re
+import shlex
 from html.parser import HTMLParser
 
 import pytest
@@ -165,10 +166,22 @@ def test_analysis_pages_state_their_input(reports):
         assert "input file" in rows, name
         sha = [v for k, v in rows.items() if k.startswith("SHA-256")]
         assert sha and all(re.fullmatch(r"[0-9a-f]{64}", s) for s in sha), name
-    assert identity("allan")["command"].endswith(
-        f"allan --rate 50.0 --stats adev,oadev,mdev,tdev,hdev,ohdev --report "
-        f"{reports['allan']}")
-    assert identity("thermal")["instrument serial"] == "G-17"
+    # the exact command, every input by its path: the page reproduces itself (issue 29)
+    allan_input = reports["allan"].parents[1] / "g.npy"
+    assert identity("allan")["command"] == shlex.join([
+        "inertest", "allan", str(allan_input), "--rate", "50", "--stats",
+        "adev,oadev,mdev,tdev,hdev,ohdev", "--report", str(reports["allan"])])
+    assert identity("allan")["input file"] == str(allan_input)
+    assert identity("thermal")["serial"] == "G-17"
+    # identity on every kind: serial, site, operator (stated, or "not stated" with the option)
+    for name in ("allan", "noise", "thermal", "centrifuge-study", "ins-errors", "modulation",
+                 "thermal triad", "history figure"):
+        rows = identity(name)
+        assert {"serial", "site", "operator", "command", "software", "report id"} <= set(rows), name
+    triad = identity("thermal triad")
+    assert triad["serial"] == "ACC3-0112" and triad["operator"] == "A. Engineer"
+    assert "latitude 34.246000 deg" in triad["site"]
+    assert identity("allan")["serial"] == "not stated (give --serial)"
     assert "seed 1" in identity("centrifuge-study")["input"]
     assert identity("ins-errors")["input"].startswith("built-in example")
     assert "--example" in identity("ins-errors")["command"]

@@ -128,7 +128,8 @@ def test_report_cites_the_paper_not_the_seed_file():
     plan = cs.plan_from_mapping(read_toml(EXAMPLE, "plan"), source="study.toml")
     small = cs.StudyPlan(revolutions=2, cases=plan.cases[:1], name=plan.name)
     html = study_page(cs.run_study(small, fit_inputs, monte_carlo_runs=0))
-    assert "seed 004" not in html.lower() and "Ref. [centrifuge paper]" in html
+    assert "seed 004" not in html.lower() and "[centrifuge paper]" not in html
+    assert "Sun, Ren &amp; Wang" in html
     assert "Sun Yingbo, Ren Shunqing, Wang Changhong" in html
     assert "Coriolis part (Ak)" in html and "simplification" in html
 

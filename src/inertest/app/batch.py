@@ -13,7 +13,7 @@ import os
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -22,7 +22,6 @@ from inertest.app.executors import Fits, local_pool, slots, wait_for_a_worker
 from inertest.app.run import (
     PathLike,
     RunOutcome,
-    as_utc,
     data_summary,
     file_run,
     judge,
@@ -35,7 +34,7 @@ from inertest.io.atomic import check_outputs
 from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
 from inertest.plan import did_you_mean
-from inertest.quality.lab import Equipment, select_equipment
+from inertest.quality.lab import Equipment, read_signatories, select_equipment
 
 if TYPE_CHECKING:
     from inertest.store import HistoryStore
@@ -257,7 +256,6 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
     fits = Fits(todo, executor, own=own, timeout=timeout, fn=compute)
     own_db = store is True or isinstance(store, str)
     db: Any = None
-    when = as_utc(tested_at) if tested_at is not None else datetime.now(UTC)
     out: list[BatchItem] = []
     try:
         db = HistoryStore(None if store is True else str(store)) if own_db else store
@@ -268,11 +266,12 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
                  conformance) = fits.collect(k)
                 outcome = file_run(
                     result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
-                    tested_at=when, store=db if db else False, report_dir=t.report_dir,
+                    tested_at=tested_at, store=db if db else False, report_dir=t.report_dir,
                     allow_duplicate=allow_duplicate, warnings_=msgs,
                     inputs=[x for x in (t.plan, t.data, t.spec, t.equipment) if x is not None],
                     lab=lab, lab_source=lab_source, plan_source=source_name("plan", t.plan),
-                    budget=budget, conformance=conformance)
+                    budget=budget, conformance=conformance,
+                    signatories=None if t.equipment is None else read_signatories(t.equipment))
                 item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
                 item = BatchItem(t, None, error_message(exc))

@@ -17,7 +17,6 @@ Example
 
 from __future__ import annotations
 
-import datetime as _dt
 import hashlib
 import os
 import warnings
@@ -35,12 +34,16 @@ from inertest.io.data_file import file_sha256
 from inertest.plan import Instrument, Plan
 from inertest.quality.lab import (
     Equipment,
+    TestTime,
     identity_block,
     overdue_messages,
     read_equipment,
+    read_signatories,
     select_equipment,
+    test_time,
     unchecked_equipment_message,
 )
+from inertest.report.html import report_id_of
 from inertest.results import with_blocks
 
 if TYPE_CHECKING:
@@ -65,7 +68,12 @@ class RunOutcome:
     data_sha256 : str
         SHA-256 of the data file (or of the columns, for in-memory data).
     tested_at : datetime
-        When the test was run (UTC).
+        When the test was performed (UTC): ``--tested-at``, else the plan's ``[test] date``,
+        else the time of the analysis (:func:`inertest.quality.lab.test_time`).
+    filed_at : datetime or None
+        When the run was stored (UTC); None when it was not.
+    report_id : str or None
+        The report's id (certificate number, run id or derived; None without a report).
     stored_run : str or None
         UUID of the stored run; None when not stored.
     database : str or None
@@ -99,6 +107,8 @@ class RunOutcome:
     budget: UncertaintyBudget | None = None
     conformance: Conformance | None = None
     notices: tuple[str, ...] = field(default=())
+    filed_at: datetime | None = None
+    report_id: str | None = None
 
     def to_dict(self) -> dict[str, object]:
         """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
@@ -132,6 +142,7 @@ def run(
     equipment: PathLike | Mapping[str, Equipment] | None = None,
     spec: PathLike | Spec | None = None,
     noise_model: str | None = None,
+    command: str | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -153,7 +164,10 @@ def run(
     pdf : bool
         Also write ``report.pdf`` (needs Chromium).
     tested_at : datetime, optional
-        When the test was run (default: now); naive datetimes are UTC.
+        When the test was performed (``--tested-at``; a naive time is UTC). It overrides the
+        plan's ``[test] date`` (a notice says so); without either, the time of the analysis.
+        The one test date is used for the record, the report, the equipment's calibration
+        status and the history axis (:func:`inertest.quality.lab.test_time`).
     allow_duplicate : bool
         File a data file again that is already stored for this instrument and procedure.
     equipment : path or mapping, optional
@@ -171,6 +185,9 @@ def run(
         stored run) and the report.
     noise_model : str, optional
         Overrides the plan's ``[procedure] noise_model`` (:func:`inertest.api.fit`).
+    command : str, optional
+        The command line that ran this (``inertest fit ...``), stated in the report beside each
+        input file's path and SHA-256, so that the report can be reproduced from itself.
 
     Returns
     -------
@@ -184,12 +201,16 @@ def run(
     """
     plan_path = None if isinstance(plan, Plan) else Path(plan)
     data_path = None if isinstance(data, Mapping) else Path(data)
+    sources = [Path(x) for x in (plan_path, data_path, equipment, spec)
+               if isinstance(x, str | os.PathLike)]
     if report_dir is not None:
-        check_outputs([report_dir], [p for p in (plan_path, data_path) if p is not None])
+        check_outputs([report_dir], sources)
     if pdf and report_dir is None:
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     lab, lab_source = lab_of(equipment)
+    signatories = (read_signatories(equipment) if isinstance(equipment, str | os.PathLike)
+                   else None)
     used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:  # an unknown id fails before any work
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", plan_path),
@@ -202,16 +223,15 @@ def run(
     messages = tuple(str(w.message) for w in caught)
     budget, conformance = (judge(p, result, used, spec_doc)
                            if lab is not None or spec_doc is not None else (None, None))
-    when = as_utc(tested_at) if tested_at is not None else datetime.now(UTC)
     digest = file_sha256(data_path) if data_path is not None else columns_sha256(d)
     plan_text = plan_path.read_text(encoding="utf-8") if plan_path is not None else repr(p)
     return file_run(
         result, p, plan_text=plan_text, data_sha256=digest, data_summary=data_summary(
-            data_path, d, digest), tested_at=when, store=store, report_dir=report_dir, pdf=pdf,
+            data_path, d, digest), tested_at=tested_at, store=store, report_dir=report_dir, pdf=pdf,
         allow_duplicate=allow_duplicate, warnings_=messages,
-        inputs=[x for x in (plan_path, data_path) if x is not None], lab=lab,
+        inputs=sources, lab=lab, command=command,
         lab_source=lab_source, plan_source=source_name("plan", plan_path), budget=budget,
-        conformance=conformance)
+        conformance=conformance, signatories=signatories, spec=spec_doc)
 
 
 def judge(plan: Plan, result: Any, equipment: Sequence[Equipment], spec: Spec | None
@@ -272,7 +292,7 @@ def file_run(
     plan_text: str,
     data_sha256: str,
     data_summary: Mapping[str, object],
-    tested_at: datetime,
+    tested_at: datetime | None = None,
     store: bool | str | HistoryStore = False,
     report_dir: PathLike | None = None,
     pdf: bool = False,
@@ -285,8 +305,11 @@ def file_run(
     budget: UncertaintyBudget | None = None,
     conformance: Conformance | None = None,
     instrument: Instrument | None = None,
-    report_html: Callable[[list[Any]], str] | None = None,
+    report_html: Callable[..., str] | None = None,
     outputs: Callable[[], None] | None = None,
+    signatories: Mapping[str, str] | None = None,
+    spec: Spec | None = None,
+    command: str | None = None,
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`).
 
@@ -296,6 +319,14 @@ def file_run(
     and ``report_html(history)`` builds the report page; ``outputs()`` writes the command's
     other files (figures, model files) inside the transaction: when it fails, the run is
     withdrawn and the report not moved into place.
+
+    The report states each of ``inputs`` by its path and SHA-256, and ``command`` (the command
+    line) when given. ``tested_at`` is ``--tested-at`` (None: the plan's ``[test] date``, else
+    now); the one test
+    date it resolves to (:func:`inertest.quality.lab.test_time`) dates the record, the report,
+    the equipment's calibration status and the history. A stored run also carries when it was
+    filed (``test.filed_at``); a run not stored has no filing time. With a report, the folder
+    also holds ``certificate.json`` (:func:`inertest.report.certificate.certificate`).
     """
     if plan is None and instrument is None:
         raise PlanError("file_run needs the plan or the instrument")
@@ -306,14 +337,22 @@ def file_run(
         from inertest.store import HistoryStore, RunRecord, StoreError
 
     version = metadata.version("inertest")
-    test = identity_block(test_table, lab=lab, tested_at=tested_at, software_version=version,
+    tested = test_time(test_table, tested_at)
+    test = identity_block(test_table, lab=lab, tested=tested, software_version=version,
                           data_sha256=data_sha256, plan_source=plan_source,
-                          lab_source=lab_source)
+                          lab_source=lab_source, signatories=signatories)
     used = [lab[i] for i in test_table.equipment] if lab is not None and test_table else []
-    notices = overdue_messages(used, _dt.date.fromisoformat(str(test["date"])))
+    notices = overdue_messages(used, tested.date)
+    override = tested.override_message()
+    if override is not None:
+        notices.insert(0, override)
     if lab is None and test_table is not None and test_table.equipment:
         notices.append(unchecked_equipment_message(test_table.equipment))
     warnings_ = [*warnings_, *notices]
+    filed_at = None
+    if store is not False and store is not None:
+        filed_at = datetime.now(UTC)
+        test["filed_at"] = filed_at.isoformat(timespec="seconds")
     envelope_doc = _with_notices(with_blocks(
         result.to_dict(), test=test,
         uncertainty_budget=None if budget is None else budget.to_dict(),
@@ -332,7 +371,8 @@ def file_run(
             record = RunRecord.from_result(
                 envelope_doc, serial=inst.serial,
                 instrument_kind=inst.kind, plan_text=plan_text,
-                data_sha256=data_sha256, software_version=version, tested_at=tested_at)
+                data_sha256=data_sha256, software_version=version, tested_at=tested.at,
+                filed_at=filed_at)
             if not allow_duplicate:
                 earlier = db.runs_with_data(inst.serial, result.kind, data_sha256)
                 if earlier:
@@ -341,6 +381,9 @@ def file_run(
                         f"{inst.serial} / {result.kind} (run {earlier[0]}); nothing "
                         "stored. Use --allow-duplicate to file it again, or --no-store")
         report_path = None
+        report_id = (str(test.get("certificate") or "") or (
+            record.run_uuid if record is not None else report_id_of(
+                result.kind, inst.serial, data_sha256, plan_text, tested.at.isoformat())))
         if report_dir is not None:
             history: list = []
             if db is not None and record is not None:
@@ -352,9 +395,10 @@ def file_run(
                     earlier_runs = []
                 history = summarize_runs(sorted([*earlier_runs, record],
                                                 key=lambda r: r.tested_at))
-            html = (report_html(history) if report_html is not None else _report_html(
-                result, plan, plan_text, data_summary, tested_at, version, history, test,
-                envelope_doc))
+            html = (report_html(history, report_id=report_id, test=test)
+                    if report_html is not None else _report_html(
+                        result, plan, plan_text, data_summary, tested, version, history, test,
+                        envelope_doc, report_id, spec, source_rows(inputs, command)))
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -363,6 +407,9 @@ def file_run(
                         from inertest.report.pdf import html_to_pdf
 
                         html_to_pdf(tmp / "index.html", tmp / "report.pdf")
+                    from inertest.report.certificate import write_certificate
+
+                    write_certificate(tmp, envelope_doc, report_id=report_id)
                     # Store last inside the block: a failed store leaves no report, and a
                     # failed report leaves no stored run.
                     if db is not None and record is not None:
@@ -386,11 +433,12 @@ def file_run(
                     db.discard(record.run_uuid)
                 raise
         return RunOutcome(
-            result=result, plan=plan, data_sha256=data_sha256, tested_at=tested_at,
+            result=result, plan=plan, data_sha256=data_sha256, tested_at=tested.at,
             stored_run=None if record is None else record.run_uuid,
             database=None if db is None else db.display_url, report=report_path,
             warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance,
-            notices=tuple(notices))
+            notices=tuple(notices), filed_at=filed_at,
+            report_id=report_id if report_path is not None else None)
     finally:
         if db is not None and own_store:
             db.close()
@@ -398,9 +446,10 @@ def file_run(
 
 def _report_html(result: Any, plan: Plan | None, plan_text: str,
                  data_summary: Mapping[str, object],
-                 tested_at: datetime, version: str, history: list,
+                 tested: TestTime, version: str, history: list,
                  test: Mapping[str, Any] | None = None,
-                 doc: Mapping[str, Any] | None = None) -> str:
+                 doc: Mapping[str, Any] | None = None, report_id: str = "",
+                 spec: Spec | None = None, sources: Sequence[Sequence[str]] = ()) -> str:
     from inertest.report.campaign import campaign_page
 
     if plan is None:
@@ -412,10 +461,22 @@ def _report_html(result: Any, plan: Plan | None, plan_text: str,
                     "output unit": inst.output_unit, "scale factor": inst.scale_factor or "-"},
         site={"latitude [deg]": f"{plan.site.latitude_deg:.6f}",
               "gravity [m/s^2]": f"{plan.site.gravity_m_s2:.7f}"},
-        plan_text=plan_text, data=data_summary, tested_at=tested_at,
-        software_version=version, history=history, test=test,
+        plan_text=plan_text, data=data_summary, tested=tested,
+        software_version=version, history=history, test=test, report_id=report_id, spec=spec,
+        sources=sources,
         uncertainty_budget=None if doc is None else doc.get("uncertainty_budget"),
         conformance=None if doc is None else doc.get("conformance"))
+
+
+def source_rows(inputs: Sequence[PathLike], command: str | None) -> list[list[str]]:
+    """Identity rows that reproduce a report: each input's path and SHA-256, the command."""
+    rows: list[list[str]] = []
+    for f in inputs:
+        p = Path(f)
+        rows += [["input file", str(p)], [f"SHA-256 of {p.name}", file_sha256(p)]]
+    if command:
+        rows += [["command", command], ["working folder", str(Path.cwd())]]
+    return rows
 
 
 def data_summary(path: Path | None, data: Mapping[str, Any], digest: str) -> dict[str, object]:

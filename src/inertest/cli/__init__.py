@@ -150,9 +150,13 @@ class _LazyGroup(click.Group):
         if cmd_name in _ONE_PASS_COMMANDS:  # read by numpy when it is first imported
             os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
         command = getattr(importlib.import_module(module), attr)
-        from inertest.cli._common import add_overwrite_option  # after this package is ready
+        from inertest.cli._common import (  # after this package is ready
+            add_identity_options,
+            add_overwrite_option,
+        )
 
         add_overwrite_option(command)
+        add_identity_options(command)
         return command
 
     def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
@@ -186,7 +190,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 except ValueError:  # pragma: no cover - not the main thread
                     pass
     try:
-        cli.main(args=list(argv) if argv is not None else None, standalone_mode=False)
+        args = list(argv) if argv is not None else sys.argv[1:]
+        cli.main(args=args, standalone_mode=False, obj={"argv": args})
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except (click.Abort, KeyboardInterrupt):

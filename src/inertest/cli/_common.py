@@ -229,39 +229,109 @@ def check_paths(outputs: Iterable[Path | None], inputs: Iterable[Path | None]) -
         seen[key] = o
 
 
+_IDENTITY = "inertest.identity"
+#: The identity options every analysis report has (``--serial``, ``--site``, ``--operator``).
+IDENTITY_OPTIONS = (
+    ("serial", "Serial number of the instrument whose data these are (in the report)."),
+    ("site", "Where the data were recorded, e.g. 'Lab 2, 48.15 N' (in the report)."),
+    ("operator", "Who recorded or analysed the data (in the report: performed by)."),
+)
+
+
+def _remember_identity(ctx: click.Context, param: click.Parameter, value: str | None) -> None:
+    if value is not None and param.name is not None:
+        ctx.meta.setdefault(_IDENTITY, {})[param.name.removeprefix("id_")] = value
+
+
+def add_identity_options(command: click.Command) -> None:
+    """Give a report-writing analysis command ``--serial``, ``--site`` and ``--operator``, once.
+
+    Only commands with a ``--report`` and without a plan (whose ``[instrument]`` and ``[test]``
+    state the identity) get them; an option the command has already is left alone. The values
+    go to :func:`input_identity`.
+    """
+    if isinstance(command, click.Group):
+        for sub in command.commands.values():
+            add_identity_options(sub)
+        return
+    names = {p.name for p in command.params}
+    if not names & {"report", "report_dir"} or names & {"plan", "examples_dir"}:
+        return  # a plan (or the demo's plans) states the identity
+    for name, doc in IDENTITY_OPTIONS:
+        if name in names or f"id_{name}" in names:
+            continue
+        command.params.append(click.Option(
+            [f"--{name}", f"id_{name}"], default=None, expose_value=False,
+            callback=_remember_identity, help=doc))
+
+
+def command_line() -> str:
+    """The command as typed (``inertest allan data.npy --rate 50 ...``), for the report.
+
+    From the arguments :func:`inertest.cli.main` was given; rebuilt from the parsed options
+    when the command runs some other way.
+    """
+    import shlex
+
+    ctx = click.get_current_context(silent=True)
+    if ctx is None:
+        return "inertest"
+    obj = ctx.find_root().obj
+    if isinstance(obj, Mapping) and obj.get("argv") is not None:
+        return shlex.join(["inertest", *map(str, obj["argv"])])
+    words = [ctx.command_path]
+    for prm in ctx.command.params:
+        if prm.name is None:
+            continue
+        v = ctx.params.get(prm.name)
+        if isinstance(prm, click.Argument):
+            words += [str(x) for x in (v if isinstance(v, tuple) else (v,)) if x is not None]
+            continue
+        if not isinstance(prm, click.Option) or v is None or v is False or v == prm.default \
+                or v == ():
+            continue
+        flag = max(prm.opts, key=len)
+        words += [flag] if v is True else [flag, *map(str, v if isinstance(v, tuple) else (v,))]
+    return shlex.join(words)
+
+
 def input_identity(
     files: Iterable[str | os.PathLike[str] | None] = (), *, source: str | None = None,
-    serial: str | None = None,
+    serial: str | None = None, test: Mapping[str, Any] | None = None,
+    site: str | None = None, operator: str | None = None,
 ) -> list[list[str]]:
-    """Identity rows of an analysis page: each input file and its SHA-256, or its source.
+    """Identity rows of an analysis page: enough to reproduce it and to know whose it is.
 
-    Then the options the command was given (``--name value``, from the click context: those
-    that differ from their default) and the instrument serial when given. ``source`` states
-    an input that is not a file (``"simulated, seed 3"``, ``"built-in example"``).
+    Each input file by the path given and its SHA-256 (or ``source`` for an input that is not
+    a file: ``"simulated, seed 3"``, ``"built-in example"``), the exact command
+    (:func:`command_line`) and the working folder it ran in, and the serial, site and operator
+    (``--serial``, ``--site``, ``--operator``; or ``serial``, ``site``, ``operator`` and the
+    ``test`` block from a plan or a stored run; "not stated" otherwise,
+    :func:`inertest.report.html.page`).
     """
     from inertest.io.data_file import file_sha256
+    from inertest.report.identity import test_date_text
 
     rows: list[list[str]] = []
     for f in files:
         if f is None:
             continue
         p = Path(f)
-        rows += [["input file", p.name], [f"SHA-256 of {p.name}", file_sha256(p)]]
+        rows += [["input file", str(p)], [f"SHA-256 of {p.name}", file_sha256(p)]]
     if source:
         rows.append(["input", source])
+    rows.append(["command", command_line()])
+    rows.append(["working folder", str(Path.cwd())])
     ctx = click.get_current_context(silent=True)
-    if ctx is not None:
-        opts = []
-        for prm in ctx.command.params:
-            if not isinstance(prm, click.Option) or prm.name is None:
-                continue
-            v = ctx.params.get(prm.name)
-            if v is None or v is False or v == prm.default or v == ():
-                continue
-            flag = max(prm.opts, key=len)
-            opts.append(flag if v is True else
-                        f"{flag} {' '.join(map(str, v)) if isinstance(v, tuple) else v}")
-        rows.append(["command", " ".join([ctx.command_path, *opts])])
-    if serial:
-        rows.append(["instrument serial", str(serial)])
+    given = dict(ctx.meta.get(_IDENTITY, {})) if ctx is not None else {}
+    for key, value in (("serial", serial), ("site", site), ("operator", operator)):
+        if value:
+            given.setdefault(key, str(value))
+    if test:
+        if test.get("operator"):
+            given.setdefault("operator", str(test["operator"]))
+        rows.append(["test date", test_date_text(test)])
+        if test.get("filed_at"):
+            rows.append(["filed at (UTC)", str(test["filed_at"]).replace("T", " ")[:19]])
+    rows += [[k, given[k]] for k, _ in IDENTITY_OPTIONS if given.get(k)]
     return rows

@@ -16,7 +16,7 @@ import click
 def demo(examples_dir: Path | None, report_dir: Path) -> None:
     """Simulate the example campaign (examples/demo.toml), fit each test, print and report."""
     # the campaign loads procedures, budgets (scipy.stats) and reports: only when it runs
-    from inertest.cli._common import print_identity
+    from inertest.cli._common import command_line, print_identity
     from inertest.cli._verdicts import verdict_summary
     from inertest.cli.procedure import print_result
     from inertest.demo import (
@@ -56,5 +56,6 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         flagged = [n for n, h in th.result.hysteresis.items() if h.significant]
         click.echo("  hysteresis heating vs cooling: "
                    + (", ".join(flagged) if flagged else "none significant"))
-    index = write_campaign_report(tests, report_dir, noise=noise, thermal=thermal)
+    index = write_campaign_report(tests, report_dir, noise=noise, thermal=thermal,
+                                  command=command_line())
     click.echo(f"\nreport: {index}")

@@ -18,7 +18,6 @@ from inertest.cli._common import (
     print_table,
     save_figure,
 )
-from inertest.report.rounding import format_number
 from inertest.units import (
     DEG_PER_H_TO_RAD_PER_S,
     DEG_PER_S_TO_RAD_PER_S,
@@ -77,7 +76,7 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
 
     Source: patent, stator rotation modulation for suspended gyros.
     """
-    from inertest.report.modulation import component_figure
+    from inertest.report.modulation import component_figure, component_rows
     from inertest.studies import stator_modulation as sm
 
     check_paths([plot], [])
@@ -120,13 +119,11 @@ def component(stator_hz: str, sample_hz: float, duration_s: float, periods: int,
     if as_json:
         echo_json(study.to_dict())
         return
-    rows = study.rows()
+    header, rows, notes = component_rows(study)
     print_table("stator rotation modulation: residual drift after whole-period integration",
-                ["stator [Hz]", "RMS residual [deg/h]", "no modulation [deg/h]", "delay [s]",
-                 "bandwidth [Hz]"],
-                [[format_number(float(r[k])) for k in
-                  ("stator_hz", "rms_residual_modulated_deg_h", "rms_residual_fixed_deg_h",
-                   "delay_s", "bandwidth_hz")] for r in rows])
+                header, rows)
+    for n in notes:
+        click.echo(f"note: {n}")
     if plot is not None:
         click.echo(f"figure: {plot}")
 

@@ -12,6 +12,7 @@ from inertest.cli import safe_line
 from inertest.cli._common import (
     REAL,
     check_paths,
+    command_line,
     echo_json,
     print_identity,
     print_table,
@@ -64,7 +65,8 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               "$INERTEST_DB or ~/.local/share/inertest/history.db).")
 @click.option("--tested-at", type=click.DateTime(formats=["%Y-%m-%d", "%Y-%m-%dT%H:%M:%S",
               "%Y-%m-%d %H:%M:%S"]), default=None,
-              help="When the test was run (UTC; default: now). For filing older data.")
+              help="When the test was performed (UTC). Overrides the plan's [test] date, and "
+              "says so; default: the plan's [test] date, else now. For filing older data.")
 @click.option("--allow-duplicate", is_flag=True,
               help="File a data file that is already stored for this instrument and procedure.")
 @click.option("--equipment", "equipment", type=_FILE, default=None,
@@ -96,7 +98,7 @@ def fit(
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
               allow_duplicate=allow_duplicate, equipment=equipment, spec=spec,
-              noise_model=noise_model)
+              noise_model=noise_model, command=command_line())
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
@@ -108,9 +110,10 @@ def fit(
     print_conformance(doc)
     if out.stored_run is not None:
         serial = out.plan.instrument.serial if out.plan is not None else ""
-        click.echo(safe_line(f"stored run of {serial} in {out.database}"))
+        filed = "" if out.filed_at is None else f", filed {out.filed_at:%Y-%m-%d %H:%M:%S} UTC"
+        click.echo(safe_line(f"stored run {out.stored_run} of {serial} in {out.database}{filed}"))
     if out.report is not None:
-        click.echo(f"report: {out.report}")
+        click.echo(safe_line(f"report: {out.report} (report id {out.report_id})"))
 
 
 def print_conformance(doc: Mapping[str, object]) -> None:

@@ -18,6 +18,7 @@ from inertest.cli._common import (
 )
 from inertest.io.atomic import target_directory
 from inertest.io.data_file import read_table, write_table
+from inertest.plan import Plan
 from inertest.report.rounding import format_with_std
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
@@ -109,8 +110,6 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
                          t_ref_c=t_ref_c, serial=serial)
-    from datetime import UTC, datetime
-
     from inertest.app.run import data_summary, file_run
     from inertest.io.data_file import file_sha256
     from inertest.plan import Instrument
@@ -131,12 +130,13 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
             f"max_degree = {max_degree}\nuse_rate = {str(not no_rate).lower()}\n"
             f"hidden = {hidden}\nmax_iter = {max_iter}\n"),
         data_sha256=digest, data_summary=data_summary(data, {}, digest),
-        tested_at=datetime.now(UTC), store=(db or True) if store else False,
+        store=(db or True) if store else False,
         report_dir=report_dir, inputs=[data], allow_duplicate=True, outputs=outputs,
-        report_html=lambda history: page(
+        report_html=lambda history, report_id, test: page(
             f"Temperature compensation: {quantity}",
             thermal_sections(result, title=f"{quantity} compensation"),
-            subtitle=f"data: {data}", identity=input_identity([data], serial=serial)))
+            subtitle=f"data: {data}", report_id=report_id,
+            identity=input_identity([data], serial=serial, test=test)))
     stored = outcome.stored_run
     if as_json:
         echo_json(outcome.to_dict())
@@ -186,9 +186,11 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
     """
     from inertest.api import load_plan
     from inertest.procedures.thermal_triad import fit_triad_thermal
+    from inertest.quality.lab import test_time
 
     check_paths([model_out, report_dir], [plan, data])
-    result = fit_triad_thermal(load_plan(plan), read_table(data), degree=degree,
+    p = load_plan(plan)
+    result = fit_triad_thermal(p, read_table(data), degree=degree,
                                use_rate=use_rate, sigma=sigma, t_ref_c=t_ref_c)
     model = result.model() if model_out is not None else None
     if report_dir is not None:
@@ -198,7 +200,10 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         html = page("Triad calibration against temperature",
                     triad_thermal_sections(result, title="K, M, B against temperature"),
                     subtitle=f"plan: {plan}; data: {data}",
-                    identity=input_identity([plan, data]))
+                    identity=input_identity(
+                        [plan, data], serial=p.instrument.serial, site=plan_site_text(p),
+                        operator=p.test.operator if p.test is not None else None,
+                        test=test_time(p.test).to_dict()))
         with target_directory(report_dir, inputs=[plan, data]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if model is not None and model_out is not None:
@@ -232,6 +237,12 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
         lo, hi = model.temperature_range_c
         click.echo(f"model: {model_out} (K, M, B laws of degree {degree}; valid {lo:.4g} to "
                    f"{hi:.4g} degC)")
+
+
+def plan_site_text(p: Plan) -> str:
+    """The plan's site as one identity row: latitude and gravity."""
+    return (f"latitude {p.site.latitude_deg:.6f} deg, gravity {p.site.gravity_m_s2:.7f} "
+            "m/s^2")
 
 
 @thermal.command(name="triad-simulate")

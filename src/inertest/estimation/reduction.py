@@ -8,8 +8,7 @@ lie in whole cycles, and :func:`whole_cycle_weights` gives averaging weights ove
 the weighted mean of the motion's low harmonics exactly zero, as the integral over whole cycles
 is. Output and regressors averaged with the same weights keep a linear model exact.
 
-Whole-cycle integration: Ref. [centrifuge paper] (seed ``004_f16e7c07e7c35fdc.txt``, Sun, Ren &
-Wang), eqs. 18-22.
+Whole-cycle integration: Sun, Ren & Wang (seed ``004_f16e7c07e7c35fdc.txt``), eqs. 18-22.
 """
 
 from __future__ import annotations
@@ -141,7 +140,7 @@ def whole_cycle_weights(t: ArrayLike, omega: float, *, harmonics: int = 2) -> ND
     70.9 samples per cycle). The weights are the equal weights ``1/n`` corrected by the least
     amount (minimum norm) that makes the weighted mean of ``cos k a`` and ``sin k a``
     (``k = 1 .. harmonics``, ``a = |w| (t - t0)``) exactly zero, as the integral over whole cycles
-    is (Ref. [centrifuge paper], eqs. 19-21). With an integer number of samples per cycle the
+    is (Sun, Ren & Wang, eqs. 19-21). With an integer number of samples per cycle the
     correction vanishes. Averaging the output and the regressors of a linear model with the same
     weights keeps the averaged model exact whatever the weights.
 

@@ -113,6 +113,11 @@ class QuantityHistory:
     when ``weighted``; ``mean_std`` and ``trend_std_per_day`` include the Birge-ratio
     inflation (``mean_inflation``, ``trend_inflation``, 1 when none) when the scatter tests
     reject the stated stds.
+
+    The trend line is ``trend_level + trend_per_day * (t - trend_t0_days)``: centred at the
+    weighted mean time ``trend_t0_days`` its level and slope are uncorrelated, so the line's
+    standard uncertainty at ``t`` is ``sqrt(trend_level_std^2 + (t - t0)^2
+    trend_std_per_day^2)`` (:meth:`trend_line`).
     """
 
     name: str
@@ -134,6 +139,27 @@ class QuantityHistory:
     trend_test: ScatterTest | None = None
     mean_inflation: float = 1.0
     trend_inflation: float = 1.0
+    trend_t0_days: float | None = None
+    trend_level: float | None = None
+    trend_level_std: float | None = None
+
+    def trend_line(self, t_days: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The trend line at ``t_days`` [days since the first run] and its standard uncertainty.
+
+        Raises
+        ------
+        InputError
+            The history has no trend (fewer than 3 runs at different times).
+        """
+        if (self.trend_per_day is None or self.trend_std_per_day is None
+                or self.trend_level is None or self.trend_level_std is None
+                or self.trend_t0_days is None):
+            raise InputError(f"{self.name}: no trend; it needs at least 3 runs at different "
+                             "times")
+        dt = np.asarray(t_days, dtype=float) - self.trend_t0_days
+        line = self.trend_level + self.trend_per_day * dt
+        std = np.sqrt(self.trend_level_std**2 + (dt * self.trend_std_per_day) ** 2)
+        return line, std
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready summary (None where the history cannot determine a number)."""
@@ -149,6 +175,9 @@ class QuantityHistory:
             "trend_per_day": self.trend_per_day,
             "trend_std_per_day": self.trend_std_per_day,
             "trend_test": None if self.trend_test is None else self.trend_test.to_dict(),
+            "trend_t0_days": self.trend_t0_days,
+            "trend_level": self.trend_level,
+            "trend_level_std": self.trend_level_std,
             "mean_std_inflation": self.mean_inflation,
             "trend_std_inflation": self.trend_inflation,
             "values": self.values.tolist(),
@@ -228,24 +257,28 @@ def summarize(
             mean_std = repeat / math.sqrt(n)
     else:
         messages.append("repeatability needs at least 2 runs")
-    slope = slope_std = None
+    slope = slope_std = level = level_std = t0 = None
     trend_test = None
     trend_inflation = 1.0
     if n >= 3 and np.ptp(t) > 0:
-        design = np.column_stack([np.ones(n), t - np.sum(w * t) / np.sum(w)])
+        t0 = float(np.sum(w * t) / np.sum(w))
+        design = np.column_stack([np.ones(n), t - t0])
         fit = weighted_least_squares(design, x, sigma=s if weighted else None)
         if fit.rank == 2:
             slope, slope_std = float(fit.x[1]), float(fit.std[1])
+            level, level_std = float(fit.x[0]), float(fit.std[0])
             if weighted:
                 trend_test = scatter_test(fit.residuals, s, n - 2, alpha=alpha)
                 if not trend_test.consistent:
                     trend_inflation = trend_test.birge_ratio
                     slope_std *= trend_inflation
+                    level_std *= trend_inflation
                     messages.append(
                         f"{name}: scatter about the trend exceeds the run stds (chi2 = "
                         f"{trend_test.chi2:.3g}, dof = {trend_test.dof}, p = {trend_test.p:.2g});"
                         f" trend std inflated by the Birge ratio {trend_inflation:.3g}")
     if slope is None:
+        t0 = None
         messages.append("trend needs at least 3 runs at different times")
     z = np.full(n, np.nan)
     if n >= 2:
@@ -266,4 +299,5 @@ def summarize(
         z=z, flagged=flagged, k=float(k), messages=tuple(messages), mean_std=mean_std,
         weighted=weighted, scatter=scatter, trend_test=trend_test,
         mean_inflation=mean_inflation, trend_inflation=trend_inflation,
+        trend_t0_days=t0, trend_level=level, trend_level_std=level_std,
     )

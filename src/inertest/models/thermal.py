@@ -385,6 +385,23 @@ def observed_support(temperature_c: NDArray[np.float64], rate_c_per_min: NDArray
     return np.column_stack([t, r])[np.sort(first)], tol
 
 
+def observed_range(x: ArrayLike) -> tuple[float, float]:
+    """``(min, max)`` of ``x``, each rounded to 10 significant digits of the larger magnitude.
+
+    The valid range of a model is the range of its training inputs; rates computed from
+    temperatures and times carry round-off (-1.0000000000000284 degC/min for -1). Rounding
+    to 1e-10 of the magnitude removes it and moves each end by less than the range check's
+    tolerance (:data:`RANGE_RTOL`), so every training row stays inside.
+    """
+    a = np.asarray(x, dtype=float)
+    lo, hi = float(np.min(a)), float(np.max(a))
+    mag = max(abs(lo), abs(hi))
+    if mag == 0 or not np.isfinite(mag):
+        return lo, hi
+    digits = 9 - int(np.floor(np.log10(mag)))
+    return round(lo, digits), round(hi, digits)
+
+
 def _beyond(x: NDArray[np.float64], rng: tuple[float, float]) -> NDArray[np.float64]:
     lo, hi = rng
     tol = RANGE_RTOL * max(hi - lo, abs(lo), abs(hi), 1e-300)

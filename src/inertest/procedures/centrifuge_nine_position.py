@@ -1,6 +1,6 @@
 """Nine-position identification of an SDF gyro's drift model on a dual-axis centrifuge.
 
-Ref. [centrifuge paper] (seed ``004_f16e7c07e7c35fdc.txt``, Sun, Ren & Wang), sec. 4: the gyro
+Sun, Ren & Wang (seed ``004_f16e7c07e7c35fdc.txt``), sec. 4: the gyro
 sits on the counter-rotating platform of a dual-axis centrifuge in nine attitudes (three
 mountings x fixture angles 0, +45, -45 deg, see :mod:`inertest.equipment.centrifuge`) and the main
 axis turns at two or more rates. Each run (one position at one rate) is reduced by *whole-cycle
@@ -149,7 +149,7 @@ class CentrifugeNinePositionSpec:
     omegas_rad_s : tuple of float
         Signed main-axis rates [rad/s] run at every position (for simulation; the fit takes the
         rates from the data): positive counter-clockwise, negative clockwise seen from above.
-        Default 4.43 and 8.85 rad/s (5 g and 20 g at R = 2.5 m, Ref. [centrifuge paper]).
+        Default 4.43 and 8.85 rad/s (5 g and 20 g at R = 2.5 m, Sun, Ren & Wang).
     revolutions : int
         Whole revolutions recorded per run (for simulation).
     sample_rate_hz : float

@@ -41,6 +41,7 @@ from inertest.models.thermal import (
     NetworkThermalModel,
     PolynomialThermalModel,
     ThermalModel,
+    observed_range,
     observed_support,
     poly_design,
     poly_exponents,
@@ -486,9 +487,8 @@ def fit_thermal(
     support = observed_support(temp[train], rate[train]) if use_rate else (None, None)
     common: dict[str, Any] = dict(
         quantity=quantity, unit=unit, reference=reference, inputs=inputs,
-        temperature_range_c=(float(np.min(temp[train])), float(np.max(temp[train]))),
-        rate_range_c_per_min=((float(np.min(rate[train])), float(np.max(rate[train])))
-                              if use_rate else None),
+        temperature_range_c=observed_range(temp[train]),
+        rate_range_c_per_min=observed_range(rate[train]) if use_rate else None,
         serial=serial, support=support[0], support_tolerance=support[1],
     )
     exps = terms[best]

@@ -43,6 +43,7 @@ from scipy import stats
 from inertest.errors import DataError, IdentifiabilityError, InputError
 from inertest.estimation.least_squares import weighted_least_squares
 from inertest.models import triad
+from inertest.models.thermal import observed_range
 from inertest.models.thermal_triad import (
     CoefficientLaw,
     TriadThermalModel,
@@ -147,8 +148,8 @@ class ThermalTriadResult:
         t, r = self.step_temperature_c, self.step_rate_c_per_min
         return TriadThermalModel(
             laws=dict(self.laws), raw_unit=self.raw_unit, scale=self.scale,
-            temperature_range_c=(float(t.min()), float(t.max())),
-            rate_range_c_per_min=(float(r.min()), float(r.max())) if uses_rate else None,
+            temperature_range_c=observed_range(t),
+            rate_range_c_per_min=observed_range(r) if uses_rate else None,
             serial=self.serial, covariance=self.law_covariance)
 
     def coefficients_at(self, temperature_c: float, rate_c_per_min: float = 0.0

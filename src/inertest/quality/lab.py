@@ -186,7 +186,7 @@ def equipment_from_mapping(
         that is not a date, a due date before the calibration date, or a Type-B key without a
         unit suffix.
     """
-    check_known_keys(doc, {"equipment"}, source, error=LabFileError)
+    check_known_keys(doc, {"equipment", "signatories"}, source, error=LabFileError)
     items = doc.get("equipment")
     if not isinstance(items, list) or not items:
         raise LabFileError(f"{source} has no [[equipment]] entries; see "
@@ -227,6 +227,39 @@ def read_equipment(path: str | os.PathLike[str]) -> dict[str, Equipment]:
                          missing="give --equipment the lab's equipment file (see "
                          "examples/lab/equipment.toml)")
     return equipment_from_mapping(doc, source=source)
+
+
+_SIGNATORY_FIELDS = (
+    Field("reviewed_by", "text", default="", doc="who reviews the lab's reports"),
+    Field("approved_by", "text", default="", doc="who approves (signs) them"),
+)
+
+
+def signatories_from_mapping(doc: Mapping[str, Any], *, source: str = "lab file"
+                             ) -> dict[str, str]:
+    """A lab file's ``[signatories]`` (``reviewed_by``, ``approved_by``), empty when absent.
+
+    ::
+
+        [signatories]
+        reviewed_by = "B. Reviewer"
+        approved_by = "C. Quality-Manager"
+
+    A plan's ``[test] reviewed_by`` / ``approved_by`` win over these.
+    """
+    t = doc.get("signatories", {})
+    if not isinstance(t, Mapping):
+        raise LabFileError(f"{source}: [signatories] must be a table")
+    v = read_fields(t, _SIGNATORY_FIELDS, f"{source}: [signatories]", error=LabFileError)
+    return {k: x for k, x in v.items() if x}
+
+
+def read_signatories(path: str | os.PathLike[str]) -> dict[str, str]:
+    """The ``[signatories]`` of the lab file ``path`` (:func:`signatories_from_mapping`)."""
+    source = f"lab file {os.fspath(path)}"
+    doc = read_toml_file(path, source=source, error=LabFileError,
+                         missing="give --equipment the lab's equipment file")
+    return signatories_from_mapping(doc, source=source)
 
 
 def read_toml_file(path: str | os.PathLike[str], *, source: str, error: type[PlanError],
@@ -280,15 +313,109 @@ def unchecked_equipment_message(ids: Iterable[str]) -> str:
             "contribution is included in the uncertainty (give --equipment LAB.toml)")
 
 
+@dataclass(frozen=True)
+class TestTime:
+    """When the test was performed, and where that date comes from.
+
+    Attributes
+    ----------
+    at : datetime
+        The test time (UTC); midnight UTC when only a date is known.
+    date : datetime.date
+        The test date: the date of ``at``.
+    has_time : bool
+        Whether a time of day is known (a plan date-time, ``--tested-at`` with a time, or the
+        time of the analysis) or only the date.
+    source : str
+        ``"plan"`` (the plan's ``[test] date``), ``"--tested-at"`` (given, overriding any plan
+        date) or ``"analysis"`` (neither: the time of the analysis).
+    overrides : datetime.date or None
+        The plan's ``[test] date`` that ``--tested-at`` overrides (when it differs).
+    """
+
+    __test__ = False                     # not a pytest class despite its name
+
+    at: _dt.datetime
+    date: _dt.date
+    has_time: bool
+    source: str
+    overrides: _dt.date | None = None
+
+    @property
+    def text(self) -> str:
+        """The test date as printed: ``2026-11-20`` or ``2026-11-20 09:30 UTC``."""
+        return (f"{self.at:%Y-%m-%d %H:%M} UTC" if self.has_time and self.at.time() != _dt.time()
+                else self.date.isoformat())
+
+    @property
+    def source_text(self) -> str:
+        """Where the date comes from, as a sentence fragment for reports."""
+        if self.source == "plan":
+            return "the plan's [test] date"
+        if self.source == "--tested-at":
+            return ("--tested-at" + (f", overriding the plan's [test] date {self.overrides}"
+                                     if self.overrides is not None else ""))
+        return "the time of the analysis (the plan gives no [test] date)"
+
+    def to_dict(self) -> dict[str, str | None]:
+        """``{"date", "tested_at", "date_source"}`` as in the envelope's ``test`` block."""
+        return {"date": self.date.isoformat(),
+                "tested_at": self.at.isoformat(timespec="seconds") if self.has_time else None,
+                "date_source": self.source}
+
+    def override_message(self) -> str | None:
+        """The notice printed when ``--tested-at`` overrides the plan's date, else None."""
+        if self.overrides is None:
+            return None
+        return (f"--tested-at {self.text} overrides the plan's [test] date {self.overrides}: "
+                "the record, report, equipment status and history use the --tested-at date")
+
+
+def test_time(
+    conditions: TestConditions | None, given: _dt.datetime | None = None, *,
+    now: _dt.datetime | None = None,
+) -> TestTime:
+    """The one test date of a run: ``--tested-at``, else the plan's ``[test] date``, else now.
+
+    Parameters
+    ----------
+    conditions : TestConditions or None
+        The plan's ``[test]`` table (its ``date``, with ``time_utc`` when the plan gives a
+        date-time).
+    given : datetime, optional
+        ``--tested-at`` (a naive time is UTC); it overrides the plan's date, and says so.
+    now : datetime, optional
+        The time of the analysis (default: now, UTC).
+
+    Returns
+    -------
+    TestTime
+        Used for the record, the report, the equipment's calibration status, the history axis
+        and its trend alike.
+    """
+    plan_date = conditions.date if conditions is not None else None
+    if given is not None:
+        at = given.replace(tzinfo=_dt.UTC) if given.tzinfo is None else given.astimezone(_dt.UTC)
+        over = plan_date if plan_date is not None and plan_date != at.date() else None
+        return TestTime(at, at.date(), True, "--tested-at", over)
+    if plan_date is not None:
+        t = conditions.time_utc if conditions is not None else None
+        at = _dt.datetime.combine(plan_date, t or _dt.time(), tzinfo=_dt.UTC)
+        return TestTime(at, plan_date, t is not None, "plan")
+    at = (now or _dt.datetime.now(_dt.UTC)).astimezone(_dt.UTC)
+    return TestTime(at, at.date(), True, "analysis")
+
+
 def identity_block(
     conditions: TestConditions | None,
     *,
     lab: Mapping[str, Equipment] | None,
-    tested_at: _dt.datetime,
+    tested: TestTime,
     software_version: str,
     data_sha256: str,
     plan_source: str = "the plan",
     lab_source: str = "the lab file",
+    signatories: Mapping[str, str] | None = None,
 ) -> dict[str, object]:
     """The envelope's ``test`` block: who, when, with what, in which conditions.
 
@@ -298,19 +425,26 @@ def identity_block(
         The plan's ``[test]`` table.
     lab : mapping of str to Equipment, or None
         The lab file's records; without it the equipment ids are listed unresolved.
-    tested_at : datetime
-        When the test was run (UTC); its date is the test date unless ``[test] date`` gives one.
+    tested : TestTime
+        The one test date (:func:`test_time`): the equipment's calibration status is judged on
+        it.
     software_version, data_sha256 : str
+    signatories : mapping, optional
+        The lab file's ``[signatories]`` (``reviewed_by``, ``approved_by``); the plan's
+        ``[test]`` names win.
 
     Returns
     -------
     dict
-        ``{"operator", "date", "tested_at", "software_version", "data_sha256", "equipment":
-        [{"id", "name", "model", "serial", "certificate", "calibrated", "calibration_due",
-        "calibration_overdue", "type_b"}], "environment": {name: {"value", "unit"}}, "notes"}``.
+        ``{"operator", "date", "tested_at", "date_source", "software_version", "data_sha256",
+        "equipment": [{"id", "name", "model", "serial", "certificate", "calibrated",
+        "calibration_due", "calibration_overdue", "type_b"}], "environment": {name: {"value",
+        "unit"}}, "notes", "certificate", "approval": {"performed_by", "performed_on",
+        "reviewed_by", "reviewed_on", "approved_by", "approved_on"}}``; ``"filed_at"`` is added
+        when the run is stored (:func:`inertest.app.run.file_run`).
     """
     c = conditions if conditions is not None else TestConditions()
-    date = c.date if c.date is not None else tested_at.date()
+    date = tested.date
     if lab is not None:
         items: list[dict[str, object]] = [
             e.to_dict(date) for e in select_equipment(lab, c.equipment, plan_source=plan_source,
@@ -318,9 +452,17 @@ def identity_block(
     else:
         items = [{"id": i, "calibration_due": None, "calibration_overdue": None}
                  for i in c.equipment]
+    sig = dict(signatories or {})
     return {
-        "operator": c.operator, "date": date.isoformat(),
-        "tested_at": tested_at.isoformat(timespec="seconds"),
+        "operator": c.operator, **tested.to_dict(),
         "software_version": software_version, "data_sha256": data_sha256,
         "equipment": items, "environment": c.environment(), "notes": c.notes,
+        "certificate": c.certificate or None,
+        "approval": {
+            "performed_by": c.operator or None, "performed_on": date.isoformat(),
+            "reviewed_by": c.reviewed_by or sig.get("reviewed_by") or None,
+            "reviewed_on": None if c.review_date is None else c.review_date.isoformat(),
+            "approved_by": c.approved_by or sig.get("approved_by") or None,
+            "approved_on": None if c.approval_date is None else c.approval_date.isoformat(),
+        },
     }

@@ -18,7 +18,8 @@ def runs_figure(result: CentrifugeNinePositionResult):
     """Whole-revolution mean drift per run with the model, and the run residuals.
 
     One marker per run (position on the x axis, one colour per main-axis rate); the drift is the
-    mean output minus the mean input rate on I [deg/h], the residual is in the output unit.
+    mean output minus the mean input rate on I [deg/h], the residual (drift minus model) is in
+    deg/h beside it.
     """
     rates = np.unique(result.run_omega)
     fig, (ax, axr) = plt.subplots(2, 1, figsize=(7.0, 5.4), sharex=True,
@@ -29,12 +30,13 @@ def runs_figure(result: CentrifugeNinePositionResult):
         x = result.run_position[sel] + (j - (rates.size - 1) / 2) * width
         line, = ax.plot(x, result.drift_deg_h[sel], "o", mfc="none", label=f"{w:g} rad/s")
         ax.plot(x, result.fitted_deg_h[sel], "_", ms=12, mew=2, color=line.get_color())
-        axr.plot(x, result.residual_output[sel], "o", ms=4, color=line.get_color())
+        axr.plot(x, result.drift_deg_h[sel] - result.fitted_deg_h[sel], "o", ms=4,
+                 color=line.get_color())
     ax.set_ylabel("mean drift ω_out − ω_I [deg/h]")
     ax.legend(title="main-axis rate (— model)", fontsize=8, title_fontsize=8)
     ax.grid(alpha=0.3)
     axr.axhline(0, color="k", lw=0.6)
-    axr.set_ylabel(f"residual [{result.output_unit}]")
+    axr.set_ylabel("residual [deg/h]")
     axr.set_xlabel("position")
     axr.set_xticks(range(1, 10))
     axr.grid(alpha=0.3)
@@ -59,12 +61,11 @@ def nine_position_sections(
         "one main-axis rate) is reduced to its mean over whole revolutions; the ten regressors, "
         "built from the exact inputs of the error-free machine with the Earth's rotation, are "
         "averaged over the same samples with the same weights, and the mean Earth rate on I is "
-        "subtracted (Ref. [centrifuge paper], eqs. 18-22: Sun Yingbo, Ren Shunqing, Wang "
+        "subtracted (eqs. 18-22 of Sun Yingbo, Ren Shunqing, Wang "
         "Changhong, Harbin Institute of Technology). One observation per run; omega is the "
         "signed arm rate (negative = clockwise seen from above)."))
     ident = result.identification
     u = float(ident.noise_sigma) if ident.noise_unit == "deg/h" else None
-    u_res = u if result.output_unit == "deg/h" else None
 
     def at(x: float, std: float | None) -> str:
         return round_to_uncertainty(float(x), std)[0] if std else format_number(float(x))
@@ -72,15 +73,14 @@ def nine_position_sections(
     ome = format_column([float(w) for w in result.run_omega])
     earth = format_column([float(e) for e in result.earth_rate_deg_h])
     rows = [
-        [str(int(p)), w, str(int(r)), str(int(n)), at(d, u), at(f, u), e, at(res, u_res)]
-        for p, w, r, n, d, f, e, res in zip(
+        [str(int(p)), w, str(int(r)), str(int(n)), at(d, u), at(f, u), e, at(d - f, u)]
+        for p, w, r, n, d, f, e in zip(
             result.run_position, ome, result.run_revolutions, result.run_samples,
-            result.drift_deg_h, result.fitted_deg_h, earth,
-            result.residual_output, strict=True)
+            result.drift_deg_h, result.fitted_deg_h, earth, strict=True)
     ]
     sec.parts.append(table_html(
         ["position", "ω [rad/s]", "revolutions", "samples", "drift [deg/h]", "model [deg/h]",
-         "ω_I [deg/h]", f"residual [{result.output_unit}]"], rows,
+         "ω_I [deg/h]", "residual [deg/h]"], rows,
         caption="Drift, model and residual rounded at the noise per run "
                 + ("(not known)" if u is None else f"({round_to_uncertainty(u, u)[1]} deg/h)")
                 + "; ω_I round-off (1e-16 deg/h) printed as 0"))

@@ -1,4 +1,4 @@
-"""HTML report of the centrifuge error study (issue 5, Ref. [centrifuge paper]): tables, figures."""
+"""HTML report of the centrifuge error study (issue 5, Sun, Ren & Wang): tables, figures."""
 
 from __future__ import annotations
 
@@ -116,7 +116,7 @@ def study_sections(result: StudyResult) -> list[Section]:
                       "with the regressors of the error-free machine (exact kinematics, Earth "
                       "rate included). The second row is the cost of this project's closed form "
                       "without the Earth-rate terms (2 W x v, W x (W x p)) on an error-free "
-                      "machine; Ref. [centrifuge paper] lists a Coriolis part (Ak) in its "
+                      "machine; Sun, Ren & Wang list a Coriolis part (Ak) in its "
                       "eq. (9)."),
         ]),
         Section("Compensation with the error model and the measured dgamma(t)", [
@@ -126,7 +126,7 @@ def study_sections(result: StudyResult) -> list[Section]:
                       "(spline-interpolated), so a dgamma that varies within a sample interval "
                       "leaves a small residual."),
         ]),
-        Section("Exact kinematics versus the first-order results of Ref. [centrifuge paper]",
+        Section("Exact kinematics versus the first-order results of Sun, Ren & Wang",
                 [paragraph(n, note=True) for n in result.notes]),
         Section("Reference", [paragraph(REFERENCE + ".")]),
     ]

@@ -16,6 +16,11 @@ from typing import Any
 from inertest.report.html import Section, paragraph, table_html
 from inertest.report.rounding import format_number, round_to_uncertainty
 
+#: A Type-B contribution below this fraction of the combined standard uncertainty is printed
+#: as ``< (fraction x u_c)``: it changes u_c by less than fraction^2 / 2 (0.005 %), which the
+#: two significant digits of u_c (GUM 7.2.6) cannot show. The JSON keeps its value.
+NEGLIGIBLE_FRACTION = 0.01
+
 #: Header of the verdict table.
 VERDICT_HEADER = ["quantity", "value ± U (k)", "limit", "clause", "verdict"]
 
@@ -68,17 +73,35 @@ def budget_table(budget: Mapping[str, Any]) -> tuple[list[str], list[list[str]]]
         value, _ = round_to_uncertainty(float(q["value"]), uc)
         ta = q.get("type_a") or {}
         contrib = {c["source"]: float(c["contribution"]) for c in q.get("type_b") or []}
-        scale = max([abs(x) for x in contrib.values()] + [uc, 0.0])
         rows.append([
             name, unit, value,
             f"{format_number(float(ta.get('std', 0.0)), digits=2)} ({_dof(ta)})",
-            *(format_number(contrib[s], scale=scale, digits=2) if s in contrib else "-"
-              for s, _ in sources),
+            *(contribution_text(contrib[s], uc) if s in contrib else "-" for s, _ in sources),
             round_to_uncertainty(uc, uc)[1],
             f"{float(q['coverage_factor']):.2f}",
             round_to_uncertainty(big_u, big_u)[1],
         ])
     return header, rows
+
+
+def contribution_text(c: float, combined: float) -> str:
+    """A signed contribution ``c_i u_i`` as printed: two significant digits, or ``< bound``.
+
+    Below :data:`NEGLIGIBLE_FRACTION` of the combined standard uncertainty it is printed as
+    ``< 2e-05`` (that fraction of u_c, one digit): a 1.6e-11 deg/h/g^2 contribution next to a
+    0.0042 deg/h/g^2 u_c is round-off of the budget's simulation, not data.
+    """
+    bound = NEGLIGIBLE_FRACTION * combined
+    if bound > 0 and abs(c) < bound:
+        return f"< {format_number(bound, digits=1)}"
+    return format_number(c, digits=2)
+
+
+def _negligible(budget: Mapping[str, Any]) -> bool:
+    """Whether any contribution is printed as ``< bound`` (:func:`contribution_text`)."""
+    return any(contribution_text(float(c["contribution"]), float(q["combined_std"]))
+               .startswith("<")
+               for q in (budget.get("quantities") or {}).values() for c in q.get("type_b") or [])
 
 
 def _dof(type_a: Mapping[str, Any]) -> str:
@@ -92,6 +115,12 @@ def budget_notes(budget: Mapping[str, Any]) -> list[str]:
     """The budget's assumptions and the lab-file entries that do not apply, as sentences."""
     notes = [f"Assumption: {a}." for a in budget.get("assumptions") or []]
     notes += [f"Not applied: {n}." for n in budget.get("not_applicable") or []]
+    if _negligible(budget):
+        notes.append(f"A Type-B contribution below {100 * NEGLIGIBLE_FRACTION:g} % of the "
+                     "combined standard uncertainty is shown as < (that bound): it changes the "
+                     f"combined standard uncertainty by less than "
+                     f"{100 * NEGLIGIBLE_FRACTION**2 / 2:g} % (JCGM 100:2008, 7.2.6: u to two "
+                     "significant digits); the JSON keeps its value.")
     p = budget.get("coverage_probability")
     if p is not None:
         notes.append(f"U = k × combined std, k = t-factor for a coverage probability of "
@@ -127,5 +156,5 @@ def conformance_sections(
     return [sec]
 
 
-__all__ = ["VERDICT_HEADER", "budget_notes", "budget_table", "conformance_sections",
-           "verdict_notes", "verdict_rows"]
+__all__ = ["NEGLIGIBLE_FRACTION", "VERDICT_HEADER", "budget_notes", "budget_table",
+           "conformance_sections", "contribution_text", "verdict_notes", "verdict_rows"]

@@ -79,12 +79,42 @@ def rate_table_sections(
             pair_rows(result),
             caption="Std of each pair scaled from the least-squares estimates' (equal readings "
                     "per rate): u(K) × √(Σω²/ω²), u(B) × √(number of pairs)"))
+        note = pair_bias_note(result)
+        if note:
+            sec.parts.append(paragraph(note, note=True))
     sec.parts.append(figure_html(rate_table_figure(result),
                                  "Output against table rate, and deviation from the straight "
                                  "line (ppm of full scale)"))
     for msg in result.messages:
         sec.parts.append(paragraph("Warning: " + msg, note=True))
     return [sec]
+
+
+def pair_bias_note(result: GyroRateTableResult) -> str | None:
+    """Why the closed-form bias of the pairs changes with the rate, when it does.
+
+    ``B = (E+ + E-)/(2K)`` takes the whole even part of a pair's outputs as bias: a scale-factor
+    asymmetry adds ``(K+ - K-) w / (2K)`` (growing with the rate), a second-order term
+    ``K2 w^2`` (growing with its square). The least-squares bias is fitted with those terms.
+    None when the pair biases agree within 3 of their standard uncertainties.
+    """
+    pairs = sorted(result.pairs, key=lambda q: q["rate_deg_s"])
+    b = result.identification.coefficients.get("B")
+    if len(pairs) < 2 or b is None:
+        return None
+    u = float(b.std) * np.sqrt(len(pairs))
+    lo, hi = pairs[0], pairs[-1]
+    if not abs(hi["B"] - lo["B"]) > 3.0 * np.sqrt(2.0) * u:
+        return None
+    fitted = [n for n in ("asymmetry", "K2") if n in result.identification.coefficients]
+    return (f"The pair bias climbs from {format_with_std(lo['B'], u)} deg/h at "
+            f"±{lo['rate_deg_s']:g} deg/s to {format_with_std(hi['B'], u)} deg/h "
+            f"at ±{hi['rate_deg_s']:g} deg/s: the closed form counts the whole "
+            "even part of a pair's outputs as bias, and a scale-factor asymmetry (K+ ≠ K−) "
+            "adds (K+ − K−)ω/(2K), growing with the rate, a second-order term K2 adds K2 ω², "
+            "growing with its square. It is not the gyro's bias: the least-squares B above is "
+            "fitted together with " + (" and ".join(fitted) if fitted else "the scale factor")
+            + " and holds at every rate.")
 
 
 def rotation_residual_figure(result: GyroTriadRotationResult):

@@ -7,7 +7,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from inertest.report.html import Section, paragraph, table_html
-from inertest.report.rounding import format_number, format_with_std
+from inertest.report.rounding import format_number, format_with_std, round_to_uncertainty
 from inertest.results import Identification
 
 
@@ -25,23 +25,32 @@ def _z(value: float, truth: float, std: float) -> str:
     return f"{(value - truth) / std:+.2f}" if std > 0 else "-"
 
 
+def _at(value: float, std: float) -> str:
+    """``value`` rounded at the decimal of ``std`` (GUM 7.2.6), without the std."""
+    return round_to_uncertainty(float(value), float(std))[0]
+
+
 def coefficient_rows(
     ident: Identification, truth: Mapping[str, float] | None = None
 ) -> tuple[list[str], list[list[str]]]:
-    """Header and rows of the estimates (and truth, for simulated data)."""
+    """Header and rows of the estimates (and truth, for simulated data).
+
+    The truth is an exact number: it is printed at the decimal of the estimate's std (to
+    compare the two digit by digit), without a ``± std`` of its own.
+    """
     header = ["quantity", "estimate ± std", "unit"] + (["truth", "error/std"] if truth else [])
     rows = []
     for name, e in ident.coefficients.items():
         row = [name, fmt(e.value, e.std), e.unit]
         if truth is not None:
             t = float(truth.get(name, 0.0))
-            row += [fmt(t, e.std), _z(e.value, t, e.std)]
+            row += [_at(t, e.std), _z(e.value, t, e.std)]
         rows.append(row)
     for c in ident.combinations:
         row = [c.name, fmt(c.value, c.std), c.unit]
         if truth is not None:
             t = c.evaluate(truth)
-            row += [fmt(t, c.std), _z(c.value, t, c.std)]
+            row += [_at(t, c.std), _z(c.value, t, c.std)]
         rows.append(row)
     return header, rows
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from inertest.report.html import Section, paragraph, table_html
+from inertest.report.html import Approval, Section, paragraph, table_html
 
 _ENV_LABELS = {"temperature": "temperature", "humidity": "relative humidity",
                "warm_up": "warm-up before the first reading"}
@@ -39,10 +39,12 @@ def identity_rows(doc: Mapping[str, Any]) -> list[list[str]]:
     rows.append(["test", str(doc.get("kind") or "-")])
     test = doc.get("test") or {}
     if test:
+        if test.get("certificate"):
+            rows.append(["certificate", str(test["certificate"])])
         rows.append(["operator", str(test.get("operator") or "not stated")])
-        rows.append(["test date", str(test.get("date") or "-")])
-        if test.get("tested_at"):
-            rows.append(["filed at (UTC)", str(test["tested_at"]).replace("T", " ")[:19]])
+        rows.append(["test date", test_date_text(test)])
+        if test.get("filed_at"):
+            rows.append(["filed at (UTC)", _utc_text(str(test["filed_at"]))])
         for name, e in (test.get("environment") or {}).items():
             rows.append([_ENV_LABELS.get(name, name),
                          f"{float(e['value']):g} {e['unit']}"])
@@ -54,6 +56,40 @@ def identity_rows(doc: Mapping[str, Any]) -> list[list[str]]:
         if test.get("notes"):
             rows.append(["notes", str(test["notes"])])
     return rows
+
+
+#: Where the test date comes from (the envelope's ``test.date_source``), as printed.
+_DATE_SOURCES = {
+    "plan": "from the plan's [test] date",
+    "--tested-at": "from --tested-at",
+    "analysis": "the time of the analysis: the plan gives no [test] date",
+}
+
+
+def _utc_text(iso: str) -> str:
+    """``2026-11-20T09:30:00+00:00`` as ``2026-11-20 09:30:00``."""
+    return iso.replace("T", " ")[:19]
+
+
+def test_date_text(test: Mapping[str, Any]) -> str:
+    """The one test date as printed, with where it comes from.
+
+    ``2026-11-20 (from the plan's [test] date)``, ``2026-01-05 14:00 UTC (from
+    --tested-at)``.
+    """
+    when = test.get("tested_at")
+    text = (f"{_utc_text(str(when))[:16]} UTC" if when and not str(when)[11:19] == "00:00:00"
+            else str(test.get("date") or "-"))
+    source = _DATE_SOURCES.get(str(test.get("date_source")), "")
+    return f"{text} ({source})" if source else text
+
+
+def approval_of(doc: Mapping[str, Any]) -> Approval:
+    """The signature block of an envelope: its ``test.approval`` (blank where not given)."""
+    a = (doc.get("test") or {}).get("approval") or {}
+    return Approval(**{k: str(a.get(k) or "") for k in (
+        "performed_by", "performed_on", "reviewed_by", "reviewed_on", "approved_by",
+        "approved_on")})
 
 
 EQUIPMENT_HEADER = ["id", "equipment", "model", "serial", "certificate", "calibrated",

@@ -15,7 +15,7 @@ from inertest.report.figure_text import finish_figure
 from inertest.report.html import Section, figure_html, paragraph, table_html
 from inertest.report.rounding import format_number
 from inertest.studies.rotation_modulation import SystemRun
-from inertest.studies.stator_modulation import ModulationRun, drift_gain
+from inertest.studies.stator_modulation import ComponentStudy, ModulationRun, drift_gain
 from inertest.units import (
     ARCSEC_TO_RAD,
     DEG_PER_H_TO_RAD_PER_S,
@@ -44,8 +44,18 @@ def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarra
     a.grid(alpha=0.3)
     b = ax[0, 1]
     F = np.array([r.stator_rate_rad_s / (2 * np.pi) for r in runs])
-    b.loglog(F, [r.rms(True) / k for r in runs], "o-", label="with modulation")
-    b.loglog(F, [r.rms(False) / k for r in runs], "s--", label="without")
+    without = np.array([r.rms(False) / k for r in runs])
+    floor = PLOT_ROUND_OFF * float(np.max(without, initial=0.0))
+    with_mod = clip_round_off(np.array([r.rms(True) / k for r in runs]), float(np.max(
+        without, initial=0.0)))
+    shown = with_mod > 0
+    if shown.any():
+        b.loglog(F[shown], with_mod[shown], "o-", label="with modulation")
+    if (~shown).any() and floor > 0:  # round-off: drawn as an upper bound, not as a value
+        b.loglog(F[~shown], np.full(int((~shown).sum()), floor), "v", color="C0", ms=8,
+                 label=f"with modulation: 0 (round-off, < {format_number(floor, digits=1)} "
+                       "deg/h)")
+    b.loglog(F, without, "s--", color="C1", label="without")
     b.set_xlabel("stator rotation frequency [Hz]")
     b.set_ylabel("RMS residual [deg/h]")
     b.set_title("Residual drift vs stator rate")
@@ -63,8 +73,10 @@ def component_figure(runs: Sequence[ModulationRun], *, drift_freqs_hz: np.ndarra
     c.legend(fontsize=8)
     c.grid(alpha=0.3)
     d = ax[1, 1]
-    d.plot(first.t_out, first.true_rate[:, 0] / k, label="true house rate (window mean)")
+    true_x = first.true_rate[:, 0] / k
+    d.plot(first.t_out, true_x, label="true house rate (window mean)")
     d.plot(first.t_out, first.estimate_modulated[:, 0] / k, ":", label="estimate")
+    hold_round_off(d, np.r_[true_x, first.estimate_modulated[:, 0] / k])
     d.set_xlabel("time [s]")
     d.set_ylabel("house rate X [deg/h]")
     d.set_title(f"Tracking: delay {first.cost.delay_s:.3g} s, "
@@ -149,6 +161,44 @@ def system_residual_rows(runs: Sequence[SystemRun]) -> list[list[str]]:
 #: Relative size below which a computed error (a cycle mean, a modulated residual) is round-off
 #: of the quadrature and the filters: printed as 0 and not plotted as a "step".
 PLOT_ROUND_OFF = 1e-8
+
+
+def hold_round_off(ax, values: np.ndarray) -> None:
+    """Axis limits that do not magnify round-off into a "step" (a constant drawn as constant).
+
+    A curve whose spread is below :data:`PLOT_ROUND_OFF` of its magnitude gets limits of
+    ±5 % about its mean, and the axis shows no offset (``1e-10 + 3.6e1``).
+    """
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return
+    mid, mag = float(np.mean(v)), float(np.max(np.abs(v)))
+    if mag > 0 and float(np.ptp(v)) < PLOT_ROUND_OFF * mag:
+        ax.set_ylim(mid - 0.05 * mag, mid + 0.05 * mag)
+    ax.ticklabel_format(axis="y", useOffset=False)
+
+
+def component_rows(study: ComponentStudy) -> tuple[list[str], list[list[str]], list[str]]:
+    """Header, rows and notes of the stator-modulation table (terminal and report alike).
+
+    A residual below :data:`PLOT_ROUND_OFF` of the unmodulated one is the round-off of the
+    quadrature and the integral filter: printed as 0, and a note says so (not 6.1e-11 deg/h).
+    """
+    header = ["stator [Hz]", "RMS residual [deg/h]", "no modulation [deg/h]", "delay [s]",
+              "bandwidth [Hz]"]
+    rows, zero = [], False
+    for r in study.rows():
+        scale = float(r["rms_residual_fixed_deg_h"])
+        res = format_number(float(r["rms_residual_modulated_deg_h"]), scale=scale,
+                            round_off=PLOT_ROUND_OFF)
+        zero |= res == "0"
+        rows.append([format_number(float(r["stator_hz"])), res, format_number(scale),
+                     format_number(float(r["delay_s"])), format_number(float(r["bandwidth_hz"]))])
+    notes = ([f"RMS residual 0: below the round-off of the integration ({PLOT_ROUND_OFF:g} of "
+              "the unmodulated residual); whole-period integration cancels a drift fixed to "
+              "the stator exactly."] if zero else [])
+    return header, rows, notes
 
 
 def clip_round_off(values: np.ndarray, scale: float) -> np.ndarray:

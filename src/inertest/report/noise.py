@@ -17,6 +17,17 @@ from inertest.report.rounding import format_number, format_with_std, round_to_un
 _TERM_STYLE = {"Q": "C4", "N": "C1", "B": "C2", "K": "C3", "R": "C5"}
 
 
+#: Unit of TDEV (a time deviation: the rate unit times seconds; deg/h x s = 1 arcsec) by the
+#: rate unit of the other deviations.
+TDEV_UNITS = {"rad/s": "rad", "deg/s": "deg", "deg/h": "arcsec", "arcsec/s": "arcsec",
+              "m/s^2": "m/s", "1": "s"}
+
+
+def tdev_unit(rate_unit: str) -> str:
+    """The unit TDEV is in when the other deviations are in ``rate_unit`` (TDEV = tau x ...)."""
+    return TDEV_UNITS.get(rate_unit, f"{rate_unit}*s")
+
+
 def allan_figure(
     results: Mapping[str, DeviationResult], model: NoiseModel | None = None, *,
     unit: str = "rad/s", title: str = "", scale: float = 1.0,
@@ -24,10 +35,34 @@ def allan_figure(
     """Log-log deviations with confidence bars, the fitted model and each term's asymptote.
 
     ``results`` are in ``unit``; the model is in SI and multiplied by ``scale`` (SI to
-    ``unit``) before it is drawn.
+    ``unit``) before it is drawn. TDEV (a time deviation, in ``unit`` x s:
+    :func:`tdev_unit`) is drawn on an axis of its own, labelled with its unit, never on the
+    rate deviations' axis.
     """
-    fig, ax = plt.subplots(figsize=(8, 5.6))
-    for i, (name, r) in enumerate(results.items()):
+    rates = {k: r for k, r in results.items() if k != "tdev"}
+    tdev = results.get("tdev")
+    panels = int(bool(rates) or model is not None) + int(tdev is not None)
+    fig, axes = plt.subplots(1, panels, figsize=(8 if panels == 1 else 12.5, 5.6),
+                             squeeze=False)
+    ax = axes[0, 0]
+    if rates or model is not None:
+        _draw_deviations(ax, rates, model, scale=scale)
+        ax.set_ylabel(f"deviation [{unit}]")
+        if title:
+            ax.set_title(title, fontsize=10)
+    if tdev is not None:
+        at = axes[0, -1]
+        _draw_deviations(at, {"tdev": tdev}, None, scale=scale, first_colour=len(rates))
+        at.set_ylabel(f"time deviation TDEV [{tdev_unit(unit)}]")
+        at.set_title("TDEV (rate deviation × τ/√3 for white noise)", fontsize=10)
+    finish_figure(fig)
+    return fig
+
+
+def _draw_deviations(ax, results: Mapping[str, DeviationResult], model: NoiseModel | None, *,
+                     scale: float, first_colour: int = 0) -> None:
+    """Deviations with their intervals on log-log axes, and the fitted model with its terms."""
+    for i, (name, r) in enumerate(results.items(), first_colour):
         err = np.vstack([r.dev - r.dev_lo, r.dev_hi - r.dev])
         ax.errorbar(r.taus, r.dev, yerr=err, fmt="o", ms=3, lw=0.8, capsize=2,
                     color=f"C{i if i < 1 else i + 5}", label=f"{name} ({r.confidence:.1%} CI)")
@@ -45,13 +80,8 @@ def allan_figure(
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("averaging time tau [s]")
-    ax.set_ylabel(f"deviation [{unit}]")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
-    if title:
-        ax.set_title(title, fontsize=10)
-    finish_figure(fig)
-    return fig
 
 
 def _dev_cell(dev: float, lo: float, hi: float, n: int) -> str:
@@ -66,10 +96,20 @@ def _dev_cell(dev: float, lo: float, hi: float, n: int) -> str:
     return f"{cells[0]} [{cells[1]}, {cells[2]}] ({n})"
 
 
-def deviation_rows(results: Mapping[str, DeviationResult]) -> tuple[list[str], list[list[str]]]:
-    """Table: tau, then each statistic's deviation with its interval and terms."""
+def deviation_rows(results: Mapping[str, DeviationResult], unit: str | None = None
+                   ) -> tuple[list[str], list[list[str]]]:
+    """Table: tau, then each statistic's deviation with its interval and terms.
+
+    With ``unit`` (the rate deviations' unit) each column header names its unit (TDEV's is
+    :func:`tdev_unit`).
+    """
     names = list(results)
-    header = ["tau [s]"] + [f"{n}  [lo, hi]  (n)" for n in names]
+
+    def head(n: str) -> str:
+        u = "" if unit is None else f" [{tdev_unit(unit) if n == 'tdev' else unit}]"
+        return f"{n}{u} value [lo, hi] (n)"
+
+    header = ["tau [s]"] + [head(n) for n in names]
     taus = sorted({float(t) for r in results.values() for t in r.taus})
     rows = []
     for t in taus:
@@ -120,6 +160,6 @@ def allan_sections(
                       "somewhere on the tau range; otherwise only its upper bound is known "
                       f"(< value). Upper bound: {BOUND_DEFINITION}.", note=True),
         ]))
-    h, r = deviation_rows(results)
+    h, r = deviation_rows(results, unit)
     out.append(Section("Deviations (NIST SP 1065 conventions)", [table_html(h, r)]))
     return out

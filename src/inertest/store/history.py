@@ -92,7 +92,12 @@ class StoredEstimate:
 
 @dataclass(frozen=True)
 class RunRecord:
-    """Everything stored about one fit."""
+    """Everything stored about one fit.
+
+    ``tested_at`` is when the test was performed (the one test date,
+    :func:`inertest.quality.lab.test_time`): the history's axis. ``filed_at`` is when the run
+    was stored (the ``stored_at`` column); None until it is.
+    """
 
     serial: str
     instrument_kind: str
@@ -112,6 +117,7 @@ class RunRecord:
     noise_sigma: float | None = None
     noise_unit: str | None = None
     run_uuid: str = field(default_factory=lambda: str(uuid.uuid4()))
+    filed_at: datetime | None = None
 
     @classmethod
     def from_result(
@@ -124,8 +130,12 @@ class RunRecord:
         data_sha256: str,
         software_version: str,
         tested_at: datetime | None = None,
+        filed_at: datetime | None = None,
     ) -> RunRecord:
         """Build from any result's ``to_dict()`` (the result envelope, schema version 2).
+
+        ``tested_at``: when the test was performed (default now); ``filed_at``: when it is
+        stored (default: the time of :meth:`HistoryStore.add`).
 
         Every kind can be stored: the identification block (coefficients and combinations),
         when the kind has one, becomes the run's estimates; the whole envelope is kept as the
@@ -173,6 +183,7 @@ class RunRecord:
             residual_unit=rms.get("unit"),
             noise_sigma=None if sigma is None or sigma != sigma else float(sigma),
             noise_unit=noise.get("unit"),
+            filed_at=None if filed_at is None else _utc(filed_at),
         )
 
 
@@ -375,7 +386,7 @@ class HistoryStore:
     def _add(self, record: RunRecord) -> None:
         run = Run(
             **{f: getattr(record, f) for f in _RUN_FIELDS},
-            stored_at=datetime.now(UTC),
+            stored_at=record.filed_at or datetime.now(UTC),
             result_json=json.dumps(record.result, allow_nan=True),
             estimates=[
                 EstimateRow(name=e.name, kind=e.kind, value=e.value, std=e.std, unit=e.unit,
@@ -544,6 +555,7 @@ def _record(r: Run) -> RunRecord:
     return RunRecord(
         **{f: getattr(r, f) for f in _RUN_FIELDS if f != "tested_at"},
         tested_at=_utc(r.tested_at),
+        filed_at=_utc(r.stored_at),
         estimates=tuple(
             StoredEstimate(e.name, e.kind, e.value, e.std, e.unit,
                            None if e.terms_json is None else json.loads(e.terms_json))

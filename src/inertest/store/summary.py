@@ -79,7 +79,10 @@ class InstrumentHistory:
     def to_dict(self) -> dict[str, object]:
         """The ``history`` result envelope: the runs and each quantity's summary."""
         return envelope(self.kind, instrument={"serial": self.serial}, result={
-            "runs": [{"tested_at": r.tested_at.isoformat(), "procedure": r.procedure,
+            "runs": [{"tested_at": r.tested_at.isoformat(),
+                      "filed_at": None if r.filed_at is None else r.filed_at.isoformat(
+                          timespec="seconds"),
+                      "procedure": r.procedure,
                       "run_uuid": r.run_uuid, "software_version": r.software_version,
                       "data_sha256": r.data_sha256} for r in self.runs],
             "quantities": [h.to_dict() for h, _ in self.summaries],

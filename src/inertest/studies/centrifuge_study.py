@@ -1,6 +1,6 @@
 """What each error of a dual-axis centrifuge costs the nine-position identification (issue 5).
 
-Ref. [centrifuge paper] (seed ``004_f16e7c07e7c35fdc.txt``; authors as given in its header:
+Sun, Ren & Wang (seed ``004_f16e7c07e7c35fdc.txt``; authors as given in its header:
 孫英博 Sun Yingbo, 任順清 Ren Shunqing, 王常虹 Wang Changhong, Space Control and Inertial
 Technology Research Center, Harbin Institute of Technology), sec. 4-5, redone with the exact
 kinematics of :mod:`inertest.equipment.centrifuge` instead of the source's first-order
@@ -57,7 +57,7 @@ _number = partial(finite_number, error=PlanError)
 FitFunction = Callable[..., tuple[Any, Any]]
 
 #: How reports cite the source paper (its header gives the authors, not the title).
-REFERENCE = ("Ref. [centrifuge paper]: Sun Yingbo, Ren Shunqing, Wang Changhong (Space Control "
+REFERENCE = ("Sun Yingbo, Ren Shunqing, Wang Changhong (Space Control "
              "and Inertial Technology Research Center, Harbin Institute of Technology), "
              "calibration of a floated gyro on a dual-axis precision centrifuge with a "
              "counter-rotating platform")
@@ -471,7 +471,7 @@ def run_study(plan: StudyPlan, fit: FitFunction, *, monte_carlo_runs: int | None
 
 def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
            results: list[CaseResult], closed_form_error: NDArray[np.float64]) -> tuple[str, ...]:
-    """Where the exact kinematics disagree with Ref. [centrifuge paper]'s first-order results."""
+    """Where the exact kinematics disagree with Sun, Ren & Wang's first-order results."""
     k = DEG_PER_H_TO_RAD_PER_S
     coriolis = 2 * OMEGA_IE * max(plan.omegas_rad_s) * plan.radius_m
     cf_ratio = np.abs(closed_form_error) / std
@@ -479,7 +479,7 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
     notes = [
         "Error-free machine, noise-free: largest |estimate - truth| = "
         f"{np.abs(x0 - plan.truth).max() / k:.2e} deg/h per g^k (whole-revolution fit exact).",
-        "Ref. [centrifuge paper] lists a Coriolis part (Ak) in its specific force (eq. 9); "
+        "Sun, Ren & Wang list a Coriolis part (Ak) in its specific force (eq. 9); "
         "the closed form without the Earth-rate terms 2 W x v and W x (W x p) is this "
         f"project's simplification. On this machine 2 W w R reaches {coriolis:.2e} m/s^2 "
         f"({coriolis / G0:.2e} g); fitting the error-free machine with that closed form costs "
@@ -505,7 +505,7 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 f"{r.case.label}: the servo's residual rate d(dgamma)/dt = "
                 f"{r.case.dgamma.rate_rad_s:.3e} rad/s acts on the gyro directly wherever I has "
                 "a component along the azimuth axis (largest run mean "
-                f"{r.max_run_rate_error_rad_s:.3e} rad/s); Ref. [centrifuge paper] keeps only "
+                f"{r.max_run_rate_error_rad_s:.3e} rad/s); Sun, Ren & Wang keep only "
                 "the angle dgamma to first order and misses this term, which dominates the "
                 "rate-tracking result."
             )
@@ -518,7 +518,7 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 "horizontal Earth rate on I changes by up to 2 W cos(L) sin(dgamma / 2) = "
                 f"{earth:.3e} rad/s (exact run-mean output error "
                 f"{r.max_run_output_error_rad_s:.3e} rad/s). "
-                "Ref. [centrifuge paper] quotes 1.823e-7 rad/s for 1000' and 'of order 1e-8' for "
+                "Sun, Ren & Wang quote 1.823e-7 rad/s for 1000' and 'of order 1e-8' for "
                 "200' and finds "
                 "mainly DSS, DOO, DIO, DSI affected; exactly, the specific-force regressors are "
                 "unchanged over whole revolutions (a turn about the vertical only shifts the phase "
@@ -534,7 +534,7 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                 f"2 pi f A = {2 * math.pi * d.frequency_hz * d.amplitude_rad:.3e} rad/s on the "
                 "azimuth axis, which whole-revolution averaging cancels only when f is a multiple "
                 "of the revolution frequency; its largest run-mean rate error here is "
-                f"{r.max_run_rate_error_rad_s:.3e} rad/s. Ref. [centrifuge paper]'s conclusion "
+                f"{r.max_run_rate_error_rad_s:.3e} rad/s. Sun, Ren & Wang's conclusion "
                 "holds: "
                 "phase tracking costs far less than rate tracking (compare the tables), but not "
                 "nothing."
@@ -548,7 +548,7 @@ def _notes(plan: StudyPlan, x0: NDArray[np.float64], std: NDArray[np.float64],
                        f"; exactly, at that position and rate the first-harmonic amplitude of "
                        f"the output error is {r.example_first_harmonic_rad_s:.3e} rad/s")
             notes.append(
-                f"{r.case.label}: Ref. [centrifuge paper] quotes a first-harmonic output error of "
+                f"{r.case.label}: Sun, Ren & Wang quote a first-harmonic output error of "
                 f"7.11e-6 rad/s for its second attitude (position {pos}) at {w:g} rad/s"
                 f"{example}. Over all runs the largest rate error on I is "
                 f"{r.max_sample_rate_error_rad_s:.3e} rad/s per sample, and over the whole "
