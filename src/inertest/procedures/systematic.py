@@ -446,6 +446,11 @@ def coarse_alignment(f: NDArray[np.float64], w: NDArray[np.float64],
     return np.vstack([east, north, up])
 
 
+def _noise_floor() -> NDArray[np.float64]:
+    """Per-sample noise below which a channel is noise-free: 1e-7 of the Earth rate, of g0."""
+    return NOISE_FLOOR * np.r_[np.full(3, np.linalg.norm(earth_rate_enu(0.0))), np.full(3, G0)]
+
+
 def _white_noise(spec: SystematicSpec, w: NDArray[np.float64], f: NDArray[np.float64],
                  dwells: Sequence[tuple[int, int]]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple[bool, ...]]:
@@ -458,10 +463,7 @@ def _white_noise(spec: SystematicSpec, w: NDArray[np.float64], f: NDArray[np.flo
             sq += np.sum(np.diff(x[a:b], axis=0) ** 2, axis=0)
             count += b - a - 1
     measured = sq / (2 * max(count, 1))
-    typical = np.r_[np.full(3, np.linalg.norm(earth_rate_enu(0.0))),
-                    np.full(3, spec.sample_rate_hz * 0 + G0)]
-    floor = (NOISE_FLOOR * typical) ** 2
-    var = np.maximum(measured, floor)
+    var = np.maximum(measured, _noise_floor() ** 2)
     given = [False] * 6
     for k, (key, si) in enumerate(_WHITE_KEYS):
         level = getattr(spec, key)
@@ -629,6 +631,28 @@ class NoiseLevels:
     slow: NDArray[np.float64] = field(default_factory=lambda: np.zeros(6))
     slow_source: str = "none"
     weights: Mapping[str, float] = field(default_factory=dict)
+
+    def components(self, dt_s: float) -> dict[str, float]:
+        """Mean level of each component over the gyros and over the accelerometers.
+
+        Keyed by names that carry their unit (``noise.components`` of the identification).
+        """
+        dens = np.sqrt(self.white * dt_s)
+        out = {"gyro angle random walk [deg/sqrt(h)]":
+               float(np.mean(dens[:3]) / DEG_PER_SQRT_H_TO_RAD_PER_SQRT_S),
+               "accelerometer velocity random walk [ug/sqrt(Hz)]":
+               float(np.mean(dens[3:]) / MICRO_G_TO_M_PER_S2)}
+        if self.model == "random-walk":
+            out["gyro rate random walk [deg/h/sqrt(h)]"] = float(
+                np.mean(self.slow[:3]) / _RW_KEYS[0][1])
+            out["accelerometer bias random walk [ug/sqrt(s)]"] = float(
+                np.mean(self.slow[3:]) / _RW_KEYS[1][1])
+        elif self.model == "flicker":
+            out["gyro bias instability [deg/h]"] = float(
+                np.mean(self.slow[:3]) / _FLICKER_KEYS[0][1])
+            out["accelerometer bias instability [ug]"] = float(
+                np.mean(self.slow[3:]) / _FLICKER_KEYS[1][1])
+        return out
 
     def to_dict(self, dt_s: float) -> dict[str, object]:
         """JSON block: white densities and the slow component, per channel, with units."""
@@ -1036,12 +1060,12 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
             not_sep = ()
         ident = Identification(
             coefficients=coefficients, combinations=tuple(combos), not_separable=not_sep,
-            covariance=cov_x, names=names, noise_sigma=float(np.sqrt(np.mean(np.diag(V)))),
-            noise_unit="m/s", sigma_from_residuals=levels.slow_source == "fitted",
-            dof=int(r.size - rank - 3), rank=rank, residuals=r, noise_model=levels.model,
-            noise_components={}, checks=checks)
-        if not np.all(obs.white_measured >= (NOISE_FLOOR * np.r_[np.full(3, 7.29e-5),
-                                                                 np.full(3, G0)]) ** 2):
+            covariance=cov_x, names=names, noise_sigma=float("nan"), noise_unit="",
+            sigma_from_residuals=levels.slow_source == "fitted", dof=int(r.size - rank - 3),
+            rank=rank, residuals=r, noise_model=levels.model,
+            noise_components=levels.components(obs.dt_s), checks=checks,
+            noise_model_weights=dict(levels.weights))
+        if not np.all(obs.white_measured >= _noise_floor() ** 2):
             messages.append("the recording is noise-free (simulated?) on some channels: their "
                             "white noise is below the numeric floor, so the uncertainties come "
                             "from the residuals' scatter (the model approximations)")
@@ -1072,7 +1096,9 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
                ) -> tuple[NoiseLevels, NDArray[np.float64]]:
         """The noise levels and the observations' covariance under them."""
         white = obs.white_variance
-        if choice == "white":
+        noise_free = not np.all(obs.white_measured >= _noise_floor() ** 2)
+        if choice == "white" or (choice == "auto" and noise_free):
+            # noise-free data: every residual would pass for a slow process; keep white
             return NoiseLevels(white), V_white
         block_s = obs.block * obs.dt_s
         given = _given_slow(spec)
