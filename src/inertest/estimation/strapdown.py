@@ -226,9 +226,9 @@ class ErrorInputs:
 
     Attributes
     ----------
-    gyro_sum, gyro_weighted : ndarray, shape (nb, P, 3)
+    gyro_sum, gyro_weighted : ndarray, shape (nb, 3, P)
         ``sum_j C_ib,j dw_j dt`` and the same weighted by ``m - pos`` (inertial-fixed frame).
-    accel_sum : ndarray, shape (nb, P, 3)
+    accel_sum : ndarray, shape (nb, 3, P)
         ``sum_j C_ib,j df_j dt``.
     """
 
@@ -238,15 +238,16 @@ class ErrorInputs:
 
 
 def propagate(nav: Navigation, inputs: ErrorInputs) -> NDArray[np.float64]:
-    """Pseudo-velocity errors at every block end, shape (nb, P, 3) (module docstring)."""
+    """Pseudo-velocity errors at every block end, shape (nb, 3, P) (module docstring)."""
     m, dt = nav.block, nav.dt_s
     psi_end = np.cumsum(inputs.gyro_sum, axis=0)
-    psi_prev = np.concatenate([np.zeros_like(psi_end[:1]), psi_end[:-1]])
-    psi_sum = m * psi_prev + inputs.gyro_weighted
-    F = _skew([0.0, 0.0, nav.gravity_m_s2])
-    phi_sum = -np.einsum("bij,bpj->bpi", nav.E, psi_sum)
-    du = np.einsum("bij,bpj->bpi", nav.E, inputs.accel_sum) + dt * np.einsum(
-        "ij,bpj->bpi", F, phi_sum)
+    psi_sum = inputs.gyro_weighted.copy()
+    psi_sum[1:] += m * psi_end[:-1]
+    phi_sum = -(nav.E @ psi_sum)
+    du = nav.E @ inputs.accel_sum
+    g = nav.gravity_m_s2 * dt  # f_n x phi with f_n = (0, 0, g): (-g phi_N, g phi_E, 0)
+    du[:, 0] -= g * phi_sum[:, 1]
+    du[:, 1] += g * phi_sum[:, 0]
     return np.asarray(np.cumsum(du, axis=0))
 
 

@@ -108,9 +108,10 @@ class ImuCalibration:
         """Calibrated specific force [m/s^2] and rate [rad/s] (n, 3) of a whole IMU recording.
 
         The triads as :meth:`TriadCalibration.apply`, then the coupling terms (first order,
-        :mod:`inertest.models.strapdown_imu`): ``f = v - k2 v^2 - A_a |v| - L(w, dw) - tGA w x
-        f``, ``w`` less ``A_g |w|``, the angular acceleration ``dw`` by central differences at
-        the sample interval ``dt_s`` [s].
+        :mod:`inertest.models.strapdown_imu`, :meth:`~inertest.models.strapdown_imu.
+        StrapdownImu.correct`): ``f = v - k2 v^2 - A_a |v| - L(w, dw) - tGA w x f (+ the
+        second order)``, ``w`` less ``A_g |w|``, the angular acceleration ``dw`` by central
+        differences at the sample interval ``dt_s`` [s].
         """
         from inertest.models.strapdown_imu import angular_acceleration, lever_matrix
 
@@ -124,7 +125,9 @@ class ImuCalibration:
         w0 = (np.atleast_2d(np.asarray(gyr_raw, dtype=float)) - g.offset) @ g.matrix.T
         w1 = w0 - c.asymmetric_gyro * np.abs(w0)
         W = lever_matrix(w1, angular_acceleration(w1, dt_s))
-        f = f1 - np.einsum("nij,ij->ni", W, c.lever_arm) - c.time_asynchrony_s * np.cross(w1, f1)
+        wf = np.cross(w1, f1)
+        f = (f1 - np.einsum("nij,ij->ni", W, c.lever_arm) - c.time_asynchrony_s * wf
+             + 0.5 * c.time_asynchrony_s**2 * np.cross(w1, wf))
         if g.g_sensitivity is not None:
             w1 = w1 - f @ (g.matrix @ g.g_sensitivity).T
         return f, w1

@@ -11,7 +11,7 @@ the conventions of :mod:`inertest.models.triad`.
 Forward model (what the unit reads for a true motion; SI)::
 
     gyro:   w_raw = S_g (w + A_g |w| + G f) + b_g                  S_g = K_g (I + M_g)
-    accel:  f_i'  = f_i + e_i . (dw x r_i + w x (w x r_i)) + tGA (w x f)_i
+    accel:  f_i'  = f_i + e_i . (dw x r_i + w x (w x r_i)) + (R(w tGA) f - f)_i
             f_raw = S_a (f' + k2 f'^2 + A_a |f'|) + b_a            S_a = K_a (I + M_a)
 
 ``w`` the inertial angular rate and ``f`` the specific force at the reference point, both on
@@ -31,7 +31,8 @@ the body axes, ``dw`` the angular acceleration; powers and ``|.|`` element-wise.
   common offset is the velocity of a point, which vanishes between dwells).
 * ``tGA`` [s]: time by which the accelerometer samples lag the gyro samples. At rest in the
   local frame ``df/dt = -w x f`` on the body axes, so ``f(t - tGA) = f + tGA (w x f)`` to
-  first order: PSINS's term.
+  first order (PSINS's term; the model carries the second order ``tGA^2 w x (w x f) / 2`` of
+  the rotation ``R(w tGA)`` too, 2e-7 g at 2 ms and 20 deg/s).
 * options: ``G`` gyro g-sensitivity [rad/s per m/s^2] (input-referred ``G``, deg/h/g); ``A_g``,
   ``A_a`` asymmetric scale factors [-] (ppm): the scale factor for positive inputs exceeds that
   for negative ones by ``2 A``.
@@ -40,7 +41,7 @@ Calibration (the inverse, applied to a recording, first order in the small terms
 
     v  = S_a^-1 (f_raw - b_a);  f1 = v - k2 v^2 - A_a |v|
     w1 = S_g^-1 (w_raw - b_g);  w1 <- w1 - A_g |w1|
-    f  = f1 - L(w1, dw1) - tGA (w1 x f1);   w = w1 - G f
+    f  = f1 - L(w1, dw1) - tGA (w1 x f1) + tGA^2 w1 x (w1 x f1) / 2;   w = w1 - G f
 
 Mapping to PSINS (``kf/sysclbt.m`` returns the correction ``wm = Kg wm - eb ts``,
 ``vm = Ka vm - (db + Ka2 fb^2 + fL + tGA wb x fb) ts``): ``Kg = S_g^-1``, ``eb = B_g``,
@@ -238,7 +239,9 @@ class StrapdownImu:
         w_in = w + self.A_g * np.abs(w) + f @ self.G.T
         w_raw = w_in @ self.S_g.T + self.b_g
         W = lever_matrix(w, dw)
-        fa = f + np.einsum("nij,ij->ni", W, self.lever) + self.tga * np.cross(w, f)
+        wf = np.cross(w, f)
+        fa = (f + np.einsum("nij,ij->ni", W, self.lever) + self.tga * wf
+              + 0.5 * self.tga**2 * np.cross(w, wf))
         f_in = fa + self.k2 * fa**2 + self.A_a * np.abs(fa)
         return w_raw, f_in @ self.S_a.T + self.b_a
 
@@ -260,7 +263,9 @@ class StrapdownImu:
         w1 = w0 - self.A_g * np.abs(w0)
         dw = angular_acceleration(w1, dt_s)
         W = lever_matrix(w1, dw)
-        f = f1 - np.einsum("nij,ij->ni", W, self.lever) - self.tga * np.cross(w1, f1)
+        wf = np.cross(w1, f1)
+        f = (f1 - np.einsum("nij,ij->ni", W, self.lever) - self.tga * wf
+             + 0.5 * self.tga**2 * np.cross(w1, wf))
         w = w1 - f @ self.G.T
         return Corrected(omega=w, force=f, v=v, f1=f1, w0=w0, w1=w1, domega=dw, W=W)
 

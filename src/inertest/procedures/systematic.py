@@ -354,30 +354,26 @@ def _check_saturation(spec: SystematicSpec, w: NDArray[np.float64], f: NDArray[n
 
 def _detect(spec: SystematicSpec, w: NDArray[np.float64], dt: float, source: str
             ) -> list[tuple[int, int]]:
-    """Dwells ``[start, end)`` in samples (before settling), from the gyros."""
+    """Dwells ``[start, end)`` in samples (before settling), from the gyros.
+
+    The first must be the rest at the start of the recording, at least ``min_first_dwell_s``
+    long (the alignment); later ones at least ``min_dwell_s``.
+    """
     n = w.shape[0]
     k = max(1, int(round(spec.window_s / dt)))
     ref = w[:max(1, min(n, int(round(1.0 / dt))))].mean(axis=0)
     rate = np.linalg.norm(_moving_mean(w - ref, k), axis=1)
-    still = rate < spec.motion_threshold_deg_s * DEG_TO_RAD
-    runs = [(a, b) for a, b in _runs(still) if (b - a) * dt >= spec.min_dwell_s]
-    if not runs:
-        raise DataError(f"{source}: no dwell of at least min_dwell_s = {spec.min_dwell_s:g} s "
-                        "found (rates below motion_threshold_deg_s): check the units of the "
-                        "gyro columns, or lower min_dwell_s")
-    return runs
-
-
-def _check_first_dwell(spec: SystematicSpec, runs: list[tuple[int, int]], dt: float,
-                       source: str) -> None:
-    a, b = runs[0]
-    length = (b - a) * dt
-    if a * dt > spec.settle_s + spec.window_s or length < spec.min_first_dwell_s:
+    still = _runs(rate < spec.motion_threshold_deg_s * DEG_TO_RAD)
+    first = still[0] if still and still[0][0] == 0 else (0, 0)
+    length = (first[1] - first[0]) * dt
+    if length < spec.min_first_dwell_s:
         raise DataError(
-            f"{source}: the first dwell lasts {length:.3g} s (from t = {a * dt:.3g} s); the "
-            f"alignment needs at least min_first_dwell_s = {spec.min_first_dwell_s:g} s at "
-            "rest from the start of the recording: record a longer first dwell (PSINS's "
-            "19-position scheme rests 70 s) or start the recording earlier")
+            f"{source}: the recording rests {length:.3g} s before the first turn; the "
+            f"alignment needs at least min_first_dwell_s = {spec.min_first_dwell_s:g} s at rest "
+            "from the start: record a longer first dwell (PSINS's 19-position scheme rests "
+            "70 s) or start the recording earlier")
+    runs = [first] + [(a, b) for a, b in still[1:] if (b - a) * dt >= spec.min_dwell_s]
+    return runs
 
 
 def _turn_checks(spec: SystematicSpec, runs: list[tuple[int, int]], w: NDArray[np.float64],
@@ -599,18 +595,18 @@ def _jacobian(nv: nav.Navigation, corr: sim.Corrected, model: sim.StrapdownImu,
     Ma = nav.block_moments(nv, A, weighted=False)
     P = len(gyro_terms)
     nb = nv.n_blocks
-    gs = np.zeros((nb, P, 3))
-    gw = np.zeros((nb, P, 3))
-    ac = np.zeros((nb, P, 3))
+    gs = np.zeros((nb, 3, P))
+    gw = np.zeros((nb, 3, P))
+    ac = np.zeros((nb, 3, P))
     for p in range(P):
         for k, d in gyro_terms[p]:
-            gs[:, p] += Mg[:, k] @ d
-            gw[:, p] += Mgw[:, k] @ d
+            gs[:, :, p] += Mg[:, k] @ d
+            gw[:, :, p] += Mgw[:, k] @ d
         for k, d in acc_terms[p]:
-            ac[:, p] += Ma[:, k] @ d
-    resp = nav.propagate(nv, nav.ErrorInputs(gs, gw, ac))[blocks]  # (k, P, 3)
-    att = nav.attitude_sensitivity(nv)[blocks]  # (k, 3 (j), 3 (axis))
-    J = np.concatenate([resp, att], axis=1).transpose(0, 2, 1)
+            ac[:, :, p] += Ma[:, k] @ d
+    resp = nav.propagate(nv, nav.ErrorInputs(gs, gw, ac))[blocks]  # (k, 3 (axis), P)
+    att = nav.attitude_sensitivity(nv)[blocks].transpose(0, 2, 1)  # (k, 3 (axis), 3 (j))
+    J = np.concatenate([resp, att], axis=2)
     return np.asarray(J.reshape(3 * blocks.size, P + 3))
 
 
@@ -914,7 +910,6 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
         w, f, dt, kind = _read_rates(spec, data, source)
         _check_saturation(spec, w, f, source)
         runs = _detect(spec, w, dt, source)
-        _check_first_dwell(spec, runs, dt, source)
         turns = _turn_checks(spec, runs, w, dt, source)
         n = w.shape[0]
         settle = int(round(spec.settle_s / dt))
@@ -960,6 +955,8 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
         C0 = obs.C_nb0.copy()
         messages: list[str] = []
 
+        chain: list[NDArray[np.float64]] = []
+
         def linearise(x: NDArray[np.float64], C0: NDArray[np.float64], structural: bool = False
                       ) -> tuple:
             p = _si_of_engineering(x, names, states)
@@ -968,8 +965,9 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
             nv = nav.navigate(corr.omega, corr.force, obs.dt_s, C0,
                               latitude_rad=site.latitude_rad, gravity_m_s2=site.gravity_m_s2,
                               block=obs.block)
-            _, D = sim.engineering_jacobian(p, states)
-            Dinv = np.linalg.inv(D)
+            if not chain:  # d engineering / d SI: at the start (it moves by ppm, not more)
+                chain.append(np.linalg.inv(sim.engineering_jacobian(p, states)[1]))
+            Dinv = chain[0]
             J = _jacobian(nv, corr, model, states, blocks)
             Js = (_jacobian(nv, corr, model, states, blocks,
                             structural=spec.motion_threshold_deg_s * DEG_TO_RAD)
