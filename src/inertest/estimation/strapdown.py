@@ -35,7 +35,7 @@ for rate errors ``dw`` and specific-force errors ``df`` on the body axes. The at
 is solved exactly, ``phi(t) = -E(t) int_0^t C_ib dw ds`` with ``C_ib = C_nb0 B`` (the body in
 the local frame of the start, fixed in inertial space), and everything is summed over blocks of
 ``m`` samples (``E`` constant within a block; the sum of the cumulative sum within a block is
-the weighted sum ``sum_i x_i (m - pos_i)``, exact), so one parameter costs a few operations per
+the weighted sum ``sum_i x_i (m - pos_i - 1/2)``, a sample's own rotation counting half), so one parameter costs a few operations per
 block, and the observations are taken at block ends.
 
 Noise: white rate and specific-force noise, and per-block (slow) bias processes
@@ -206,8 +206,9 @@ def block_moments(nav: Navigation, series: ArrayLike, *, weighted: bool
                   ) -> NDArray[np.float64]:
     """Per block, ``sum_j C_ib,j s_j dt`` for each scalar series ``s`` (nb, K, 3, 3).
 
-    With ``weighted`` each sample is weighted by ``m - pos`` (its position in the block), the
-    sum of the cumulative sum within the block.
+    With ``weighted`` each sample is weighted by ``m - pos - 1/2`` (``pos`` its place in the
+    block): how many of the block's samples its rotation turns, the later ones fully and its
+    own by half (the velocity increment of a sample is resolved at its middle).
     """
     s = np.asarray(series, dtype=float)
     if s.ndim == 1:
@@ -216,7 +217,7 @@ def block_moments(nav: Navigation, series: ArrayLike, *, weighted: bool
     C = nav.C_ib[:nb * m].reshape(nb, m, 3, 3)
     sb = s[:nb * m].reshape(nb, m, -1) * nav.dt_s
     if weighted:
-        sb = sb * (m - np.arange(m))[None, :, None]
+        sb = sb * (m - np.arange(m) - 0.5)[None, :, None]
     return np.asarray(np.einsum("bmij,bmk->bkij", C, sb, optimize=True))
 
 
@@ -227,7 +228,8 @@ class ErrorInputs:
     Attributes
     ----------
     gyro_sum, gyro_weighted : ndarray, shape (nb, 3, P)
-        ``sum_j C_ib,j dw_j dt`` and the same weighted by ``m - pos`` (inertial-fixed frame).
+        ``sum_j C_ib,j dw_j dt`` and the same weighted by ``m - pos - 1/2`` (inertial-fixed
+        frame; :func:`block_moments`).
     accel_sum : ndarray, shape (nb, 3, P)
         ``sum_j C_ib,j df_j dt``.
     """
@@ -288,9 +290,10 @@ def white_covariance(nav: Navigation, blocks: ArrayLike, variance: ArrayLike
     Notes
     -----
     Exact sums over the samples: an accelerometer error ``df_i`` adds ``C_nb,i df_i dt`` to
-    every later ``u``; a rate error ``dw_i`` adds ``-F C_nb,i dw_i dt^2 (o - i + 1)`` to ``u`` at
-    the end of sample o, so the covariance needs the moments ``sum i^q c c^T`` (q = 0, 1, 2)
-    of each channel's direction ``c`` (the column of ``C_nb``) up to the earlier observation.
+    every later ``u``; a rate error ``dw_i`` adds ``-F C_nb,i dw_i dt^2 (o - i + 1/2)`` to ``u``
+    at the end of sample o (its own sample's increment resolved at its middle), so the
+    covariance needs the moments ``sum i^q c c^T`` (q = 0, 1, 2) of each channel's direction
+    ``c`` (the column of ``C_nb``) up to the earlier observation.
     """
     b = np.asarray(blocks, dtype=np.intp)
     var = np.asarray(variance, dtype=float)
@@ -314,8 +317,8 @@ def white_covariance(nav: Navigation, blocks: ArrayLike, variance: ArrayLike
             continue
         moments = [np.cumsum(np.einsum("bmij,bm->bij", cc, idx**q), axis=0)[later]
                    for q in range(3)]
-        S = ((hi_a + 1) * (hi_b + 1))[..., None, None] * moments[0] - (
-            hi_a + hi_b + 2)[..., None, None] * moments[1] + moments[2]
+        S = ((hi_a + 0.5) * (hi_b + 0.5))[..., None, None] * moments[0] - (
+            hi_a + hi_b + 1.0)[..., None, None] * moments[1] + moments[2]
         out += var[ch] * dt**4 * np.einsum("ij,abjk,lk->abil", F, S, F)
     return np.asarray(out.transpose(0, 2, 1, 3).reshape(3 * k, 3 * k))
 
@@ -338,7 +341,7 @@ def block_responses(nav: Navigation, blocks: ArrayLike) -> NDArray[np.float64]:
     F = _skew([0.0, 0.0, nav.gravity_m_s2])
     out = np.zeros((6, 3 * b.size, nb))
     for ch in range(3):
-        g = (o[:, None, None] + 1) * S0[None, :, :, ch] - S1[None, :, :, ch]  # (k, nb, 3)
+        g = (o[:, None, None] + 0.5) * S0[None, :, :, ch] - S1[None, :, :, ch]  # (k, nb, 3)
         resp = -dt**2 * np.einsum("ij,kbj->kib", F, g) * before[:, None, :]
         out[ch] = resp.reshape(3 * b.size, nb)
         acc = dt * np.transpose(S0[:, :, ch])[None, :, :] * before[:, None, :]  # (k, 3, nb)

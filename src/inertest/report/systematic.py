@@ -61,9 +61,9 @@ def systematic_sections(result: SystematicResult, truth: Mapping[str, float] | N
     ps = result.psins()["sysclbt"]
     prow = []
     for key in ("Kg", "Ka"):
-        m = np.asarray(ps[key])
+        m = (np.asarray(ps[key]) - np.eye(3)) * 1e6
         for i in range(3):
-            prow.append([f"{key} row {i + 1}", *(f"{v:.9f}" for v in m[i]), "1"])
+            prow.append([f"{key} - I, row {i + 1}", *(f"{v:.4g}" for v in m[i]), "1e-6"])
     for key, unit in (("eb", "deg/h"), ("db", "ug (PSINS)"), ("Ka2", "ug/g^2 (PSINS)"),
                       ("rx", "m"), ("ry", "m")):
         prow.append([key, *(f"{v:.6g}" for v in np.asarray(ps[key])), unit])
@@ -74,5 +74,9 @@ def systematic_sections(result: SystematicResult, truth: Mapping[str, float] | N
     sec.parts.append(table_html(["PSINS", "1", "2", "3", "unit"], prow))
     for msg in result.messages:
         sec.parts.append(paragraph(msg, note=True))
-    sec.parts.append(figure_html(systematic_figure(result), "navigation velocity error"))
+    sec.parts.append(figure_html(
+        systematic_figure(result),
+        "velocity error of the calibrated navigation: a free navigation drifts with the gyros' "
+        "angle random walk and its heading's error; the fit weights the observations by that "
+        "covariance (the model checks test what is left)"))
     return [sec]
