@@ -35,8 +35,8 @@ for rate errors ``dw`` and specific-force errors ``df`` on the body axes. The at
 is solved exactly, ``phi(t) = -E(t) int_0^t C_ib dw ds`` with ``C_ib = C_nb0 B`` (the body in
 the local frame of the start, fixed in inertial space), and everything is summed over blocks of
 ``m`` samples (``E`` constant within a block; the sum of the cumulative sum within a block is
-the weighted sum ``sum_i x_i (m - pos_i - 1/2)``, a sample's own rotation counting half), so one parameter costs a few operations per
-block, and the observations are taken at block ends.
+the weighted sum ``sum_i x_i (m - pos_i - 1/2)``, a sample's own rotation counting half), so
+one parameter costs a few operations per block, and the observations are taken at block ends.
 
 Noise: white rate and specific-force noise, and per-block (slow) bias processes
 (:mod:`inertest.estimation.noise_models`), propagated to the observations through the same

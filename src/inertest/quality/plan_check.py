@@ -78,7 +78,6 @@ import tomllib
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -296,12 +295,21 @@ def read_noise(path: str | os.PathLike[str], plan: Plan, *,
         be expressed in the output unit, Allan terms without a sample interval.
     """
     source = f"noise file {os.fspath(path)}"
+    doc = _noise_document(path, source, "a TOML/JSON with sigma per reading, or the JSON of "
+                          "inertest allan --json")
+    tau0 = sample_interval_s if sample_interval_s is not None else _plan_interval(plan)
+    if isinstance(doc.get("result"), Mapping) and "noise_terms" in doc["result"]:
+        return _from_allan(doc["result"]["noise_terms"], plan, tau0, source)
+    return _from_levels(doc, plan, source)
+
+
+def _noise_document(path: str | os.PathLike[str], source: str, what: str) -> Mapping[str, Any]:
+    """The table of a noise file (JSON, else TOML); NoiseFileError naming ``what`` to give."""
     try:
         with open(path, "rb") as fh:
             raw = fh.read()
     except FileNotFoundError:
-        raise NoiseFileError(f"{source} does not exist; give --noise a TOML/JSON with sigma "
-                             "per reading, or the JSON of inertest allan --json") from None
+        raise NoiseFileError(f"{source} does not exist; give --noise {what}") from None
     except OSError as exc:
         raise NoiseFileError(f"{source} cannot be read: {exc.strerror}") from None
     doc: Any
@@ -314,10 +322,7 @@ def read_noise(path: str | os.PathLike[str], plan: Plan, *,
             raise NoiseFileError(f"{source} is neither JSON nor valid TOML: {exc}") from None
     if not isinstance(doc, Mapping):
         raise NoiseFileError(f"{source} must hold a table of noise levels")
-    tau0 = sample_interval_s if sample_interval_s is not None else _plan_interval(plan)
-    if isinstance(doc.get("result"), Mapping) and "noise_terms" in doc["result"]:
-        return _from_allan(doc["result"]["noise_terms"], plan, tau0, source)
-    return _from_levels(doc, plan, source)
+    return doc
 
 
 def _plan_interval(plan: Plan) -> float | None:
@@ -767,20 +772,7 @@ def read_imu_noise(path: str | os.PathLike[str]) -> ImuNoise:
         white level.
     """
     source = f"noise file {os.fspath(path)}"
-    try:
-        raw = Path(path).read_bytes()
-    except OSError:
-        raise NoiseFileError(f"{source} cannot be read; give --noise a TOML with "
-                             f"{', '.join(IMU_NOISE_KEYS)}") from None
-    try:
-        doc = json.loads(raw)
-    except (json.JSONDecodeError, UnicodeDecodeError):
-        try:
-            doc = tomllib.loads(raw.decode("utf-8"))
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-            raise NoiseFileError(f"{source} is neither JSON nor valid TOML: {exc}") from None
-    if not isinstance(doc, Mapping):
-        raise NoiseFileError(f"{source} must hold a table of noise levels")
+    doc = _noise_document(path, source, f"a TOML with {', '.join(IMU_NOISE_KEYS)}")
     unknown = sorted(set(doc) - set(IMU_NOISE_KEYS))
     if unknown:
         raise NoiseFileError(f"{source}: unknown key(s) {', '.join(unknown)}"
