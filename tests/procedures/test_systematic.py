@@ -322,3 +322,29 @@ def test_model_correct_inverts_raw_to_first_order():
     only_lag = sim.StrapdownImu(tga=m.tga)  # a lag alone: second order in tGA w, exact to 1e-13
     c = only_lag.correct(*only_lag.raw(w, dw, f), 0.01)
     np.testing.assert_allclose(c.force, f, atol=1e-12)
+
+
+def test_options_g_sensitivity_asymmetry_and_the_z_lever_arm():
+    """The options: gyro g-sensitivity and asymmetric scale factors estimated; with all three
+    lever arms only their differences are determined, and the result says why."""
+    spec = SystematicSpec.from_mapping({
+        "sample_rate_hz": 20.0, "turns": PSINS_TURNS, "noise_model": "white",
+        "initial_pitch_roll_yaw_deg": [1, -91, -91], "first_dwell_s": 70.0, "dwell_s": 40.0,
+        "lever_arms": "xyz", "g_sensitivity": True, "asymmetric_scale": True})
+    plan = Plan(site=Site.at(34.0), procedure=spec,
+                instrument=Instrument(kind="imu", serial="S", output_unit="rad/s"))
+    truth = {"gyro_arw_deg_rt_h": 0.002, "acc_vrw_ug_rt_hz": 20.0, "Gg_xz": 0.05, "Ag_y": 20.0,
+             "rz_x": 5.0, "rx_y": 10.0}
+    proc = procedure("systematic")
+    res = proc.fit(plan, proc.simulate(plan, truth, rng=2))
+    assert len(res.identification.names) == 49 and res.identification.rank == 46
+    for name in ("Gg_xz", "Gg_yx", "Ag_y", "Aa_z", "Kg_x", "tGA"):
+        e = res.coefficients[name]
+        assert abs(e.value - truth.get(name, 1.0 if name == "Kg_x" else 0.0)) < 4.5 * e.std
+    levers = {c.name: c for c in res.combinations}
+    assert set(levers) == {f"r{a}_{c} - rz_{c}" for a in "xy" for c in "xyz"}
+    c = levers["rx_y - rz_y"]
+    assert abs(c.value - 10.0) < 4.5 * c.std and abs(levers["ry_x - rz_x"].value + 5) < 4.5 * (
+        levers["ry_x - rz_x"].std)
+    assert any("only the differences between the accelerometers' positions" in s
+               for s in res.identification.not_separable)

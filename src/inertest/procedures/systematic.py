@@ -1045,6 +1045,11 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
                 nz = np.flatnonzero(np.abs(c) > 1e-9)
                 lead = nz[0]
                 wts = c * scale / (c[lead] * scale[lead])
+                # weights within 1e-3 of an integer are that integer (a common lever arm
+                # cancels exactly in continuous time; the sampling leaves traces of 1e-4)
+                near = np.abs(wts - np.round(wts)) < 1e-3
+                wts[near] = np.round(wts[near])
+                nz = np.flatnonzero(wts != 0)
                 terms = [(names[i], float(wts[i])) for i in nz]
                 val = float(wts @ x)
                 s = float(np.sqrt(max(wts @ cov_x @ wts, 0.0)))
