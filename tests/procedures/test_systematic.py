@@ -250,6 +250,14 @@ def test_plan_check_predicts_9_and_19_position_std(examples_dir, capsys):
     assert len(better) >= 28, sorted(set(nine) - set(better))
     for n in ("Mg_xy", "Ma_yx", "K2a_y"):
         assert nine[n]["std"] > 2 * nineteen[n]["std"], n
+    # against a specification: the 19 positions verify every limit, the 9 do not (exit 1)
+    assert main(["plan-check", str(d / "plan.toml"), "--compare", str(d / "nine_position.toml"),
+                 "--noise", str(d / "imu_noise.toml"), "--spec",
+                 str(examples_dir / "specs" / "navigation_imu.toml"), "--json"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    s19, s9 = doc["sequences"]
+    assert s19["all_verifiable"] and not s9["all_verifiable"]
+    assert {c["quantity"] for c in s9["limits"] if c["status"] == "marginal"} >= {"Mg_xy"}
 
 
 def test_plan_check_std_is_the_fits_std_on_noisy_data():

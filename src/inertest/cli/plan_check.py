@@ -69,7 +69,10 @@ def plan_check(plan: Path, spec_path: Path | None, noise_path: Path, compare: tu
 
     p = load_plan(plan)
     if p.kind == "systematic":
-        _systematic([plan, *compare], noise_path, equipment, truth, as_json)
+        limits = read_spec(spec_path) if spec_path is not None else None
+        if not _systematic([plan, *compare], noise_path, equipment, truth, as_json, limits,
+                           tur):
+            raise SystemExit(EXIT_NOT_VERIFIABLE)
         return
     if compare:
         raise click.UsageError("--compare is for the sequences of a systematic calibration")
@@ -105,12 +108,17 @@ def plan_check(plan: Path, spec_path: Path | None, noise_path: Path, compare: tu
 
 
 def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
-                truth: Path | None, as_json: bool) -> None:
-    """The predicted std of every state of each sequence, side by side."""
+                truth: Path | None, as_json: bool, limits, tur: float) -> bool:  # noqa: ANN001
+    """The predicted std of every state of each sequence, side by side.
+
+    With ``limits`` (a Spec) the verdict of each sequence on each limit; True when every limit
+    is verifiable.
+    """
     from inertest.api import load_plan
     from inertest.io.plan_file import load_truth
+    from inertest.models.strapdown_imu import StateSet
     from inertest.quality.lab import read_equipment, select_equipment
-    from inertest.quality.plan_check import predict_sequence, read_imu_noise
+    from inertest.quality.plan_check import judge_sequence, predict_sequence, read_imu_noise
 
     noise = read_imu_noise(noise_path)
     tr = load_truth(truth) if truth is not None else None
@@ -125,10 +133,18 @@ def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
             used = select_equipment(read_equipment(equipment), p.test.equipment,
                                     plan_source=f"plan {path}", lab_source=f"lab file {equipment}")
         preds.append(predict_sequence(p, noise, label=str(path), truth=tr, equipment=used))
+    names = StateSet(lever_arms="xyz", g_sensitivity=True, asymmetric_scale=True).names()
+    verdicts = ([judge_sequence(x, limits, names=names, tur=tur) for x in preds]
+                if limits is not None else [])
+    ok = all(c.status == "verifiable" for v in verdicts for c in v)
     if as_json:
+        seqs = [x.to_dict() for x in preds]
+        for d, v in zip(seqs, verdicts, strict=False):
+            d["limits"] = [c.to_dict() for c in v]
+            d["all_verifiable"] = all(c.status == "verifiable" for c in v)
         echo_json({"kind": "plan-check", "procedure": "systematic", "noise": noise.to_dict(),
-                   "sequences": [x.to_dict() for x in preds]})
-        return
+                   "test_uncertainty_ratio": tur, "sequences": seqs})
+        return ok
     click.echo(safe_line("noise: " + ", ".join(f"{k} = {v:g} {u['unit']}" for k, v, u in (
         (k, noise.levels[k], noise.to_dict()[k]) for k in noise.levels))))
     click.echo("prediction: generalised least squares of the navigation-mode velocity errors "
@@ -155,6 +171,13 @@ def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
     for x in preds:
         for s in x.not_determined:
             click.echo(safe_line(f"{x.label}: not determined: {s}"))
+    for x, v in zip(preds, verdicts, strict=False):
+        print_table(f"{x.label} against the limits (U: k = 2, verifiable when U <= tolerance / "
+                    f"{tur:g})", ["quantity", "limit", "U (k = 2)", "U / tolerance", "status"],
+                    [[c.quantity, c.limit, _u(c.expanded, c.unit),
+                      "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}",
+                      c.status] for c in v])
+    return ok
 
 
 #: A Type B below this fraction of its row's combined std is round-off of the noise-free

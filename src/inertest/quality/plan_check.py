@@ -864,6 +864,38 @@ def predict_sequence(plan: Plan, noise: ImuNoise, *, label: str = "plan",
                               std, type_b, tuple(fitted.identification.not_separable))
 
 
+def judge_sequence(pred: SequencePrediction, spec: Spec, *, names: Sequence[str],
+                   tur: float = DEFAULT_TUR) -> tuple[LimitCheck, ...]:
+    """Whether a sequence's predicted U (k = 2, Type A and B) verifies each limit of ``spec``.
+
+    The rule of :func:`check_plan`; ``names``: every state of the procedure (a limited one the
+    sequence does not determine is "not determined", any other name an error).
+    """
+    spec.check_quantities(list(pred.std_a), list(names), kind="systematic")
+    out = []
+    for lim in spec.limits:
+        tol = _tolerance(lim)
+        if lim.quantity not in pred.std_a:
+            out.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, None,
+                                  None, None, "not determined",
+                                  "the sequence does not determine it (see not determined)"))
+            continue
+        s_a, unit = pred.std_a[lim.quantity]
+        u_b = pred.type_b.get(lim.quantity, 0.0)
+        big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
+        try:
+            s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
+        except UnitError:
+            raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
+                            f'the result gives it in "{unit}"') from None
+        status = ("verifiable" if big_u_l <= tol / tur else "marginal" if big_u_l < tol
+                  else "not verifiable")
+        out.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l, u_b_l,
+                              big_u_l, status, f"U/tolerance = {big_u_l / tol:.3g}"
+                              if tol > 0 else ""))
+    return tuple(out)
+
+
 def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
              ) -> list[tuple[str, Plan]]:
     """The candidate plans, fewest readings first (a noise-free simulation counts them)."""
@@ -880,6 +912,6 @@ def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
 
 __all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "IMU_NOISE_KEYS", "ImuNoise", "LimitCheck",
            "NoiseFileError", "NoiseModel", "NominalTruthError", "PlanCheck", "Prediction",
-           "STATUSES", "SequencePrediction", "candidate_changes", "check_plan",
+           "STATUSES", "SequencePrediction", "candidate_changes", "check_plan", "judge_sequence",
            "predict_sequence", "predict_std", "read_imu_noise", "read_noise",
            "std_relative_error"]
