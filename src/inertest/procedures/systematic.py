@@ -109,8 +109,14 @@ TURN_TOLERANCE_REL = 0.05
 GRAVITY_TOLERANCE = 0.05
 #: Gauss-Newton stops when every step is below this fraction of its std.
 STEP_TOLERANCE = 1e-4
-#: Singular values of the column-scaled structural Jacobian below this fraction are zero.
-STRUCTURAL_RCOND = 1e-4
+#: A direction the data determine with a std above this many typical errors is not determined.
+WORST_STD = 1e3
+#: Typical error of a state, per unit: the scale of the structural identifiability analysis.
+TYPICAL = {"1": 1e-4, "urad": 100.0, "deg/h": 1.0, "mg": 1.0, "ug/g^2": 100.0, "mm": 10.0,
+           "ms": 1.0, "deg/h/g": 1.0, "ppm": 100.0}
+#: A direction of typical errors whose effect on the navigation errors, the Earth rate left
+#: out, is below this fraction of the largest is not determined by the sequence.
+STRUCTURAL_RCOND = 1e-5
 #: A channel whose white noise is below this fraction of its typical value is noise-free.
 NOISE_FLOOR = 1e-7
 
@@ -475,6 +481,32 @@ def _white_noise(spec: SystematicSpec, w: NDArray[np.float64], f: NDArray[np.flo
 NULL_PARTICIPATION = 0.05
 
 
+def _with_undetermined_directions(null: NDArray[np.float64], Q: NDArray[np.float64],
+                                 Je: NDArray[np.float64], Ja: NDArray[np.float64],
+                                 L: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``null`` with the directions of ``Q`` the data determine worse than the limit.
+
+    States in typical errors; the initial attitude estimated with them; the limit
+    :data:`WORST_STD` typical errors: the heading, seen through the Earth rate alone, against
+    the horizontal gyro biases in a single attitude; anything the noise buries.
+    """
+    if Q.shape[1] == 0:
+        return null
+    D = scipy.linalg.solve_triangular(L, np.hstack([Je @ Q, Ja]), lower=True)
+    cn = np.linalg.norm(D, axis=0)
+    cn[cn == 0] = 1.0
+    _, sv, vt = np.linalg.svd(D / cn, full_matrices=False)
+    # the full inverse (no pseudo-inverse: a direction the attitude takes away must show)
+    half = (vt.T / np.maximum(sv, 1e-300 * sv[0])) / cn[:, None]
+    cov = (half @ half.T)[:Q.shape[1], :Q.shape[1]]
+    w, U = np.linalg.eigh(0.5 * (cov + cov.T))
+    bad = U[:, w > WORST_STD**2]
+    if not bad.size:
+        return null
+    u, s2, _ = np.linalg.svd(np.hstack([null, Q @ bad]), full_matrices=False)
+    return np.asarray(u[:, s2 > 1e-9 * s2[0]])
+
+
 def _structural_split(null: NDArray[np.float64], P: int
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """Determined directions ``Q``, the null space ``N`` and the determined states.
@@ -530,7 +562,9 @@ def _jacobian(nv: nav.Navigation, corr: sim.Corrected, model: sim.StrapdownImu,
                         int(round(1.0 / nv.dt_s)))
         w1 = w
         W = sim.lever_matrix(w, sim.angular_acceleration(w, nv.dt_s))
-        nv = dataclasses.replace(nv, E=np.broadcast_to(np.eye(3), nv.E.shape).copy())
+        # the local frame fixed in inertial space: the body's attitude is its local one
+        nv = dataclasses.replace(nv, E=np.broadcast_to(np.eye(3), nv.E.shape).copy(),
+                                 C_ib=nv.C_nb)
     v, f1, f = corr.v[:n], corr.f1[:n], corr.force[:n]
     one = np.ones(n)
     gyro_series: list[NDArray[np.float64]] = [w[:, 0], w[:, 1], w[:, 2], one]
@@ -858,6 +892,12 @@ def _explain(names: Sequence[str], missing: Sequence[str], turned: set[int],
                        f"15 deg/h) acts about {ax}; add turns about {ax} (the 19-position "
                        "scheme has them)")
             left = [n for n in left if n not in hit]
+    common_g = [f"Gg_{a}{a}" for a in AXES]
+    if all(n in left for n in common_g):
+        out.append(f"{', '.join(common_g)}: a g-sensitivity common to the three gyros is a rate "
+                   "error along the specific force, about the vertical at every dwell, which "
+                   "only the Earth rate would show; only their differences are determined")
+        left = [n for n in left if n not in common_g]
     levers = [n for n in left if n[0] == "r"]
     if levers and states.lever_arms == "xyz":
         out.append(f"{', '.join(levers)}: only the differences between the accelerometers' "
@@ -977,21 +1017,29 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
 
         model, nv, r, Je, Ja, struct = linearise(x, C0, structural=True)
         assert struct is not None
-        scale = np.linalg.norm(Je, axis=0)
-        scale[scale == 0] = 1.0
+        # coordinates in units of a typical error of each state (TYPICAL): the structural
+        # spectrum compares the effects of physically comparable errors, not of columns made
+        # equal (a column that noise alone makes nonzero would look determined)
+        unit_of = sim.units(names)
+        scale = np.array([1.0 / TYPICAL[unit_of[n]] for n in names])
         Jse, Jsa = struct
-        qa, _ = np.linalg.qr(Jsa)
+        # the initial attitude's directions (without the Earth rate the heading has none: a
+        # basis of what is there, not a QR that would invent a direction for it)
+        ua, sa, _ = np.linalg.svd(Jsa, full_matrices=False)
+        qa = ua[:, sa > 1e-9 * sa[0]] if sa.size and sa[0] > 0 else ua[:, :0]
         Jp = Jse / scale
         Jp = Jp - qa @ (qa.T @ Jp)
         _, sv, vt = np.linalg.svd(Jp, full_matrices=True)
         rank = int(np.sum(sv > STRUCTURAL_RCOND * sv[0])) if sv.size and sv[0] > 0 else 0
-        Q, N, determined = _structural_split(vt[rank:].T, P)
+        null = vt[rank:].T
+        V_white = nav.white_covariance(nv, blocks, obs.white_variance)
+        null = _with_undetermined_directions(null, vt[:rank].T, Je / scale, Ja,
+                                             np.linalg.cholesky(V_white))
+        Q, N, determined = _structural_split(null, P)
         rank = Q.shape[1]
         if rank == 0:
             raise IdentifiabilityError(f"{KIND}: the sequence determines none of the states; "
                                        "the unit must turn about at least two axes")
-
-        V_white = nav.white_covariance(nv, blocks, obs.white_variance)
         levels, V = self._noise(spec, nv, blocks, obs, V_white, r, np.hstack(
             [Je / scale @ Q, Ja]), noise_model or spec.noise_model)
         Lc = np.linalg.cholesky(V)
@@ -1040,7 +1088,7 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
         combos: list[Combination] = []
         if missing:
             cand = [i for i in range(P) if not determined[i]]
-            rows = identifiable_combinations(N, cand)
+            rows = identifiable_combinations(N, cand, tol=1e-4)
             for c in rows:
                 nz = np.flatnonzero(np.abs(c) > 1e-9)
                 lead = nz[0]
