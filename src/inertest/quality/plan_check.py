@@ -611,22 +611,8 @@ def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
             continue
         s_a, unit = std[lim.quantity]
         b = budget.quantities.get(lim.quantity)
-        u_b = b.type_b if b is not None else 0.0
-        big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
-        try:
-            s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
-        except UnitError:
-            raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
-                            f'the result gives it in "{unit}"') from None
-        if big_u_l <= tol / tur:
-            status = "verifiable"
-        elif big_u_l < tol:
-            status = "marginal"
-        else:
-            status = "not verifiable"
-        checks.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l,
-                                 u_b_l, big_u_l, status,
-                                 f"U/tolerance = {big_u_l / tol:.3g}" if tol > 0 else ""))
+        checks.append(_limit_check(lim, spec, s_a, b.type_b if b is not None else 0.0, unit,
+                                   tur))
     return Prediction(label, n, method, std, tuple(checks), plan), nominal
 
 
@@ -881,19 +867,24 @@ def judge_sequence(pred: SequencePrediction, spec: Spec, *, names: Sequence[str]
                                   "the sequence does not determine it (see not determined)"))
             continue
         s_a, unit = pred.std_a[lim.quantity]
-        u_b = pred.type_b.get(lim.quantity, 0.0)
-        big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
-        try:
-            s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
-        except UnitError:
-            raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
-                            f'the result gives it in "{unit}"') from None
-        status = ("verifiable" if big_u_l <= tol / tur else "marginal" if big_u_l < tol
-                  else "not verifiable")
-        out.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l, u_b_l,
-                              big_u_l, status, f"U/tolerance = {big_u_l / tol:.3g}"
-                              if tol > 0 else ""))
+        out.append(_limit_check(lim, spec, s_a, pred.type_b.get(lim.quantity, 0.0), unit, tur))
     return tuple(out)
+
+
+def _limit_check(lim: Any, spec: Spec, s_a: float, u_b: float, unit: str, tur: float
+                 ) -> LimitCheck:
+    """The verdict on one limit from a Type-A and a Type-B std [``unit``] (module docstring)."""
+    tol = _tolerance(lim)
+    big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
+    try:
+        s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
+    except UnitError:
+        raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
+                        f'the result gives it in "{unit}"') from None
+    status = ("verifiable" if big_u_l <= tol / tur else "marginal" if big_u_l < tol
+              else "not verifiable")
+    return LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l, u_b_l,
+                      big_u_l, status, f"U/tolerance = {big_u_l / tol:.3g}" if tol > 0 else "")
 
 
 def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
