@@ -872,7 +872,74 @@ def _(d):
 #: Issue 34: what the one line of a case must say (the problem, the fix), so that no case passes
 #: on an error other than its own (the old ones were one clean line too, but misleading or about
 #: something else).
+# --- issue 33: the systematic calibration of a strapdown IMU ----------------------------------
+_SYSTEMATIC = """[site]
+latitude_deg = 34.0
+
+[instrument]
+kind = "imu"
+serial = "SYS-1"
+output_unit = "rad/s"
+
+[procedure]
+kind = "systematic"
+sample_rate_hz = 10.0
+turns = ["+y", "+x", "+y", "+z"]
+noise_model = "white"
+first_dwell_s = FIRST
+dwell_s = 15.0
+turn_s = 5.0
+"""
+
+
+def _systematic(d: Path, first: float = 20.0, **drop) -> None:
+    """A small systematic sequence simulated into d/sys.csv (plan d/sys.toml)."""
+    (d / "sys.toml").write_text(_SYSTEMATIC.replace("FIRST", f"{first:g}"))
+    (d / "sys_truth.toml").write_text("gyro_arw_deg_rt_h = 0.002\nacc_vrw_ug_rt_hz = 20.0\n")
+    assert main(["simulate", str(d / "sys.toml"), "--truth", str(d / "sys_truth.toml"),
+                 "-o", str(d / "sys.csv"), "--seed", "1"]) == 0
+    (d / "sys.toml").write_text(_SYSTEMATIC.replace("FIRST", "20"))
+
+
+@case("fit-systematic-first-dwell-too-short")
+def _(d):
+    _systematic(d, first=4.0)
+    return _fit(d, "sys.toml", "sys.csv", "--no-store")
+
+
+@case("fit-systematic-sequence-disagrees-with-the-data")
+def _(d):
+    _systematic(d)
+    (d / "sys2.toml").write_text((d / "sys.toml").read_text().replace(
+        '"+y", "+x", "+y", "+z"', '"+y", "-z", "+y", "+z"'))
+    return _fit(d, "sys2.toml", "sys.csv", "--no-store")
+
+
+@case("fit-systematic-gap")
+def _(d):
+    from inertest.io.data_file import read_table, write_table
+
+    _systematic(d)
+    t = read_table(d / "sys.csv")
+    keep = np.ones(t["t_s"].size, dtype=bool)
+    keep[500:530] = False
+    write_table(d / "sys.csv", {k: v[keep] for k, v in t.items()})
+    return _fit(d, "sys.toml", "sys.csv", "--no-store")
+
+
+@case("fit-systematic-saturated-gyro")
+def _(d):
+    _systematic(d)
+    (d / "sys2.toml").write_text((d / "sys.toml").read_text().replace(
+        'noise_model = "white"', 'noise_model = "white"\ngyro_range_deg_s = 25.0'))
+    return _fit(d, "sys2.toml", "sys.csv", "--no-store")
+
+
 EXPECT = {
+    "fit-systematic-first-dwell-too-short": "rests 4 s before the first turn",
+    "fit-systematic-sequence-disagrees-with-the-data": "fix the plan's turns",
+    "fit-systematic-gap": "gap(s) in time",
+    "fit-systematic-saturated-gyro": "reaches its range 25 deg/s",
     "fit-report-manifest-behind-symlink": "lists sub/keep.txt, which lies behind the symbolic",
     "fit-report-manifest-outside-folder": "lists '../plan.toml', which is not a path inside",
     "thermal-report-manifest-behind-symlink": "behind the symbolic link",

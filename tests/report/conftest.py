@@ -17,6 +17,7 @@ FITS = {
     "centrifuge-nine-position": ("centrifuge", "truth.toml", 3.3e-8),
     "servo-table": ("servo_table", "truth.toml", 0.5),
     "orientation-free": ("orientation_free", "truth.toml", 0.0),
+    "systematic": ("systematic", "truth.toml", 0.0),
 }
 
 

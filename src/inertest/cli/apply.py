@@ -3,7 +3,10 @@
 CAL.json is the ``fit --json`` output of a triad procedure (its ``"calibration"`` block is used)
 or that block alone: ``{"accelerometer": {"matrix", "offset", "unit", ...}, "gyroscope": {...}}``
 with ``calibrated = matrix @ (raw - offset)`` (gyroscope: ``raw - g_sensitivity @ a_cal -
-offset``). DATA and OUT are CSV, Parquet or HDF5 (by suffix). The calibrated columns replace the
+offset``). A systematic calibration's block also holds ``"coupling"`` (second-order terms,
+the accelerometers' lever arms, the gyro-accelerometer time asynchrony): both triads are then
+corrected together, the sample interval taken from ``--time-column`` (or ``t_s``).
+DATA and OUT are CSV, Parquet or HDF5 (by suffix). The calibrated columns replace the
 raw ones; in CSV and Parquet their names carry the unit (``acc_x [m/s^2]``), in HDF5 the name
 stays and the unit is the dataset attribute ``unit``. Other columns are copied unchanged.
 
@@ -130,6 +133,20 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
             out.update(items)
             units[name] = unit
 
+    if cal.coupling is not None and use_acc != use_gyr:
+        click.echo("warning: the calibration's coupling terms (second order, lever arms, time "
+                   "asynchrony) need both sensors; only the triad is corrected", err=True)
+    if cal.coupling is not None and use_acc and use_gyr:
+        # a systematic calibration: both triads and the terms that couple them, at once
+        dt = _sample_interval(table, data, time_column)
+        acc_raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
+        gyr_raw = np.column_stack([np.asarray(table[c], dtype=float) for c in gyr_cols])
+        a_si, w_si = cal.correct(acc_raw, gyr_raw, dt)
+        put(acc_cols, accel_from_si(a_si, acc_unit), acc_unit)
+        put(gyr_cols, rate_from_si(w_si, gyr_unit), gyr_unit)
+        done += [f"accelerometer -> {acc_unit}", f"gyroscope -> {gyr_unit}",
+                 "second-order terms, lever arms, time asynchrony"]
+        use_acc = use_gyr = False
     if use_acc:
         assert cal.accelerometer is not None
         raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
@@ -152,6 +169,21 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     write_table(output, out, units)
     n = len(next(iter(out.values())))
     click.echo(f"wrote {n} calibrated rows ({', '.join(done)}) to {output}")
+
+
+def _sample_interval(table: dict, data: Path, time_column: str) -> float:
+    """The recording's sample interval [s] from its time column (``--time-column``, or t_s)."""
+    name = next((c for c in (time_column, "t_s") if c in table), None)
+    if name is None:
+        raise DataError(f"{data} has no time column ({time_column} or t_s): this calibration "
+                        "corrects lever arms and time asynchrony, which need the sample "
+                        "interval; name the time column [s] with --time-column")
+    t = np.asarray(table[name], dtype=float)
+    dt = np.diff(t)
+    if t.size < 2 or not np.all(np.isfinite(dt)) or not np.all(dt > 0):
+        raise DataError(f"{data}: the time column {name} must increase from row to row [s]; "
+                        "repair it (nothing written)")
+    return float(np.median(dt))
 
 
 def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_column: str | None,

@@ -18,11 +18,17 @@ EXIT_NOT_VERIFIABLE = 1
 
 @click.command()
 @click.argument("plan", type=_FILE)
-@click.option("--spec", "spec_path", type=_FILE, required=True,
-              help="Instrument specification (TOML, see examples/specs).")
+@click.option("--spec", "spec_path", type=_FILE, default=None,
+              help="Instrument specification (TOML, see examples/specs); required except for "
+              "a systematic calibration, whose every state's std is printed.")
 @click.option("--noise", "noise_path", type=_FILE, required=True,
               help="Noise per reading in the output unit (TOML/JSON: sigma, position_offset, "
-              "random_walk, flicker, unit) or the JSON of `inertest allan --json`.")
+              "random_walk, flicker, unit) or the JSON of `inertest allan --json`; for a "
+              "systematic calibration the IMU's noise (gyro_arw_deg_rt_h, acc_vrw_ug_rt_hz, "
+              "...; examples/systematic/imu_noise.toml).")
+@click.option("--compare", "compare", type=_FILE, multiple=True,
+              help="Systematic calibration: another sequence's plan to predict beside PLAN "
+              "(repeatable), e.g. a 9- against a 19-position scheme.")
 @click.option("--equipment", type=_FILE, default=None,
               help="Lab equipment file: the Type B of the plan's [test] equipment enters U.")
 @click.option("--truth", type=_FILE, default=None,
@@ -42,9 +48,9 @@ EXIT_NOT_VERIFIABLE = 1
               "all --mc tests).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | None,
-               truth: Path | None, sample_interval_s: float | None, tur: float, n_mc: int,
-               rel_error: float, seed: int, as_json: bool) -> None:
+def plan_check(plan: Path, spec_path: Path | None, noise_path: Path, compare: tuple[Path, ...],
+               equipment: Path | None, truth: Path | None, sample_interval_s: float | None,
+               tur: float, n_mc: int, rel_error: float, seed: int, as_json: bool) -> None:
     """Predict each limited quantity's U from PLAN and a noise model, before testing.
 
     A limit is verifiable when the predicted U (k = 2: Type A from the plan and the noise,
@@ -62,6 +68,16 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
     from inertest.quality.plan_check import NominalTruthError, check_plan, read_noise
 
     p = load_plan(plan)
+    if p.kind == "systematic":
+        limits = read_spec(spec_path) if spec_path is not None else None
+        if not _systematic([plan, *compare], noise_path, equipment, truth, as_json, limits,
+                           tur):
+            raise SystemExit(EXIT_NOT_VERIFIABLE)
+        return
+    if compare:
+        raise click.UsageError("--compare is for the sequences of a systematic calibration")
+    if spec_path is None:
+        raise click.UsageError(f"plan-check of a {p.kind} plan needs --spec (the limits)")
     spec = read_spec(spec_path)
     noise = read_noise(noise_path, p, sample_interval_s=sample_interval_s)
     used = ()
@@ -89,6 +105,79 @@ def plan_check(plan: Path, spec_path: Path, noise_path: Path, equipment: Path | 
         _print(out)
     if not out.ok:
         raise SystemExit(EXIT_NOT_VERIFIABLE)
+
+
+def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
+                truth: Path | None, as_json: bool, limits, tur: float) -> bool:  # noqa: ANN001
+    """The predicted std of every state of each sequence, side by side.
+
+    With ``limits`` (a Spec) the verdict of each sequence on each limit; True when every limit
+    is verifiable.
+    """
+    from inertest.api import load_plan
+    from inertest.io.plan_file import load_truth
+    from inertest.models.strapdown_imu import StateSet
+    from inertest.quality.lab import read_equipment, select_equipment
+    from inertest.quality.plan_check import judge_sequence, predict_sequence, read_imu_noise
+
+    noise = read_imu_noise(noise_path)
+    tr = load_truth(truth) if truth is not None else None
+    preds = []
+    for path in plans:
+        p = load_plan(path)
+        if p.kind != "systematic":
+            raise click.UsageError(f"{path} is a {p.kind} plan; --compare takes systematic "
+                                   "plans")
+        used = ()
+        if equipment is not None and p.test is not None:
+            used = select_equipment(read_equipment(equipment), p.test.equipment,
+                                    plan_source=f"plan {path}", lab_source=f"lab file {equipment}")
+        preds.append(predict_sequence(p, noise, label=str(path), truth=tr, equipment=used))
+    names = StateSet(lever_arms="xyz", g_sensitivity=True, asymmetric_scale=True).names()
+    verdicts = ([judge_sequence(x, limits, names=names, tur=tur) for x in preds]
+                if limits is not None else [])
+    ok = all(c.status == "verifiable" for v in verdicts for c in v)
+    if as_json:
+        seqs = [x.to_dict() for x in preds]
+        for d, v in zip(seqs, verdicts, strict=False):
+            d["limits"] = [c.to_dict() for c in v]
+            d["all_verifiable"] = all(c.status == "verifiable" for c in v)
+        echo_json({"kind": "plan-check", "procedure": "systematic", "noise": noise.to_dict(),
+                   "test_uncertainty_ratio": tur, "sequences": seqs})
+        return ok
+    click.echo(safe_line("noise: " + ", ".join(f"{k} = {v:g} {u['unit']}" for k, v, u in (
+        (k, noise.levels[k], noise.to_dict()[k]) for k in noise.levels))))
+    click.echo("prediction: generalised least squares of the navigation-mode velocity errors "
+               "with this noise (no data needed); Type B: site gravity (the table's angle, "
+               "rate and tilt do not enter: the gyros measure the turns)")
+    names: list[str] = []
+    for x in preds:
+        names += [n for n in x.std_a if n not in names]
+    header = ["state", "unit"] + [f"{x.label} ({x.turns} turns, {x.duration_s:.0f} s)"
+                                  for x in preds]
+    rows = []
+    for n in names:
+        unit = next(x.std_a[n][1] for x in preds if n in x.std_a)
+        cells = []
+        for x in preds:
+            if n not in x.std_a:
+                cells.append("not determined")
+                continue
+            s_a = x.std_a[n][0]
+            u_c = (s_a**2 + x.type_b.get(n, 0.0) ** 2) ** 0.5
+            cells.append(format_number(u_c, digits=2))
+        rows.append([n, unit, *cells])
+    print_table("predicted standard uncertainty (Type A and B combined, k = 1)", header, rows)
+    for x in preds:
+        for s in x.not_determined:
+            click.echo(safe_line(f"{x.label}: not determined: {s}"))
+    for x, v in zip(preds, verdicts, strict=False):
+        print_table(f"{x.label} against the limits (U: k = 2, verifiable when U <= tolerance / "
+                    f"{tur:g})", ["quantity", "limit", "U (k = 2)", "U / tolerance", "status"],
+                    [[c.quantity, c.limit, _u(c.expanded, c.unit),
+                      "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}",
+                      c.status] for c in v])
+    return ok
 
 
 #: A Type B below this fraction of its row's combined std is round-off of the noise-free

@@ -53,6 +53,10 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         from inertest.io.hdf5_table import read_hdf5_table
 
         return read_hdf5_table(p)
+    from inertest.io.psins_binary import PSINS_BINARY_SUFFIXES, read_psins_binary
+
+    if suffix in PSINS_BINARY_SUFFIXES:
+        return read_psins_binary(p)
     if suffix not in _SUFFIXES:
         raise DataError(f"data file {p}: unknown format {suffix!r}; use .csv, .parquet or .h5")
     if not p.exists():

@@ -391,7 +391,9 @@ def _deltas(plan: Plan, result: Any, sources: Sequence[_Source]) -> dict[str, di
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             data = proc.simulate(p, truth, noise=0.0, rng=0, motion=proc.motion(p, type_b=type_b))
-            fitted = proc.fit(plan, data, sigma=1.0, noise_model=white)
+            # a known white level, where the procedure takes one (the fits are noise-free)
+            fitted = proc.fit(plan, data, sigma=None if proc.sigma_note else 1.0,
+                              noise_model=white)
         return {k: v[0] for k, v in quantities_of(fitted).items()}
 
     base = run(plan, {})

@@ -295,12 +295,21 @@ def read_noise(path: str | os.PathLike[str], plan: Plan, *,
         be expressed in the output unit, Allan terms without a sample interval.
     """
     source = f"noise file {os.fspath(path)}"
+    doc = _noise_document(path, source, "a TOML/JSON with sigma per reading, or the JSON of "
+                          "inertest allan --json")
+    tau0 = sample_interval_s if sample_interval_s is not None else _plan_interval(plan)
+    if isinstance(doc.get("result"), Mapping) and "noise_terms" in doc["result"]:
+        return _from_allan(doc["result"]["noise_terms"], plan, tau0, source)
+    return _from_levels(doc, plan, source)
+
+
+def _noise_document(path: str | os.PathLike[str], source: str, what: str) -> Mapping[str, Any]:
+    """The table of a noise file (JSON, else TOML); NoiseFileError naming ``what`` to give."""
     try:
         with open(path, "rb") as fh:
             raw = fh.read()
     except FileNotFoundError:
-        raise NoiseFileError(f"{source} does not exist; give --noise a TOML/JSON with sigma "
-                             "per reading, or the JSON of inertest allan --json") from None
+        raise NoiseFileError(f"{source} does not exist; give --noise {what}") from None
     except OSError as exc:
         raise NoiseFileError(f"{source} cannot be read: {exc.strerror}") from None
     doc: Any
@@ -313,10 +322,7 @@ def read_noise(path: str | os.PathLike[str], plan: Plan, *,
             raise NoiseFileError(f"{source} is neither JSON nor valid TOML: {exc}") from None
     if not isinstance(doc, Mapping):
         raise NoiseFileError(f"{source} must hold a table of noise levels")
-    tau0 = sample_interval_s if sample_interval_s is not None else _plan_interval(plan)
-    if isinstance(doc.get("result"), Mapping) and "noise_terms" in doc["result"]:
-        return _from_allan(doc["result"]["noise_terms"], plan, tau0, source)
-    return _from_levels(doc, plan, source)
+    return doc
 
 
 def _plan_interval(plan: Plan) -> float | None:
@@ -605,22 +611,8 @@ def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
             continue
         s_a, unit = std[lim.quantity]
         b = budget.quantities.get(lim.quantity)
-        u_b = b.type_b if b is not None else 0.0
-        big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
-        try:
-            s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
-        except UnitError:
-            raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
-                            f'the result gives it in "{unit}"') from None
-        if big_u_l <= tol / tur:
-            status = "verifiable"
-        elif big_u_l < tol:
-            status = "marginal"
-        else:
-            status = "not verifiable"
-        checks.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l,
-                                 u_b_l, big_u_l, status,
-                                 f"U/tolerance = {big_u_l / tol:.3g}" if tol > 0 else ""))
+        checks.append(_limit_check(lim, spec, s_a, b.type_b if b is not None else 0.0, unit,
+                                   tur))
     return Prediction(label, n, method, std, tuple(checks), plan), nominal
 
 
@@ -732,6 +724,169 @@ def check_plan(plan: Plan, spec: Spec, noise: NoiseModel, *,
                      tuple(fitted.identification.not_separable), nominal)
 
 
+# --- sequences of a systematic IMU calibration -----------------------------------------------
+
+#: Keys of an IMU noise file (plan-check of a systematic calibration), with their units: the
+#: white noise of the gyros and accelerometers, and optionally a slow bias process.
+IMU_NOISE_KEYS = {"gyro_arw_deg_rt_h": "deg/sqrt(h)", "acc_vrw_ug_rt_hz": "ug/sqrt(Hz)",
+                  "gyro_rrw_deg_h_rt_h": "deg/h/sqrt(h)", "acc_rrw_ug_rt_s": "ug/sqrt(s)",
+                  "gyro_bias_instability_deg_h": "deg/h", "acc_bias_instability_ug": "ug"}
+
+
+@dataclass(frozen=True)
+class ImuNoise:
+    """Noise of a strapdown IMU for plan-check, in the units of :data:`IMU_NOISE_KEYS`.
+
+    ``levels``: key -> value (the white keys required; a random walk or a bias instability
+    optional, not both).
+    """
+
+    levels: Mapping[str, float]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form, each level with its unit."""
+        return {k: {"value": v, "unit": IMU_NOISE_KEYS[k]} for k, v in self.levels.items()}
+
+
+def read_imu_noise(path: str | os.PathLike[str]) -> ImuNoise:
+    """An IMU noise file (TOML or JSON) with the keys of :data:`IMU_NOISE_KEYS`.
+
+    Raises
+    ------
+    NoiseFileError
+        Missing file, unknown key, a level that is not a non-negative number, or a missing
+        white level.
+    """
+    source = f"noise file {os.fspath(path)}"
+    doc = _noise_document(path, source, f"a TOML with {', '.join(IMU_NOISE_KEYS)}")
+    unknown = sorted(set(doc) - set(IMU_NOISE_KEYS))
+    if unknown:
+        raise NoiseFileError(f"{source}: unknown key(s) {', '.join(unknown)}"
+                             f"{did_you_mean(unknown[0], IMU_NOISE_KEYS)}; an IMU noise file "
+                             f"has {', '.join(IMU_NOISE_KEYS)}")
+    levels = {k: _number(doc, k, source, None) for k in IMU_NOISE_KEYS if k in doc}
+    for k in ("gyro_arw_deg_rt_h", "acc_vrw_ug_rt_hz"):
+        if not levels.get(k, 0.0) > 0:
+            raise NoiseFileError(f"{source} needs {k} [{IMU_NOISE_KEYS[k]}] > 0")
+    rw = any(levels.get(k) for k in ("gyro_rrw_deg_h_rt_h", "acc_rrw_ug_rt_s"))
+    fl = any(levels.get(k) for k in ("gyro_bias_instability_deg_h", "acc_bias_instability_ug"))
+    if rw and fl:
+        raise NoiseFileError(f"{source}: give a rate random walk or a bias instability, not "
+                             "both (the systematic calibration models one slow process)")
+    return ImuNoise(levels)
+
+
+@dataclass(frozen=True)
+class SequencePrediction:
+    """Predicted std of every state of a systematic calibration's sequence, before the run.
+
+    Attributes
+    ----------
+    label : str
+        The plan (its file or name).
+    turns : int
+    duration_s : float
+        Length of the sequence [s].
+    std_a : dict of str to (float, str)
+        Type-A std and unit per determined state (GLS covariance with the given noise).
+    type_b : dict of str to float
+        Combined Type-B std per state [its unit] (site gravity; the table's angle, rate and
+        tilt do not enter: the method reads no table angle).
+    not_determined : tuple of str
+        What the sequence cannot determine, and why.
+    """
+
+    label: str
+    turns: int
+    duration_s: float
+    std_a: dict[str, tuple[float, str]]
+    type_b: dict[str, float]
+    not_determined: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form."""
+        return {"plan": self.label, "turns": self.turns,
+                "duration": {"value": self.duration_s, "unit": "s"},
+                "predicted_std_type_a": {k: {"std": v, "unit": u}
+                                         for k, (v, u) in self.std_a.items()},
+                "predicted_std_type_b": {k: {"std": v, "unit": self.std_a[k][1]}
+                                         for k, v in self.type_b.items() if k in self.std_a},
+                "not_determined": list(self.not_determined)}
+
+
+def predict_sequence(plan: Plan, noise: ImuNoise, *, label: str = "plan",
+                     truth: Mapping[str, float] | None = None,
+                     equipment: Sequence[Equipment] = ()) -> SequencePrediction:
+    """The std of every state a systematic calibration's sequence determines, before the run.
+
+    The sequence is simulated noise-free on a nominal IMU (``truth``, default zero errors)
+    and fitted with the noise levels given (the plan's noise keys set from ``noise``): the
+    fit's covariance is then the generalised least squares prediction ``(J^T V^-1 J)^-1`` of
+    :mod:`inertest.procedures.systematic`, ``V`` from the white and slow noise through the
+    navigation equations (exact for the linearised problem; no Monte Carlo needed). Type B:
+    :func:`inertest.quality.budget.uncertainty_budget` (the site gravity; the table's angle,
+    rate and tilt errors do not enter, the gyros measure the turns).
+    """
+    if plan.kind != "systematic":
+        raise PlanError(f"predict_sequence is for systematic plans, got {plan.kind}")
+    levels = dict(noise.levels)
+    given = {k: v for k, v in levels.items()
+             if k in {f.name for f in dataclasses.fields(plan.procedure)}}
+    model = "random-walk" if any(k.endswith(("rrw_deg_h_rt_h", "rrw_ug_rt_s"))
+                                 and v for k, v in given.items()) else (
+        "flicker" if any("instability" in k and v for k, v in given.items()) else "white")
+    p = _with_procedure(plan, noise_model=model, **given)
+    proc = procedure("systematic")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        data = proc.simulate(p, dict(truth or {}), noise=0.0, rng=0)
+        fitted = proc.fit(p, data)
+    std = {k: (float(s), u) for k, (_, s, u) in quantities_of(fitted).items()}
+    budget = uncertainty_budget(p, fitted, equipment)
+    type_b = {k: float(q.type_b) for k, q in budget.quantities.items()}
+    motion = proc.motion(p)
+    return SequencePrediction(label, len(plan.procedure.turns),
+                              float(motion.duration_s) if motion is not None else 0.0,
+                              std, type_b, tuple(fitted.identification.not_separable))
+
+
+def judge_sequence(pred: SequencePrediction, spec: Spec, *, names: Sequence[str],
+                   tur: float = DEFAULT_TUR) -> tuple[LimitCheck, ...]:
+    """Whether a sequence's predicted U (k = 2, Type A and B) verifies each limit of ``spec``.
+
+    The rule of :func:`check_plan`; ``names``: every state of the procedure (a limited one the
+    sequence does not determine is "not determined", any other name an error).
+    """
+    spec.check_quantities(list(pred.std_a), list(names), kind="systematic")
+    out = []
+    for lim in spec.limits:
+        tol = _tolerance(lim)
+        if lim.quantity not in pred.std_a:
+            out.append(LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, None,
+                                  None, None, "not determined",
+                                  "the sequence does not determine it (see not determined)"))
+            continue
+        s_a, unit = pred.std_a[lim.quantity]
+        out.append(_limit_check(lim, spec, s_a, pred.type_b.get(lim.quantity, 0.0), unit, tur))
+    return tuple(out)
+
+
+def _limit_check(lim: Any, spec: Spec, s_a: float, u_b: float, unit: str, tur: float
+                 ) -> LimitCheck:
+    """The verdict on one limit from a Type-A and a Type-B std [``unit``] (module docstring)."""
+    tol = _tolerance(lim)
+    big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
+    try:
+        s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
+    except UnitError:
+        raise PlanError(f'{spec.source}: limit on "{lim.quantity}" is in "{lim.unit}" but '
+                        f'the result gives it in "{unit}"') from None
+    status = ("verifiable" if big_u_l <= tol / tur else "marginal" if big_u_l < tol
+              else "not verifiable")
+    return LimitCheck(lim.quantity, lim.unit, lim.text(), lim.clause, tol, s_a_l, u_b_l,
+                      big_u_l, status, f"U/tolerance = {big_u_l / tol:.3g}" if tol > 0 else "")
+
+
 def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
              ) -> list[tuple[str, Plan]]:
     """The candidate plans, fewest readings first (a noise-free simulation counts them)."""
@@ -746,6 +901,8 @@ def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
     return [(label, p) for _, label, p in costed]
 
 
-__all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "LimitCheck", "NoiseFileError", "NoiseModel",
-           "NominalTruthError", "PlanCheck", "Prediction", "STATUSES", "candidate_changes",
-           "check_plan", "predict_std", "read_noise", "std_relative_error"]
+__all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "IMU_NOISE_KEYS", "ImuNoise", "LimitCheck",
+           "NoiseFileError", "NoiseModel", "NominalTruthError", "PlanCheck", "Prediction",
+           "STATUSES", "SequencePrediction", "candidate_changes", "check_plan", "judge_sequence",
+           "predict_sequence", "predict_std", "read_imu_noise", "read_noise",
+           "std_relative_error"]
