@@ -27,6 +27,7 @@ from inertest.app.batch import run_batch
 from inertest.cli import main
 from inertest.io.data_file import write_table
 from inertest.procedures.centrifuge_nine_position import fit_inputs
+from inertest.results import EnvelopeResult
 from inertest.studies import centrifuge_study as cs
 
 pytestmark = pytest.mark.slow
@@ -119,7 +120,8 @@ def test_batch_serial_pool_and_dask_are_bit_identical_and_filed_by_the_driver(
         db = tmp_path / f"{name}.db"
         filed = []
         with _Transactions() as tx:
-            items = run_batch(path, store=str(db), progress=filed.append, **kw)
+            items = run_batch(path, store=str(db), progress=filed.append, full_results=True,
+                              **kw)
         assert [i.error is None for i in items] == [True] * N_RUNS + [False], name
         assert "missing.toml" in items[-1].error
         assert filed == items  # the progress callback saw every item, in task order
@@ -135,6 +137,12 @@ def test_batch_serial_pool_and_dask_are_bit_identical_and_filed_by_the_driver(
         assert _rows(db) == (N_RUNS, n_estimates), name
         stored[name] = _stored_values(db)
     assert stored["serial"] == stored["pool"] == stored["dask"]
+    # By default a run without a report comes back as its envelope alone: the same numbers.
+    for kw in ({}, {"workers": 2}, {"executor": client}):
+        items = run_batch(path, **kw)
+        assert all(isinstance(i.outcome.result, EnvelopeResult) for i in items[:-1])
+        assert [json.dumps(i.outcome.result.to_dict(), allow_nan=True)
+                for i in items[:-1]] == want
 
 
 def test_batch_cli_on_a_dask_scheduler_with_a_progress_bar(manifest, cluster, tmp_path, capsys):

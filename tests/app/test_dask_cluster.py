@@ -28,6 +28,7 @@ from inertest.io.data_file import write_table
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 DASK = Path(sys.executable).with_name("dask")
+N_RUNS = 24
 
 
 def _start(args: list[str], log: Path) -> subprocess.Popen:
@@ -74,14 +75,10 @@ def _worker(address: str, folder: Path, name: str) -> subprocess.Popen:
 @pytest.fixture(scope="module")
 def manifest(tmp_path_factory):
     folder = tmp_path_factory.mktemp("runs")
-    # Results of some megabytes (64 positions x 1000 readings): fetching one from a worker can
-    # outlast the driver's 0.5 s wait after the future is done, the race of the old crash.
-    plan = folder / "plan.toml"
-    plan.write_text((EXAMPLES / "polar_tumble" / "plan.toml").read_text().replace(
-        "samples_per_position = 5", "samples_per_position = 1000"))
+    plan = EXAMPLES / "polar_tumble" / "plan.toml"
     truth = EXAMPLES / "polar_tumble" / "truth.toml"
     lines = []
-    for k in range(12):
+    for k in range(N_RUNS):  # 24 runs on 2 workers: units of 3 fits (one future each)
         data = folder / f"d{k}.csv"
         write_table(data, inertest.simulate(plan, truth, noise=0.002, rng=200 + k))
         lines.append(f'[[run]]\nplan = "{plan}"\ndata = "{data}"\n')
@@ -106,9 +103,9 @@ def test_batch_on_scheduler_and_worker_processes_files_every_run_once(scheduler,
             assert main(["batch", str(manifest), "--scheduler", address, "--db", str(db),
                          "--no-progress", "--json"]) == 0, capsys.readouterr().err
             doc = json.loads(capsys.readouterr().out)
-            assert [r["error"] for r in doc["runs"]] == [None] * 12
+            assert [r["error"] for r in doc["runs"]] == [None] * N_RUNS
             shas = _filed(db)
-            assert len(shas) == 12 and len(set(shas)) == 12
+            assert len(shas) == N_RUNS and len(set(shas)) == N_RUNS
     finally:
         for w in workers:
             _stop(w)
@@ -131,12 +128,12 @@ def test_a_worker_killed_mid_batch_loses_nothing(scheduler, manifest, tmp_path):
         with Client(address, timeout="60s") as client:
             client.wait_for_workers(2, timeout=60)
             items = run_batch(manifest, executor=client, store=str(tmp_path / "h.db"),
-                              progress=progress, max_pending=12)
+                              progress=progress, max_pending=N_RUNS)
         assert killed
         failed = [i.error for i in items if i.error is not None]
         assert not failed, failed  # the lost runs ran again on the other worker
         shas = _filed(tmp_path / "h.db")
-        assert len(shas) == 12 and len(set(shas)) == 12
+        assert len(shas) == N_RUNS and len(set(shas)) == N_RUNS
     finally:
         for w in workers:
             _stop(w)
@@ -186,10 +183,11 @@ class _Executor:
         self.calls: list[int] = []
         self.empty_first = empty_first
 
-    def submit(self, fn, task):
+    def submit(self, fn, *args):  # run_unit(fn, [task]): one fit a unit here
+        task = args[-1][0]
         self.calls.append(task)
         empty = task in self.empty_first and self.calls.count(task) == 1
-        return _LateFuture(fn(task), late=task % 2 == 0, empty=empty)
+        return _LateFuture(fn(*args), late=task % 2 == 0, empty=empty)
 
 
 def test_a_result_that_arrives_after_the_wait_timed_out_is_collected_not_none():
@@ -206,8 +204,9 @@ def test_a_result_lost_twice_fails_that_run_alone():
     from inertest.app.executors import Fits, RunStoppedError
 
     ex = _Executor(empty_first=set())
-    ex.submit = lambda fn, task: (ex.calls.append(task),
-                                  _LateFuture(fn(task), late=False, empty=task == 1))[1]
+    ex.submit = lambda fn, f, tasks: (ex.calls.append(tasks[0]),
+                                      _LateFuture(fn(f, tasks), late=False,
+                                                  empty=tasks[0] == 1))[1]
     fits = Fits([0, 1, 2], ex, own=False, timeout=None, fn=lambda t: (t,))
     fits.submit_up_to(3)
     assert fits.collect(0) == (0,)

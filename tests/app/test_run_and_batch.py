@@ -87,7 +87,7 @@ def test_failed_store_leaves_no_report_and_failed_report_no_run(tumble, tmp_path
     plan, data = tumble
     db = tmp_path / "h.db"
 
-    def broken_add(self, record):
+    def broken_add(self, record, **_):
         raise InertestError("disk full (simulated)")
 
     monkeypatch.setattr(HistoryStore, "add", broken_add)
@@ -264,12 +264,12 @@ def test_a_dask_worker_lost_under_a_run_fails_that_run_only(tumble, tmp_path):
     class LosesSerialDie:
         """Computes here; the DIE run's future fails as a lost Dask worker's would."""
 
-        def submit(self, fn, task):
+        def submit(self, fn, *args):  # run_unit(compute, [task]): one fit a unit here
             fut = Future()
-            if 'serial = "DIE"' in task.plan.read_text(encoding="utf-8"):
+            if 'serial = "DIE"' in args[-1][0].plan.read_text(encoding="utf-8"):
                 fut.set_exception(distributed.KilledWorker("fit-1", None, 3))
             else:
-                fut.set_result(fn(task))
+                fut.set_result(fn(*args))
             return fut
 
     items = run_batch(manifest, executor=LosesSerialDie(), store=str(tmp_path / "h.db"),

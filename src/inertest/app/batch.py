@@ -9,6 +9,7 @@ Dask worker, timeouts) is in :mod:`inertest.app.executors`.
 
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -18,14 +19,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from inertest.api import fit, load_data, load_plan
-from inertest.app.executors import Fits, local_pool, slots, wait_for_a_worker
+from inertest.app.executors import Fits, local_pool, slots, unit_sizes, wait_for_a_worker
 from inertest.app.run import (
     PathLike,
+    PreparedRun,
     RunOutcome,
     data_summary,
-    file_run,
+    file_prepared,
     judge,
     lab_of,
+    prepare_run,
     source_name,
     spec_of,
 )
@@ -136,15 +139,62 @@ def _check_judging_files(todo: Sequence[BatchTask]) -> None:
         lab_of(lab)
 
 
-def compute(task: BatchTask) -> tuple[Any, ...]:
-    """Worker side of a batch task: read, fit and judge (no database, no report)."""
-    p = load_plan(task.plan)
-    lab, lab_source = lab_of(task.equipment)
+@dataclass(frozen=True)
+class BatchOptions:
+    """What every task of a batch shares, sent to the workers with each task.
+
+    ``store``: the runs will be stored (the worker makes each run's record); ``tested_at``:
+    ``--tested-at``; ``full_results``: send every full result back (per-sample arrays
+    included), not only the envelope; a run with a report always sends its full result.
+    """
+
+    store: bool = False
+    tested_at: datetime | None = None
+    full_results: bool = False
+
+
+def _file_key(path: Path) -> tuple[str, int, int]:
+    st = path.stat()
+    return (os.fspath(path), st.st_mtime_ns, st.st_size)
+
+
+def _cached(table: dict[Any, Any], key: Any, make: Callable[[], Any]) -> Any:
+    """``make()`` once per key in this worker (a batch reads one plan for hundreds of runs)."""
+    if key not in table:
+        if len(table) >= 64:
+            table.clear()
+        table[key] = make()
+    return table[key]
+
+
+#: Most fits sent to a worker as one unit (one future).
+_MAX_CHUNK = 16
+_PLANS: dict[Any, Any] = {}
+_LABS: dict[Any, Any] = {}
+_SPECS: dict[Any, Any] = {}
+
+
+def compute(task: BatchTask, options: BatchOptions = BatchOptions()) -> PreparedRun:
+    """Worker side of a batch task: read, fit, judge and prepare the filing (no database).
+
+    Plans, lab and spec files are read once per worker while unchanged on disk (path,
+    modification time and size). What comes back is the run ready to file: its envelope,
+    test block and record (already JSON text), and the full result only when the run draws a
+    report or ``options.full_results`` asks for it.
+    """
+    p, plan_text = _cached(_PLANS, _file_key(task.plan), lambda: (
+        load_plan(task.plan), task.plan.read_text(encoding="utf-8")))
+    lab, lab_source = (lab_of(None) if task.equipment is None else _cached(
+        _LABS, _file_key(task.equipment), lambda: lab_of(task.equipment)))
+    signatories = None if task.equipment is None else _cached(
+        _LABS, ("signatories", *_file_key(task.equipment)),
+        lambda: read_signatories(task.equipment))  # type: ignore[arg-type]
     used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", task.plan),
                                 lab_source=lab_source)
-    spec_doc = spec_of(task.spec)
+    spec_doc = None if task.spec is None else _cached(
+        _SPECS, _file_key(task.spec), lambda: spec_of(task.spec))
     d = load_data(task.data)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -152,9 +202,15 @@ def compute(task: BatchTask) -> tuple[Any, ...]:
     budget, conformance = (judge(p, result, used, spec_doc)
                            if lab is not None or spec_doc is not None else (None, None))
     digest = file_sha256(task.data)
-    return (result, p, task.plan.read_text(encoding="utf-8"), digest,
-            tuple(str(w.message) for w in caught), data_summary(task.data, d, digest),
-            lab, lab_source, budget, conformance)
+    prepared = prepare_run(
+        result, p, plan_text=plan_text, data_sha256=digest,
+        data_summary=data_summary(task.data, d, digest), tested_at=options.tested_at,
+        for_store=options.store, warnings_=tuple(str(w.message) for w in caught), lab=lab,
+        lab_source=lab_source, plan_source=source_name("plan", task.plan), budget=budget,
+        conformance=conformance, signatories=signatories)
+    if task.report_dir is not None or options.full_results:
+        return prepared
+    return prepared.compact()
 
 
 def run_batch(
@@ -169,6 +225,7 @@ def run_batch(
     max_pending: int | None = None,
     timeout: float | None = None,
     worker_wait: float = 60.0,
+    full_results: bool = False,
 ) -> list[BatchItem]:
     """Run many tests: fits on ``executor``, then each filed here as its own transaction.
 
@@ -190,7 +247,8 @@ def run_batch(
         Called with each :class:`BatchItem` as soon as it is filed (for a progress bar).
     max_pending : int, optional
         Fits submitted ahead of the one being filed (memory stays bounded by this many results
-        however long the manifest); default twice the executor's worker count, at least 4.
+        however long the manifest); default the fits of the first units sent, two per worker
+        slot (a unit is several fits while many are left, one at the end), at least 4.
     timeout : float, optional
         Longest a fit may take [s], counted from when every earlier run is filed (the run is
         then at the head of the queue); a run over it fails and its worker is stopped (a
@@ -199,6 +257,12 @@ def run_batch(
     worker_wait : float
         With a Dask client: the longest wait for a first worker before submitting [s]; an
         error naming the scheduler and the ``dask worker`` command when none joins.
+    full_results : bool
+        Each outcome's ``result`` is the procedure's full result (per-sample arrays
+        included). By default a run without a report comes back as its envelope alone
+        (:class:`inertest.results.EnvelopeResult`: ``kind``, ``coefficients``,
+        ``combinations``, ``to_dict()``), which is what lets a batch scale with workers:
+        the per-sample arrays of a long record are megabytes to send to this process.
 
     Returns
     -------
@@ -240,20 +304,30 @@ def run_batch(
     _check_judging_files(todo)
     wait_for_a_worker(executor, worker_wait)
     own = executor is None and (timeout is not None or (workers > 1 and len(todo) > 1))
+    options = BatchOptions(store=store is not False and store is not None, tested_at=tested_at,
+                           full_results=full_results)
     return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
-                     store=store, allow_duplicate=allow_duplicate, tested_at=tested_at,
+                     store=store, allow_duplicate=allow_duplicate, options=options,
                      progress=progress, max_pending=max_pending, timeout=timeout, own=own)
 
 
 def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
-              allow_duplicate: bool, tested_at: datetime | None,
+              allow_duplicate: bool, options: BatchOptions,
               progress: Callable[[BatchItem], None] | None, max_pending: int | None,
               timeout: float | None = None, own: bool = False) -> list[BatchItem]:
     """Submit the fits through a sliding window and file each result in task order."""
     from inertest.store import HistoryStore
 
-    window = max_pending or max(4, 2 * slots(executor))
-    fits = Fits(todo, executor, own=own, timeout=timeout, fn=compute)
+    n = slots(executor)
+    # Units of several fits while there are many per worker, single fits at the end: a
+    # future costs this process about 3 ms on Dask (its client's event loop), 0.3 ms on a
+    # process pool, a fit 30-60 ms on its worker.
+    dask = hasattr(executor, "gather")
+    sizes = ([1] * len(todo) if executor is None else unit_sizes(
+        len(todo), n, factor=1.0 if dask else 4.0, most=_MAX_CHUNK))
+    window = max_pending or max(4, sum(sizes[:2 * n]))
+    fits = Fits(todo, executor, own=own, timeout=timeout,
+                fn=functools.partial(compute, options=options), chunk=sizes)
     own_db = store is True or isinstance(store, str)
     db: Any = None
     out: list[BatchItem] = []
@@ -262,16 +336,11 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
         for k, t in enumerate(todo):
             fits.submit_up_to(k + window)
             try:
-                (result, p, plan_text, digest, msgs, summary, lab, lab_source, budget,
-                 conformance) = fits.collect(k)
-                outcome = file_run(
-                    result, p, plan_text=plan_text, data_sha256=digest, data_summary=summary,
-                    tested_at=tested_at, store=db if db else False, report_dir=t.report_dir,
-                    allow_duplicate=allow_duplicate, warnings_=msgs,
-                    inputs=[x for x in (t.plan, t.data, t.spec, t.equipment) if x is not None],
-                    lab=lab, lab_source=lab_source, plan_source=source_name("plan", t.plan),
-                    budget=budget, conformance=conformance,
-                    signatories=None if t.equipment is None else read_signatories(t.equipment))
+                prepared = fits.collect(k)
+                outcome = file_prepared(
+                    prepared, store=db if db else False, report_dir=t.report_dir,
+                    allow_duplicate=allow_duplicate,
+                    inputs=[x for x in (t.plan, t.data, t.spec, t.equipment) if x is not None])
                 item = BatchItem(t, outcome, None)
             except (InertestError, OSError) as exc:
                 item = BatchItem(t, None, error_message(exc))

@@ -10,9 +10,11 @@ have exited, how to start an equal one) live here and only here: :func:`pool_bro
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -54,6 +56,39 @@ _POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [
 _MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
 #: :meth:`Fits._failed`'s answer when a lost run was submitted again.
 _RESUBMITTED = object()
+#: :meth:`Fits._broken`'s answer when the unit waited on was split into single fits.
+_SPLIT = object()
+#: :meth:`Fits._gather_finished`'s answer when the unit waited on is not finished yet.
+_NOT_YET = object()
+
+
+def unit_sizes(n_tasks: int, workers: int, *, factor: float, most: int) -> list[int]:
+    """Sizes of the units of a batch: large first, single fits at the end.
+
+    Each unit takes ``ceil(remaining / (factor * workers))`` fits (at most ``most``, at
+    least 1): few futures while there is much to do, and the last ones small, so that the
+    workers finish together: guided self-scheduling (C. D. Polychronopoulos, D. J. Kuck,
+    "Guided self-scheduling: a practical scheduling scheme for parallel supercomputers",
+    IEEE Trans. Comput. C-36(12), 1987, doi:10.1109/TC.1987.5009495) for ``factor = 1``; a
+    larger factor gives smaller units.
+    """
+    sizes, left = [], n_tasks
+    while left > 0:
+        size = max(1, min(most, math.ceil(left / (factor * max(1, workers)))))
+        sizes.append(size)
+        left -= size
+    return sizes
+
+
+def run_unit(fn: Callable[[Any], Any], tasks: Sequence[Any]) -> list[Any]:
+    """Worker side of a unit: ``fn(task)`` for each task; a task's own error is its value."""
+    out: list[Any] = []
+    for task in tasks:
+        try:
+            out.append(fn(task))
+        except (InertestError, OSError) as exc:
+            out.append(exc)
+    return out
 
 
 class RunStoppedError(InertestError):
@@ -64,72 +99,116 @@ class Fits:
     """The batch's fits on an executor: submitted in a window, collected in task order.
 
     ``fn(task)`` is the work of one task, run on the executor (a picklable module function).
+    Tasks travel in units of ``chunk`` consecutive tasks (one future each): a Dask client
+    spends about 1.5 ms of this process's time on every future, a fit 30-60 ms on its worker,
+    so one future per fit would make the driver the bottleneck of a large cluster. A unit's
+    tasks fail one by one (a task's own error is its value), never together, except when the
+    executor loses the unit.
 
     A process pool that breaks (a worker killed, out of memory, or gone without a word) is
-    restarted with the same settings; the fits that were in flight are run again one at a time,
-    and the one that kills its worker alone fails with :data:`WORKER_DIED` (never retried
-    again). After ``_MAX_BREAKS_IN_A_ROW`` restarts with no fit finished in between the pool is
-    given up and the runs not yet done fail. The driver never waits on a future without a
-    timeout: every ``_POLL_S`` it checks the pool's health and the run's ``timeout``.
+    restarted with the same settings; the units that were in flight are split into single
+    fits and run again one at a time, and the fit that kills its worker alone fails with
+    :data:`WORKER_DIED` (never retried again). After ``_MAX_BREAKS_IN_A_ROW`` restarts with no
+    fit finished in between the pool is given up and the runs not yet done fail. The driver
+    never waits on a future without a timeout: every ``_POLL_S`` it checks the pool's health
+    and the run's ``timeout`` (a unit is one fit when there is a timeout).
     """
 
     def __init__(self, todo: Sequence[Any], executor: Any, *, own: bool,
-                 timeout: float | None, fn: Callable[[Any], Any]) -> None:
+                 timeout: float | None, fn: Callable[[Any], Any],
+                 chunk: int | Sequence[int] = 1) -> None:
         self.todo, self.executor, self.timeout, self.fn = todo, executor, timeout, fn
         self.owned: list[Any] = [executor] if own and executor is not None else []
-        self.pending: dict[int, Any] = {}
-        self.ready: dict[int, Any] = {}  # results (or RunStoppedError) of runs collected early
-        self.submitted = 0
+        if timeout is not None:
+            sizes = [1] * len(todo)
+        elif isinstance(chunk, int):
+            sizes = [max(1, chunk)] * len(todo)
+        else:
+            sizes = list(chunk)
+        #: Task indices of each unit; split units' single fits are appended at the end.
+        self.units: list[list[int]] = []
+        start = 0
+        for size in sizes:
+            if start >= len(todo):
+                break
+            self.units.append(list(range(start, min(start + size, len(todo)))))
+            start += size
+        if start < len(todo):
+            self.units += [[i] for i in range(start, len(todo))]
+        self.first_units = len(self.units)
+        self.unit_of = {i: u for u, unit in enumerate(self.units) for i in unit}
+        self.pending: dict[int, Any] = {}  # unit -> future
+        self.ready: dict[int, Any] = {}  # unit -> values (or its error), collected early
+        self.done: dict[int, Any] = {}  # task -> value or error, not yet collected
+        self.submitted = 0  # units submitted, in order
         self.breaks_in_a_row = 0
         self.gave_up: str | None = None
-        self.resubmitted: set[int] = set()  # runs lost once on the executor and sent again
+        self.resubmitted: set[int] = set()  # units lost once on the executor and sent again
+        self._finished = threading.Event()  # a Dask unit ended (set from the client's thread)
 
     # -- submitting -----------------------------------------------------------------------
 
-    def _submit(self, k: int) -> Any:
-        task = self.todo[k]
+    def _submit(self, u: int) -> Any:
+        tasks = [self.todo[i] for i in self.units[u]]
         if self.executor is None:
-            return Immediate(self.fn, task)
+            return Immediate(run_unit, self.fn, tasks)
         try:
-            return self.executor.submit(self.fn, task)
+            fut = self.executor.submit(run_unit, self.fn, tasks)
+            if hasattr(self.executor, "gather"):  # Dask: say when it ends (_wait_dask)
+                fut.add_done_callback(lambda _: self._finished.set())
+            return fut
         except Exception as exc:  # noqa: BLE001 - a pool that broke since: handled on collect
             if not is_broken_pool(exc):
                 raise
             from concurrent.futures import Future
 
-            fut: Future[Any] = Future()
-            fut.set_exception(exc)
-            return fut
+            failed: Future[Any] = Future()
+            failed.set_exception(exc)
+            return failed
 
     def submit_up_to(self, n: int) -> None:
-        """Submit tasks until ``n`` have been (or the pool was given up)."""
-        while self.submitted < min(n, len(self.todo)) and self.gave_up is None:
+        """Submit units until every task before ``n`` has been (or the pool was given up)."""
+        while (self.submitted < self.first_units and self.units[self.submitted][0] < n
+               and self.gave_up is None):
             self.pending[self.submitted] = self._submit(self.submitted)
             self.submitted += 1
 
     # -- collecting -----------------------------------------------------------------------
 
-    def collect(self, k: int) -> tuple[Any, ...]:
-        """Run ``k``'s computed tuple; raises its error, or :class:`RunStoppedError`."""
-        if k not in self.ready and k not in self.pending:
-            raise RunStoppedError(self.gave_up or "not run")
-        if k not in self.ready:
-            self.ready[k] = self._wait(k)
-        got = self.ready.pop(k)
+    def collect(self, k: int) -> Any:
+        """Task ``k``'s computed value; raises its error, or :class:`RunStoppedError`."""
+        while k not in self.done:
+            u = self.unit_of[k]
+            if u in self.ready:
+                self._deliver(u, self.ready.pop(u))
+            elif u in self.pending:
+                got = self._wait(u)
+                if got is not _SPLIT:
+                    self._deliver(u, got)
+            else:
+                raise RunStoppedError(self.gave_up or "not run")
+        got = self.done.pop(k)
         if isinstance(got, BaseException):
             raise got
         return got
 
+    def _deliver(self, u: int, got: Any) -> None:
+        """Unit ``u``'s values (or the one error of all its tasks) to its tasks."""
+        for j, i in enumerate(self.units[u]):
+            self.done[i] = got if isinstance(got, BaseException) else got[j]
+
     def _wait(self, k: int) -> Any:
-        """Wait for run ``k`` (pending): its tuple or its exception, never forever."""
+        """Wait for unit ``k`` (pending): its values or its error, never forever."""
         fut = self.pending[k]
         if self.executor is None:  # serial: computed here and now
             del self.pending[k]
-            try:
-                return fut.result()
-            except (InertestError, OSError) as exc:
-                return exc
+            return fut.result()
         deadline = None if self.timeout is None else time.monotonic() + self.timeout
+        if hasattr(self.executor, "gather"):  # a Dask client
+            got = self._wait_dask(k, deadline)
+            if got is not _NOT_YET:
+                return got
+            fut = self.pending[k]
         while True:
             try:
                 value = fut.result(timeout=_POLL_S)
@@ -141,7 +220,7 @@ class Fits:
                         return self._timed_out(k)
                     continue
                 # Done by now: finished just after the wait timed out (a Dask future's result
-                # is then ready), or the computation's own TimeoutError (an OSError).
+                # is then ready).
                 err = None if fut.cancelled() else fut.exception()
                 if err is None and not fut.cancelled():
                     value = fut.result()
@@ -167,6 +246,52 @@ class Fits:
             self.breaks_in_a_row = 0
             self.resubmitted.discard(k)
             return value
+
+    def _wait_dask(self, k: int, deadline: float | None) -> Any:
+        """Wait for Dask unit ``k`` without a round trip per future.
+
+        :data:`_NOT_YET` when it failed (the caller's one-by-one path sorts that out). Each
+        Dask future tells :attr:`_finished` when it ends (a callback, no round trip
+        through the client's event loop); the finished ones are then fetched together.
+        """
+        fut = self.pending[k]
+        while True:
+            self._finished.clear()  # before looking: a unit that ends after this wakes us
+            got = self._gather_finished(k)
+            if got is not _NOT_YET:
+                return got
+            if getattr(fut, "status", "finished") != "pending":  # failed, lost, or empty
+                return _NOT_YET
+            if deadline is not None and time.monotonic() > deadline:
+                return self._timed_out(k)
+            self._finished.wait(_POLL_S)
+
+    def _gather_finished(self, k: int) -> Any:
+        """Fetch every finished Dask unit in one call; unit ``k``'s values, or :data:`_NOT_YET`.
+
+        Each ``result()`` of a Dask future is a round trip through the client's event loop
+        (about 1 ms of this process's time); one ``gather`` of all the finished ones costs a
+        fraction of that per future. A future that failed, or is not finished, is left to the
+        waiting below.
+        """
+        done = [u for u, f in self.pending.items() if getattr(f, "status", "") == "finished"]
+        if not done:
+            return _NOT_YET
+        try:
+            values = self.executor.gather([self.pending[u] for u in done], errors="skip")
+        except Exception:  # noqa: BLE001 - any trouble: the one-by-one path below sorts it
+            return _NOT_YET
+        if len(values) != len(done):  # one failed meanwhile: which is not known here
+            return _NOT_YET
+        for u, value in zip(done, values, strict=True):
+            if value is not None:  # a result lost on the way is left to the path below
+                del self.pending[u]
+                self.resubmitted.discard(u)
+                self.ready[u] = value
+        if k not in self.ready:
+            return _NOT_YET
+        self.breaks_in_a_row = 0
+        return self.ready.pop(k)
 
     def _failed(self, k: int, exc: BaseException | None) -> Any:
         """Run ``k`` failed with ``exc``: its error, a restart, or resubmitted once when lost.
@@ -208,10 +333,15 @@ class Fits:
         return stopped
 
     def _broken(self, k: int) -> Any:
-        """The pool died under run ``k`` (or another): rerun the suspects alone, return ``k``'s."""
-        suspects = sorted(i for i, f in self.pending.items() if not finished(f))
-        for i in suspects:
+        """The pool died under unit ``k`` (or another): rerun the suspects' fits alone.
+
+        Returns ``k``'s values, or :data:`_SPLIT` when ``k`` was split into single fits
+        (their values are then in :attr:`ready` under their own units).
+        """
+        suspects = []
+        for i in sorted(u for u, f in self.pending.items() if not finished(f)):
             del self.pending[i]
+            suspects += self._split(i)
         self.breaks_in_a_row += 1
         while suspects:
             if self.breaks_in_a_row > _MAX_BREAKS_IN_A_ROW:
@@ -226,7 +356,18 @@ class Fits:
             self.pending[i] = self._submit(i)
             got = self._wait_alone(i)
             self.ready[i] = got
-        return self.ready.pop(k)
+        return self.ready.pop(k) if k in self.ready else _SPLIT
+
+    def _split(self, u: int) -> list[int]:
+        """Unit ``u`` as units of one fit each (itself when it holds one)."""
+        if len(self.units[u]) == 1:
+            return [u]
+        singles = []
+        for i in self.units[u]:
+            self.units.append([i])
+            self.unit_of[i] = len(self.units) - 1
+            singles.append(len(self.units) - 1)
+        return singles
 
     def _wait_alone(self, i: int) -> Any:
         """Run ``i`` as the only fit on a fresh pool: if the pool breaks, ``i`` broke it."""

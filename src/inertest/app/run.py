@@ -17,11 +17,12 @@ Example
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -313,30 +314,129 @@ def file_run(
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`).
 
-    Every stored kind goes through here (a procedure's fit, a batch run, a thermal fit).
-    ``budget`` and ``conformance`` (from :func:`judge`) go into the stored envelope and the
-    report. Without a plan (an analysis that has none), ``instrument`` names the instrument
-    and ``report_html(history)`` builds the report page; ``outputs()`` writes the command's
-    other files (figures, model files) inside the transaction: when it fails, the run is
-    withdrawn and the report not moved into place.
+    Every stored kind goes through here (a procedure's fit, a batch run, a thermal fit):
+    :func:`prepare_run`, then :func:`file_prepared`. ``budget`` and ``conformance`` (from
+    :func:`judge`) go into the stored envelope and the report. Without a plan (an analysis
+    that has none), ``instrument`` names the instrument and ``report_html(history)`` builds the
+    report page; ``outputs()`` writes the command's other files (figures, model files) inside
+    the transaction: when it fails, the run is withdrawn and the report not moved into place.
 
     The report states each of ``inputs`` by its path and SHA-256, and ``command`` (the command
     line) when given. ``tested_at`` is ``--tested-at`` (None: the plan's ``[test] date``, else
-    now); the one test
-    date it resolves to (:func:`inertest.quality.lab.test_time`) dates the record, the report,
-    the equipment's calibration status and the history. A stored run also carries when it was
-    filed (``test.filed_at``); a run not stored has no filing time. With a report, the folder
-    also holds ``certificate.json`` (:func:`inertest.report.certificate.certificate`).
+    now); the one test date it resolves to (:func:`inertest.quality.lab.test_time`) dates the
+    record, the report, the equipment's calibration status and the history. A stored run also
+    carries when it was filed (``test.filed_at``); a run not stored has no filing time. With a
+    report, the folder also holds ``certificate.json``
+    (:func:`inertest.report.certificate.certificate`).
     """
+    to_store = store is not False and store is not None
+    prepared = prepare_run(
+        result, plan, plan_text=plan_text, data_sha256=data_sha256, data_summary=data_summary,
+        tested_at=tested_at, for_store=to_store, warnings_=warnings_, lab=lab,
+        lab_source=lab_source, plan_source=plan_source, budget=budget, conformance=conformance,
+        instrument=instrument, signatories=signatories)
+    return file_prepared(prepared, store=store, report_dir=report_dir, pdf=pdf,
+                         allow_duplicate=allow_duplicate, inputs=inputs, report_html=report_html,
+                         outputs=outputs, spec=spec, command=command)
+
+
+@dataclass(frozen=True)
+class PreparedRun:
+    """A computed run made ready to file: everything but the database and the report folder.
+
+    :func:`prepare_run` makes it where the fit ran (a batch worker does), so that the process
+    that files many runs only writes them (:func:`file_prepared`).
+
+    Attributes
+    ----------
+    result : procedure result or EnvelopeResult
+        The full result (a report is drawn from it), or its envelope alone
+        (:class:`inertest.results.EnvelopeResult`) when no report is asked for.
+    plan, instrument : Plan or None, Instrument
+    plan_text, data_sha256, data_summary
+        As given to :func:`file_run`.
+    tested : TestTime
+        The one test date.
+    version : str
+        The software version.
+    test : dict
+        The envelope's ``test`` block (without ``filed_at``, added when filed).
+    notices, warnings : tuple of str
+        The filing's own warnings; all warnings (the fit's, then the notices).
+    envelope : dict or None
+        The stored envelope without ``filed_at``; None when shipped without the full result.
+    record : RunRecord or None
+        The run to store (its envelope already JSON text); None when not storing.
+    budget, conformance, lab, lab_source, plan_source, signatories
+        As given to :func:`file_run`.
+    """
+
+    result: Any
+    plan: Plan | None
+    instrument: Instrument
+    plan_text: str
+    data_sha256: str
+    data_summary: Mapping[str, object]
+    tested: TestTime
+    version: str
+    test: dict[str, Any]
+    notices: tuple[str, ...]
+    warnings: tuple[str, ...]
+    envelope: dict[str, object] | None
+    record: Any = None
+    budget: UncertaintyBudget | None = None
+    conformance: Conformance | None = None
+    lab: Mapping[str, Equipment] | None = None
+    lab_source: str = "the lab file"
+    plan_source: str = "the plan"
+    signatories: Mapping[str, str] | None = None
+
+    def compact(self) -> PreparedRun:
+        """The same run with its result as the envelope alone (no per-sample arrays).
+
+        What a batch worker sends back when the run draws no report.
+        """
+        from inertest.results import EnvelopeResult
+
+        if isinstance(self.result, EnvelopeResult):
+            return self
+        # The stored envelope travels as the record's JSON text alone.
+        record = None if self.record is None else replace(self.record, result={})
+        return replace(self, result=EnvelopeResult.of(self.result), envelope=None,
+                       record=record)
+
+
+@functools.cache
+def software_version() -> str:
+    """The installed inertest's version (read once: parsing the metadata takes milliseconds)."""
+    return metadata.version("inertest")
+
+
+def prepare_run(
+    result: Any,
+    plan: Plan | None,
+    *,
+    plan_text: str,
+    data_sha256: str,
+    data_summary: Mapping[str, object],
+    tested_at: datetime | None = None,
+    for_store: bool = False,
+    warnings_: Sequence[str] = (),
+    lab: Mapping[str, Equipment] | None = None,
+    lab_source: str = "the lab file",
+    plan_source: str = "the plan",
+    budget: UncertaintyBudget | None = None,
+    conformance: Conformance | None = None,
+    instrument: Instrument | None = None,
+    signatories: Mapping[str, str] | None = None,
+) -> PreparedRun:
+    """The run's test block, envelope and (``for_store``) record: no database, no files."""
     if plan is None and instrument is None:
         raise PlanError("file_run needs the plan or the instrument")
     inst = plan.instrument if plan is not None else instrument
     assert inst is not None
     test_table = plan.test if plan is not None else None
-    if store is not False and store is not None:  # SQLAlchemy, Alembic: only when storing
-        from inertest.store import HistoryStore, RunRecord, StoreError
-
-    version = metadata.version("inertest")
+    version = software_version()
     tested = test_time(test_table, tested_at)
     test = identity_block(test_table, lab=lab, tested=tested, software_version=version,
                           data_sha256=data_sha256, plan_source=plan_source,
@@ -348,15 +448,52 @@ def file_run(
         notices.insert(0, override)
     if lab is None and test_table is not None and test_table.equipment:
         notices.append(unchecked_equipment_message(test_table.equipment))
-    warnings_ = [*warnings_, *notices]
-    filed_at = None
-    if store is not False and store is not None:
-        filed_at = datetime.now(UTC)
-        test["filed_at"] = filed_at.isoformat(timespec="seconds")
     envelope_doc = _with_notices(with_blocks(
         result.to_dict(), test=test,
         uncertainty_budget=None if budget is None else budget.to_dict(),
         conformance=None if conformance is None else conformance.to_dict()), notices)
+    record = None
+    if for_store:  # SQLAlchemy, Alembic: only when storing
+        from inertest.store import RunRecord
+
+        record = RunRecord.from_result(
+            envelope_doc, serial=inst.serial, instrument_kind=inst.kind, plan_text=plan_text,
+            data_sha256=data_sha256, software_version=version, tested_at=tested.at,
+            serialise=True)
+    return PreparedRun(
+        result=result, plan=plan, instrument=inst, plan_text=plan_text, data_sha256=data_sha256,
+        data_summary=data_summary, tested=tested, version=version, test=test,
+        notices=tuple(notices), warnings=(*warnings_, *notices), envelope=envelope_doc,
+        record=record, budget=budget, conformance=conformance, lab=lab, lab_source=lab_source,
+        plan_source=plan_source, signatories=signatories)
+
+
+def file_prepared(
+    prepared: PreparedRun,
+    *,
+    store: bool | str | HistoryStore = False,
+    report_dir: PathLike | None = None,
+    pdf: bool = False,
+    allow_duplicate: bool = False,
+    inputs: Sequence[PathLike] = (),
+    report_html: Callable[..., str] | None = None,
+    outputs: Callable[[], None] | None = None,
+    spec: Spec | None = None,
+    command: str | None = None,
+) -> RunOutcome:
+    """File a :class:`PreparedRun`: report into place, run into the database, one transaction.
+
+    See :func:`file_run`.
+    """
+    r = prepared
+    inst, result, test = r.instrument, r.result, dict(r.test)
+    if store is not False and store is not None:
+        from inertest.store import HistoryStore, RunRecord, StoreError
+
+    filed_at = None
+    if store is not False and store is not None:
+        filed_at = datetime.now(UTC)
+        test["filed_at"] = filed_at.isoformat(timespec="seconds")
     own_store = store is True or isinstance(store, str)
     db: HistoryStore | None
     if store is False or store is None:
@@ -368,23 +505,25 @@ def file_run(
     try:
         record = None
         if db is not None:
-            record = RunRecord.from_result(
-                envelope_doc, serial=inst.serial,
-                instrument_kind=inst.kind, plan_text=plan_text,
-                data_sha256=data_sha256, software_version=version, tested_at=tested.at,
-                filed_at=filed_at)
-            if not allow_duplicate:
-                earlier = db.runs_with_data(inst.serial, result.kind, data_sha256)
-                if earlier:
-                    raise DuplicateRunError(
-                        f"this data file (sha256 {data_sha256[:12]}...) is already filed for "
-                        f"{inst.serial} / {result.kind} (run {earlier[0]}); nothing "
-                        "stored. Use --allow-duplicate to file it again, or --no-store")
+            record = r.record
+            if record is None:  # prepared without storing in mind
+                assert r.envelope is not None
+                record = RunRecord.from_result(
+                    r.envelope, serial=inst.serial, instrument_kind=inst.kind,
+                    plan_text=r.plan_text, data_sha256=r.data_sha256,
+                    software_version=r.version, tested_at=r.tested.at)
+            record = replace(record, filed_at=filed_at)
         report_path = None
         report_id = (str(test.get("certificate") or "") or (
             record.run_uuid if record is not None else report_id_of(
-                result.kind, inst.serial, data_sha256, plan_text, tested.at.isoformat())))
+                result.kind, inst.serial, r.data_sha256, r.plan_text, r.tested.at.isoformat())))
         if report_dir is not None:
+            if r.envelope is None:
+                raise PlanError("a report needs the full result: prepare the run with it")
+            envelope_doc = with_blocks(r.envelope, test=test)
+            if db is not None and not allow_duplicate:  # before the report is drawn
+                _refuse_duplicate(db.runs_with_data(inst.serial, result.kind, r.data_sha256),
+                                  inst.serial, result.kind, r.data_sha256)
             history: list = []
             if db is not None and record is not None:
                 from inertest.store.summary import summarize_runs
@@ -394,11 +533,12 @@ def file_run(
                 except StoreError:
                     earlier_runs = []
                 history = summarize_runs(sorted([*earlier_runs, record],
-                                                key=lambda r: r.tested_at))
+                                                key=lambda x: x.tested_at))
             html = (report_html(history, report_id=report_id, test=test)
                     if report_html is not None else _report_html(
-                        result, plan, plan_text, data_summary, tested, version, history, test,
-                        envelope_doc, report_id, spec, source_rows(inputs, command)))
+                        result, r.plan, r.plan_text, r.data_summary, r.tested, r.version,
+                        history, test, envelope_doc, report_id, spec,
+                        source_rows(inputs, command)))
             added = False
             try:
                 with target_directory(report_dir, inputs=inputs) as tmp:
@@ -413,7 +553,8 @@ def file_run(
                     # Store last inside the block: a failed store leaves no report, and a
                     # failed report leaves no stored run.
                     if db is not None and record is not None:
-                        db.add(record)
+                        _refuse_duplicate(db.add(record, refuse_same_data=not allow_duplicate),
+                                          inst.serial, result.kind, r.data_sha256)
                         added = True
                     if outputs is not None:
                         outputs()
@@ -424,7 +565,8 @@ def file_run(
             report_path = Path(report_dir) / "index.html"
         else:
             if db is not None and record is not None:
-                db.add(record)
+                _refuse_duplicate(db.add(record, refuse_same_data=not allow_duplicate),
+                                  inst.serial, result.kind, r.data_sha256)
             try:
                 if outputs is not None:
                     outputs()
@@ -433,15 +575,26 @@ def file_run(
                     db.discard(record.run_uuid)
                 raise
         return RunOutcome(
-            result=result, plan=plan, data_sha256=data_sha256, tested_at=tested.at,
+            result=result, plan=r.plan, data_sha256=r.data_sha256, tested_at=r.tested.at,
             stored_run=None if record is None else record.run_uuid,
             database=None if db is None else db.display_url, report=report_path,
-            warnings=tuple(warnings_), test=test, budget=budget, conformance=conformance,
-            notices=tuple(notices), filed_at=filed_at,
+            warnings=r.warnings, test=test, budget=r.budget, conformance=r.conformance,
+            notices=r.notices, filed_at=filed_at,
             report_id=report_id if report_path is not None else None)
     finally:
         if db is not None and own_store:
             db.close()
+
+
+def _refuse_duplicate(earlier: Sequence[str] | str | None, serial: str, kind: str,
+                      data_sha256: str) -> None:
+    """A :class:`DuplicateRunError` when ``earlier`` names a run filed from the same data."""
+    if not earlier:
+        return
+    first = earlier if isinstance(earlier, str) else earlier[0]
+    raise DuplicateRunError(
+        f"this data file (sha256 {data_sha256[:12]}...) is already filed for {serial} / {kind} "
+        f"(run {first}); nothing stored. Use --allow-duplicate to file it again, or --no-store")
 
 
 def _report_html(result: Any, plan: Plan | None, plan_text: str,

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import functools
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -450,6 +452,66 @@ ENVELOPE_KEYS: tuple[str, ...] = (
 #: the uncertainty budget (:meth:`inertest.quality.budget.UncertaintyBudget.to_dict`) and the
 #: verdicts against a specification (:meth:`inertest.quality.conformance.Conformance.to_dict`).
 OPTIONAL_KEYS: frozenset[str] = frozenset({"test", "uncertainty_budget", "conformance"})
+
+
+@dataclass(frozen=True)
+class EnvelopeResult:
+    """A result carried as its envelope alone: what a batch worker sends back.
+
+    The full result's per-sample arrays (residuals, reductions; megabytes for a long record)
+    stay where the fit ran; the envelope holds everything filed, printed and judged: the
+    identification with its uncertainties, the checks, the kind's own block. It travels as
+    JSON text (a string is copied, not rebuilt, when it crosses to another process) and is
+    parsed when first read.
+
+    Attributes
+    ----------
+    text : str
+        The result envelope (:func:`envelope`; the result's ``to_dict()``) as JSON, NaN and
+        infinities written as such.
+    """
+
+    text: str
+
+    @classmethod
+    def of(cls, result: Any) -> EnvelopeResult:
+        """The envelope of ``result`` (anything with ``to_dict()``)."""
+        return cls(json.dumps(result.to_dict(), allow_nan=True))
+
+    @functools.cached_property
+    def doc(self) -> dict[str, Any]:
+        """The envelope, parsed (once)."""
+        return dict(json.loads(self.text))
+
+    @property
+    def kind(self) -> str:
+        """The result's kind (a procedure kind or an analysis)."""
+        return str(self.doc["kind"])
+
+    def _identification(self) -> Mapping[str, Any]:
+        ident = self.doc.get("identification")
+        return ident if isinstance(ident, Mapping) else {}
+
+    @property
+    def coefficients(self) -> dict[str, Estimate]:
+        """The coefficients the data determine, in engineering units."""
+        found = self._identification().get("coefficients") or {}
+        return {k: Estimate(k, float(e["value"]), float(e["std"]), str(e["unit"]))
+                for k, e in found.items()}
+
+    @property
+    def combinations(self) -> tuple[Combination, ...]:
+        """The identifiable combinations."""
+        found = self._identification().get("combinations") or []
+        return tuple(Combination(str(c["name"]), dict(c["terms"]), float(c["value"]),
+                                 float(c["std"]), str(c["unit"])) for c in found)
+
+    def to_dict(self) -> dict[str, object]:
+        """The envelope (a fresh copy: changing it leaves this result as it was)."""
+        return dict(json.loads(self.text))
+
+    def __getstate__(self) -> dict[str, Any]:  # the text travels, not the parsed copy
+        return {"text": self.text}
 
 
 def envelope(
