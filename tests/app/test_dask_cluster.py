@@ -31,10 +31,10 @@ DASK = Path(sys.executable).with_name("dask")
 N_RUNS = 24
 
 
-def _start(args: list[str], log: Path) -> subprocess.Popen:
+def _start(args: list[str], log: Path, cwd: Path | None = None) -> subprocess.Popen:
     with log.open("wb") as out:  # the child keeps its own copy of the file descriptor
         return subprocess.Popen([str(DASK), *args], stdout=out, stderr=subprocess.STDOUT,
-                                start_new_session=True)
+                                start_new_session=True, cwd=cwd)
 
 
 def _stop(proc: subprocess.Popen) -> None:
@@ -64,12 +64,12 @@ def scheduler(tmp_path_factory):
 
 
 def _worker(address: str, folder: Path, name: str) -> subprocess.Popen:
-    # tests/ on the workers' path: the hook module of the killed-worker test lives there.
-    env_path = os.pathsep.join([str(Path(__file__).resolve().parents[1]),
-                                os.environ.get("PYTHONPATH", "")])
-    os.environ["PYTHONPATH"] = env_path
+    # Each worker runs in a folder of its own: a relative path of the driver's means nothing
+    # there (as on another machine), which the shipped-data test relies on.
+    home = folder / f"{name}-cwd"
+    home.mkdir(exist_ok=True)
     return _start(["worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard",
-                   "--name", name], folder / f"{name}.log")
+                   "--name", name], folder / f"{name}.log", cwd=home)
 
 
 @pytest.fixture(scope="module")
@@ -134,6 +134,40 @@ def test_a_worker_killed_mid_batch_loses_nothing(scheduler, manifest, tmp_path):
         assert not failed, failed  # the lost runs ran again on the other worker
         shas = _filed(tmp_path / "h.db")
         assert len(shas) == N_RUNS and len(set(shas)) == N_RUNS
+    finally:
+        for w in workers:
+            _stop(w)
+
+
+@pytest.mark.slow
+def test_workers_that_do_not_share_the_paths_get_the_files_shipped(scheduler, manifest,
+                                                                   tmp_path, monkeypatch,
+                                                                   capsys):
+    """Relative paths from the driver's folder: the workers (in folders of their own, as on
+    other machines) cannot open them; with --ship-data the files go with the runs, and the
+    results name the user's paths."""
+    address, folder = scheduler
+    monkeypatch.chdir(manifest.parent)
+    local = Path("local.toml")
+    local.write_text(manifest.read_text().replace(str(manifest.parent) + "/", ""))
+    assert str(manifest.parent) not in local.read_text()
+    workers = [_worker(address, folder, f"s{i}") for i in range(2)]
+    try:
+        code = main(["batch", str(local), "--scheduler", address, "--no-store",
+                     "--no-progress", "--json"])
+        doc = json.loads(capsys.readouterr().out)
+        assert code == 1 and all("no such file" in (r["error"] or "") for r in doc["runs"])
+        assert all(r["result"] is None for r in doc["runs"])  # nothing computed there
+        db = tmp_path / "h.db"
+        assert main(["batch", str(local), "--scheduler", address, "--db", str(db),
+                     "--ship-data", "--no-progress", "--json"]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        assert [r["error"] for r in doc["runs"]] == [None] * N_RUNS
+        assert len(set(_filed(db))) == N_RUNS
+        ref = main(["batch", str(manifest), "--no-store", "--no-progress", "--json"])
+        want = json.loads(capsys.readouterr().out)
+        assert ref == 0 and [r["result"]["identification"] for r in doc["runs"]] == [
+            r["result"]["identification"] for r in want["runs"]]
     finally:
         for w in workers:
             _stop(w)

@@ -282,3 +282,22 @@ def test_a_dask_worker_lost_under_a_run_fails_that_run_only(tumble, tmp_path):
 def test_timeout_must_be_positive(tumble):
     with pytest.raises(InertestError, match="timeout"):
         run_batch([tumble], timeout=0)
+
+
+def test_shipped_files_give_the_same_results_and_name_the_users_files(tumble, tmp_path):
+    """ship_data: the files travel with the runs; results, data summary and errors name the
+    user's paths, never the worker's temporary copies."""
+    plan, data = tumble
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[site\n", encoding="utf-8")
+    tasks = [(plan, data), (bad, data)]
+    plain = run_batch(tasks, full_results=True)
+    shipped = run_batch(tasks, ship_data=True, full_results=True)
+    assert shipped[0].outcome.result.to_dict() == plain[0].outcome.result.to_dict()
+    assert shipped[0].outcome.data_sha256 == plain[0].outcome.data_sha256
+    assert str(bad) in shipped[1].error and "inertest-shipped" not in shipped[1].error
+    assert shipped[1].error == plain[1].error
+    folder = tmp_path / "rosbag2"
+    folder.mkdir()
+    with pytest.raises(InertestError, match="is a folder"):
+        run_batch([(plan, folder)], ship_data=True)

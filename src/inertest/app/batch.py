@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import functools
 import os
+import tempfile
 import warnings
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,7 +33,7 @@ from inertest.app.run import (
     source_name,
     spec_of,
 )
-from inertest.errors import InertestError, PlanError, error_message
+from inertest.errors import DataError, InertestError, PlanError, error_message
 from inertest.io.atomic import check_outputs
 from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
@@ -57,6 +58,41 @@ class BatchTask:
     report_dir: Path | None = None
     spec: Path | None = None
     equipment: Path | None = None
+    #: The input files' bytes, read by the process that submits the task (``ship_data``):
+    #: the worker writes them to a temporary folder and reads them there.
+    shipped: Mapping[str, bytes] | None = field(default=None, repr=False, compare=False)
+
+
+_SHIPPED_ROLES = ("plan", "data", "spec", "equipment")
+_UNREADABLE = "unreadable"  # a shipped task whose files could not be read: why
+
+
+class _Shipped(Sequence[BatchTask]):
+    """The tasks with their input files' bytes, read when each task is submitted.
+
+    A cluster whose workers do not see this machine's files gets the files with the task; the
+    bytes are read only for the tasks in the submission window, so memory stays bounded.
+    """
+
+    def __init__(self, tasks: Sequence[BatchTask]) -> None:
+        self.tasks = tasks
+
+    def __len__(self) -> int:
+        return len(self.tasks)
+
+    def __getitem__(self, k: Any) -> Any:
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        t = self.tasks[k]
+        files = {}
+        for role in _SHIPPED_ROLES:
+            path = getattr(t, role)
+            if path is not None:  # a folder was refused before the batch began
+                try:
+                    files[role] = Path(path).read_bytes()
+                except OSError as exc:  # this run fails (on the worker), not the batch
+                    return replace(t, shipped={_UNREADABLE: error_message(exc).encode()})
+        return replace(t, shipped=files)
 
 
 @dataclass(frozen=True)
@@ -180,18 +216,46 @@ def compute(task: BatchTask, options: BatchOptions = BatchOptions()) -> Prepared
     Plans, lab and spec files are read once per worker while unchanged on disk (path,
     modification time and size). What comes back is the run ready to file: its envelope,
     test block and record (already JSON text), and the full result only when the run draws a
-    report or ``options.full_results`` asks for it.
+    report or ``options.full_results`` asks for it. A task that brings its files' bytes
+    (``shipped``) is read from a temporary copy; the results and messages name the original
+    paths.
     """
+    if task.shipped is None:
+        return _compute(task, task, options)
+    if _UNREADABLE in task.shipped:
+        raise DataError(f"could not read the run's files to send them: "
+                        f"{task.shipped[_UNREADABLE].decode()}")
+    with tempfile.TemporaryDirectory(prefix="inertest-shipped-") as tmp:
+        local: dict[str, Any] = {}
+        for role, content in task.shipped.items():
+            original = Path(getattr(task, role))
+            local[role] = Path(tmp) / role / original.name
+            local[role].parent.mkdir()
+            local[role].write_bytes(content)
+        try:
+            return _compute(replace(task, shipped=None, **local), task, options)
+        except (InertestError, OSError) as exc:  # name the user's files, not the copies
+            text = str(exc)
+            for role, path in local.items():
+                text = text.replace(str(path), str(getattr(task, role)))
+            if text == str(exc):
+                raise
+            raise InertestError(text) from None
+
+
+def _compute(task: BatchTask, named: BatchTask, options: BatchOptions) -> PreparedRun:
+    """:func:`compute` reading ``task``'s files and naming ``named``'s."""
     p, plan_text = _cached(_PLANS, _file_key(task.plan), lambda: (
         load_plan(task.plan), task.plan.read_text(encoding="utf-8")))
-    lab, lab_source = (lab_of(None) if task.equipment is None else _cached(
-        _LABS, _file_key(task.equipment), lambda: lab_of(task.equipment)))
+    lab = None if task.equipment is None else _cached(
+        _LABS, _file_key(task.equipment), lambda: lab_of(task.equipment)[0])
+    lab_source = lab_of(None)[1] if named.equipment is None else f"lab file {named.equipment}"
     signatories = None if task.equipment is None else _cached(
         _LABS, ("signatories", *_file_key(task.equipment)),
         lambda: read_signatories(task.equipment))  # type: ignore[arg-type]
     used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:
-        used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", task.plan),
+        used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", named.plan),
                                 lab_source=lab_source)
     spec_doc = None if task.spec is None else _cached(
         _SPECS, _file_key(task.spec), lambda: spec_of(task.spec))
@@ -204,9 +268,9 @@ def compute(task: BatchTask, options: BatchOptions = BatchOptions()) -> Prepared
     digest = file_sha256(task.data)
     prepared = prepare_run(
         result, p, plan_text=plan_text, data_sha256=digest,
-        data_summary=data_summary(task.data, d, digest), tested_at=options.tested_at,
+        data_summary=data_summary(named.data, d, digest), tested_at=options.tested_at,
         for_store=options.store, warnings_=tuple(str(w.message) for w in caught), lab=lab,
-        lab_source=lab_source, plan_source=source_name("plan", task.plan), budget=budget,
+        lab_source=lab_source, plan_source=source_name("plan", named.plan), budget=budget,
         conformance=conformance, signatories=signatories)
     if task.report_dir is not None or options.full_results:
         return prepared
@@ -226,6 +290,7 @@ def run_batch(
     timeout: float | None = None,
     worker_wait: float = 60.0,
     full_results: bool = False,
+    ship_data: bool = False,
 ) -> list[BatchItem]:
     """Run many tests: fits on ``executor``, then each filed here as its own transaction.
 
@@ -263,6 +328,10 @@ def run_batch(
         (:class:`inertest.results.EnvelopeResult`: ``kind``, ``coefficients``,
         ``combinations``, ``to_dict()``), which is what lets a batch scale with workers:
         the per-sample arrays of a long record are megabytes to send to this process.
+    ship_data : bool
+        Send each task's files (plan, data, spec, lab file) with it, read here when it is
+        submitted: for a cluster whose workers do not share this machine's paths. By default
+        the workers open the paths themselves.
 
     Returns
     -------
@@ -302,11 +371,19 @@ def run_batch(
             check_outputs([t.report_dir], [x for x in (t.plan, t.data, t.spec, t.equipment)
                                            if x is not None])
     _check_judging_files(todo)
+    if ship_data:  # a folder cannot be shipped: say so before any run is filed
+        for t in todo:
+            for role in _SHIPPED_ROLES:
+                path = getattr(t, role)
+                if path is not None and Path(path).is_dir():
+                    raise DataError(f"{role} {path} is a folder: --ship-data sends files; give "
+                                    "the workers a shared path instead")
     wait_for_a_worker(executor, worker_wait)
     own = executor is None and (timeout is not None or (workers > 1 and len(todo) > 1))
     options = BatchOptions(store=store is not False and store is not None, tested_at=tested_at,
                            full_results=full_results)
     return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
+                     ship_data=ship_data,
                      store=store, allow_duplicate=allow_duplicate, options=options,
                      progress=progress, max_pending=max_pending, timeout=timeout, own=own)
 
@@ -314,7 +391,8 @@ def run_batch(
 def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
               allow_duplicate: bool, options: BatchOptions,
               progress: Callable[[BatchItem], None] | None, max_pending: int | None,
-              timeout: float | None = None, own: bool = False) -> list[BatchItem]:
+              timeout: float | None = None, own: bool = False,
+              ship_data: bool = False) -> list[BatchItem]:
     """Submit the fits through a sliding window and file each result in task order."""
     from inertest.store import HistoryStore
 
@@ -326,7 +404,7 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
     sizes = ([1] * len(todo) if executor is None else unit_sizes(
         len(todo), n, factor=1.0 if dask else 4.0, most=_MAX_CHUNK))
     window = max_pending or max(4, sum(sizes[:2 * n]))
-    fits = Fits(todo, executor, own=own, timeout=timeout,
+    fits = Fits(_Shipped(todo) if ship_data else todo, executor, own=own, timeout=timeout,
                 fn=functools.partial(compute, options=options), chunk=sizes)
     own_db = store is True or isinstance(store, str)
     db: Any = None

@@ -31,6 +31,9 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
               show_default=True, metavar="SECONDS",
               help="With --scheduler: how long to wait for a first Dask worker before giving "
                    "up.")
+@click.option("--ship-data", is_flag=True,
+              help="Send each run's files (plan, data, spec, lab file) to the worker with the "
+                   "run: for a cluster whose workers do not share this machine's paths.")
 @click.option("--timeout", type=FiniteFloatRange(min=0, min_open=True), default=None,
               metavar="SECONDS",
               help="Fail a run whose fit takes longer than this, counted from when every "
@@ -46,7 +49,7 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object: the result envelope of every run, or its error.")
 def batch(manifest: Path, workers: int, scheduler: str | None, worker_wait: float,
-          timeout: float | None,
+          ship_data: bool, timeout: float | None,
           no_store: bool, db: str | None, allow_duplicate: bool, progress: bool | None,
           quiet: bool, as_json: bool) -> None:
     """Fit, report and store every run listed in MANIFEST ([[run]] plan, data, sigma, report).
@@ -66,7 +69,7 @@ def batch(manifest: Path, workers: int, scheduler: str | None, worker_wait: floa
     with _progress_bar(len(tasks), show) as advance, _dask_client(scheduler) as client:
         items = run_batch(tasks, executor=client, workers=workers, store=store,
                           allow_duplicate=allow_duplicate, progress=advance, timeout=timeout,
-                          worker_wait=worker_wait)
+                          worker_wait=worker_wait, ship_data=ship_data)
     failed = [i for i in items if i.error is not None]
     if as_json:
         echo_json({"kind": "batch", "runs": [_run_json(i) for i in items]})
