@@ -571,8 +571,8 @@ def _jacobian(nv: nav.Navigation, corr: sim.Corrected, model: sim.StrapdownImu,
     acc_series: list[NDArray[np.float64]] = [v[:, 0], v[:, 1], v[:, 2], one]
     gyro_terms: list[list[tuple[int, NDArray[np.float64]]]] = []
     acc_terms: list[list[tuple[int, NDArray[np.float64]]]] = []
-    Sgi = np.linalg.inv(model.S_g)
-    Sai = np.linalg.inv(model.S_a)
+    Sgi = np.asarray(np.linalg.inv(model.S_g), dtype=np.float64)
+    Sai = np.asarray(np.linalg.inv(model.S_a), dtype=np.float64)
     eye = np.eye(3)
     for a in range(3):
         for b in range(3):
@@ -1006,7 +1006,8 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
                               latitude_rad=site.latitude_rad, gravity_m_s2=site.gravity_m_s2,
                               block=obs.block)
             if not chain:  # d engineering / d SI: at the start (it moves by ppm, not more)
-                chain.append(np.linalg.inv(sim.engineering_jacobian(p, states)[1]))
+                chain.append(np.asarray(np.linalg.inv(sim.engineering_jacobian(p, states)[1]),
+                                        dtype=np.float64))
             Dinv = chain[0]
             J = _jacobian(nv, corr, model, states, blocks)
             Js = (_jacobian(nv, corr, model, states, blocks,
@@ -1034,7 +1035,8 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
         null = vt[rank:].T
         V_white = nav.white_covariance(nv, blocks, obs.white_variance)
         null = _with_undetermined_directions(null, vt[:rank].T, Je / scale, Ja,
-                                             np.linalg.cholesky(V_white))
+                                             np.asarray(np.linalg.cholesky(V_white),
+                                                        dtype=np.float64))
         Q, N, determined = _structural_split(null, P)
         rank = Q.shape[1]
         if rank == 0:
@@ -1122,7 +1124,7 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
                             "from the residuals' scatter (the model approximations)")
         triads = self._triads(x, cov_x, names, determined)
         cal = _calibration(model, states)
-        t_obs = (blocks + 1) * obs.block * obs.dt_s
+        t_obs = np.asarray((blocks + 1) * obs.block * obs.dt_s, dtype=np.float64)
         res = r.reshape(-1, 3)
         dres = []
         k0 = 0
@@ -1282,10 +1284,12 @@ def flicker_noise(n: int, channels: int, bias_instability: float, dt_s: float,
 
 def _calibration(model: sim.StrapdownImu, states: sim.StateSet) -> ImuCalibration:
     """The correction of :mod:`inertest.models.imu` (triads + the coupling terms)."""
-    acc = triad.TriadCalibration(matrix=np.linalg.inv(model.S_a), offset=model.b_a,
+    acc = triad.TriadCalibration(matrix=np.asarray(np.linalg.inv(model.S_a), dtype=np.float64),
+                                 offset=model.b_a,
                                  unit="m/s^2", raw_unit="m/s^2")
     gyr = triad.TriadCalibration(
-        matrix=np.linalg.inv(model.S_g), offset=model.b_g, unit="rad/s", raw_unit="rad/s",
+        matrix=np.asarray(np.linalg.inv(model.S_g), dtype=np.float64), offset=model.b_g,
+        unit="rad/s", raw_unit="rad/s",
         g_sensitivity=model.S_g @ model.G if states.g_sensitivity else None)
     coupling = CouplingTerms(second_order=model.k2, lever_arm=model.lever,
                              time_asynchrony_s=model.tga, asymmetric_gyro=model.A_g,

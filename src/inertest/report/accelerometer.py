@@ -7,6 +7,7 @@ calibration of an accelerometer triad.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -72,7 +73,8 @@ def multipoint_sections(
             caption="Fourier terms of the position means per mounting; std from the fit's "
                     "residual scatter of the position means"))
         for m, v in result.fourier.items():
-            cf = {**v.get("coefficients", {}), **v.get("combinations", {})}  # type: ignore[dict-item]
+            found: Mapping[str, Any] = v
+            cf: dict[str, Any] = {**found.get("coefficients", {}), **found.get("combinations", {})}
             if cf:
                 stds = closed_form_stds(v, sig[m])  # type: ignore[arg-type]
                 four.parts.append(table_html(

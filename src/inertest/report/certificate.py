@@ -192,4 +192,5 @@ def write_certificate(folder: Path, doc: Mapping[str, Any], *, report_id: str,
 
 def load_schema() -> dict[str, Any]:
     """The certificate's JSON Schema (:data:`SCHEMA_PATH`)."""
-    return json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))  # type: ignore[no-any-return]
+    schema: dict[str, Any] = json.loads(SCHEMA_PATH.read_text(encoding="utf-8"))
+    return schema

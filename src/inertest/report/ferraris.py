@@ -34,7 +34,9 @@ def ferraris_figure(result: FerrarisResult) -> Figure:
     ax.set_ylabel("calibrated |a| - g [mg]")
     ax.set_title("static faces after calibration", fontsize=9)
     ax.grid(alpha=0.3, axis="y")
-    si_per_raw = np.diag(result.calibration.accelerometer.matrix)  # (m/s^2) per raw unit
+    accelerometer = result.calibration.accelerometer
+    assert accelerometer is not None  # Ferraris always calibrates the accelerometers
+    si_per_raw = np.diag(accelerometer.matrix)  # (m/s^2) per raw unit
     labels = [f"{AXES[i]}-pair, {AXES[j]}" for i, j in _OFF]
     resid_mg = np.array([result.residual_output[n] * si_per_raw[j] / MILLI_G_TO_M_PER_S2
                          for n, (_, j) in enumerate(_OFF)])

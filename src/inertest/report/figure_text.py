@@ -36,7 +36,7 @@ def plain_figure_text(fig: Figure) -> None:
     from matplotlib.axis import Tick
     from matplotlib.text import Text
 
-    formatted = set()  # tick labels and offsets: written by the formatters at draw time
+    formatted: set[Any] = set()  # tick labels and offsets: written by the formatters at draw time
     for tick in fig.findobj(Tick):
         formatted.update((id(tick.label1), id(tick.label2)))
     for ax in fig.axes:

@@ -131,7 +131,7 @@ def history_figure(histories: Sequence[QuantityHistory], times: Sequence[Sequenc
             ax.axhline(value, color="C1", lw=1.3, ls="--", label="spec limit")
         bad = np.flatnonzero(h.flagged)
         if bad.size:
-            ax.plot([ts[i] for i in bad], h.values[bad], "rx", ms=10, mew=2, label="flagged")
+            ax.plot([ts[int(i)] for i in bad], h.values[bad], "rx", ms=10, mew=2, label="flagged")
         ax.set_title(f"{h.name} [{h.unit}]", fontsize=9)
         ax.set_ylabel(f"{h.name} [{h.unit}]", fontsize=8)
         ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))

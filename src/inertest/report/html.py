@@ -134,7 +134,8 @@ def table_html(
     page), the rows are stacked, each cell as ``column: value`` (:func:`page` adds the rules).
     """
     cols = max([len(header), *(len(r) for r in rows)])
-    scales = [table_scale([r[i] for r in rows if i < len(r) and _is_float(r[i])])
+    scales = [table_scale([float(r[i]) for r in rows  # type: ignore[arg-type]
+                           if i < len(r) and _is_float(r[i])])
               for i in range(cols)]
     labels = [str(header[i]) if i < len(header) else "" for i in range(cols)]
 

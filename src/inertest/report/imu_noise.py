@@ -73,7 +73,7 @@ def summary_rows(result: ImuNoiseResult) -> tuple[list[str], list[list[str]]]:
     rows = []
     for c in result.channels:
         b = c.model.terms["B"]
-        b_txt = (format_with_std(b.value_eng, b.std_eng, b.unit) if b.resolved
+        b_txt = (format_with_std(float(b.value_eng or 0.0), b.std_eng, b.unit) if b.resolved
                  else f"< {format_number(b.upper_bound_eng)} {b.unit}")
         chi = format_number(c.model.chi2_per_dof)
         fit = (f"fits (chi2/dof {chi})" if c.model.fits else f"does not fit (chi2/dof {chi})")

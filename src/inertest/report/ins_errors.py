@@ -65,7 +65,7 @@ def responses_figure(
     th = resp.t / HOUR_TO_S
     fig, axes = plt.subplots(4, 2, figsize=(12, 12), sharex=True)
     flat = axes.ravel()
-    colours = plt.get_cmap("tab20").colors
+    colours = plt.get_cmap("tab20").colors  # type: ignore[attr-defined]
     for i, st in enumerate(STATES):
         ax = flat[i]
         unit, k = DISPLAY_UNITS[st]

@@ -74,7 +74,7 @@ def _draw_deviations(ax, results: Mapping[str, DeviationResult], model: NoiseMod
             nt = model.terms[term]
             if not nt.resolved:
                 continue
-            label = f"{term}: {format_with_std(nt.value_eng, nt.std_eng, nt.unit)}"
+            label = f"{term}: {format_with_std(float(nt.value_eng or 0.0), nt.std_eng, nt.unit)}"
             ax.plot(t, scale * model.model_dev(t, term), "--", lw=1.0, color=_TERM_STYLE[term],
                     label=label)
     ax.set_xscale("log")
@@ -133,7 +133,8 @@ def noise_rows(model: NoiseModel) -> tuple[list[str], list[list[str]]]:
     for k, t in model.terms.items():
         if t.resolved:
             rows.append([f"{k} {t.description}",
-                         *round_to_uncertainty(float(t.value_eng), float(t.std_eng)), t.unit,
+                         *round_to_uncertainty(float(t.value_eng or 0.0), float(t.std_eng or 0.0)),
+                         t.unit,
                          "resolved"])
         else:
             rows.append([f"{k} {t.description}", f"< {format_number(t.upper_bound_eng)}", "",

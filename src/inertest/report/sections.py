@@ -24,14 +24,15 @@ def _builder(kind: str) -> SectionBuilder | None:
     if info is None or info.report is None:
         return None
     module, _, name = info.report.partition(":")
-    return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+    builder: Callable[..., list[Section]] = getattr(importlib.import_module(module), name)
+    return builder
 
 
 def result_sections(
     result: Any, truth: Mapping[str, float] | None = None, *, title: str
 ) -> list[Section]:
     """Sections for ``result`` (with truth-vs-estimate columns when ``truth`` is given)."""
-    kind = getattr(result, "kind", None) or getattr(result, "procedure", "")
+    kind = str(getattr(result, "kind", None) or getattr(result, "procedure", ""))
     builder = _builder(kind)
     if builder is not None:
         return builder(result, truth, title=title)

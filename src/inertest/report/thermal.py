@@ -6,10 +6,14 @@ temperature with the heating/cooling hysteresis table.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
+from inertest.models.thermal import PolynomialThermalModel
 from inertest.procedures.thermal_compensation import ThermalResult
 from inertest.procedures.thermal_triad import ThermalTriadResult
 from inertest.report.figure_text import finish_figure
@@ -88,6 +92,7 @@ def thermal_sections(result: ThermalResult, *, title: str) -> list[Section]:
     header, rows = summary_rows(result)
     sec = Section(title, [table_html(header, rows)])
     poly = result.model("polynomial")
+    assert isinstance(poly, PolynomialThermalModel)
     sec.parts.append(paragraph(
         f"Polynomial model (write it with thermal fit --model-out, apply it with inertest "
         f"apply): {poly.equation()}; valid for "
@@ -154,9 +159,8 @@ def triad_law_rows(result: ThermalTriadResult) -> tuple[list[str], list[list[str
               "chi2 / dof", "p"]
     rows = []
     for n, law in result.laws.items():
-        doc = law.to_dict()["terms"]
-        cells = [format_with_std(d["value"], d["std"], d["unit"])  # type: ignore[index]
-                 for d in doc.values()]  # type: ignore[union-attr]
+        doc: Mapping[str, Any] = law.to_dict()["terms"]  # type: ignore[assignment]
+        cells = [format_with_std(d["value"], d["std"], d["unit"]) for d in doc.values()]
         rows.append([n, *cells, f"{format_number(law.chi2)} / {law.dof}",
                      "-" if law.dof <= 0 else format_number(law.p_value, digits=2)])
     return header, rows

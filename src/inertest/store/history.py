@@ -153,10 +153,11 @@ class RunRecord:
             )
         check_label(serial, "[instrument] serial")
         try:
-            result = read_envelope(result, source="the result to store")
+            doc: dict[str, Any] = read_envelope(result, source="the result to store")
         except InputError as exc:
             raise StoreError(f"{exc}; pass result.to_dict()") from None
-        ident = result.get("identification") or {}
+        result = doc
+        ident = doc.get("identification") or {}
         ests = [
             StoredEstimate(n, "coefficient", float(e["value"]), float(e["std"]), str(e["unit"]))
             for n, e in (ident.get("coefficients") or {}).items()
@@ -166,7 +167,7 @@ class RunRecord:
                            str(c["unit"]), dict(c["terms"]))
             for c in ident.get("combinations") or []
         ]
-        site = result.get("site") or {}
+        site = doc.get("site") or {}
         noise = ident.get("noise") or {}
         rms = ident.get("residual_rms") or {}
         sigma = noise.get("sigma")
@@ -609,7 +610,7 @@ def _create_engine(url: str, backend: str, *, read_only: str | None = None) -> E
         engine = sa.create_engine(url, connect_args={"timeout": 60})
 
     @event.listens_for(engine, "connect")
-    def _on_connect(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]
+    def _on_connect(dbapi_connection: Any, _record: Any) -> None:
         # Let SQLAlchemy emit BEGIN itself (pysqlite's implicit transactions are not used).
         dbapi_connection.isolation_level = None
         cur = dbapi_connection.cursor()
@@ -623,7 +624,7 @@ def _create_engine(url: str, backend: str, *, read_only: str | None = None) -> E
         cur.close()
 
     @event.listens_for(engine, "begin")
-    def _on_begin(conn) -> None:  # type: ignore[no-untyped-def]
+    def _on_begin(conn: Any) -> None:
         # IMMEDIATE takes the write lock at once: concurrent writers queue (busy timeout)
         # instead of failing on lock upgrade. A read-only connection only reads.
         conn.exec_driver_sql("BEGIN IMMEDIATE" if read_only is None else "BEGIN")
