@@ -27,11 +27,12 @@ from procedure_examples import EXAMPLES
 pytestmark = pytest.mark.slow
 
 #: Kinds whose checks are statistical tests at ``alpha`` (orientation-free checks tolerances).
-#: Value: records simulated (the centrifuge's take 0.6 s each).
+#: Value: records simulated (the centrifuge's take 0.6 s each). At the 13 % flag rate the issue
+#: found in the Allan check, 50 records flag 6.5 on average against a bound of 2 or 3.
 RECORDS = {
-    "polar-tumble": 80, "local-level-tumble": 80, "gyro-rate-table": 80,
-    "gyro-triad-rotation": 80, "ferraris": 60, "triad-multiposition": 80,
-    "accelerometer-multipoint": 80, "servo-table": 60, "centrifuge-nine-position": 15,
+    "polar-tumble": 50, "local-level-tumble": 50, "gyro-rate-table": 50,
+    "gyro-triad-rotation": 50, "ferraris": 40, "triad-multiposition": 50,
+    "accelerometer-multipoint": 50, "servo-table": 40, "centrifuge-nine-position": 8,
 }
 #: Kind -> (columns naming a position, output column) for the shifted position.
 STEP = {
