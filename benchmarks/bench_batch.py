@@ -173,8 +173,10 @@ def main(argv: list[str] | None = None) -> None:
         ratios: dict[tuple[str, int, bool], float] = {}
         driver: dict[tuple[str, int, bool], float] = {}
 
+        tasks = read_manifest(manifest)
+
         def measure(kind: str, w: int, executor: Any) -> None:
-            _timed(manifest, None, executor=executor)  # warm: imports and caches per worker
+            run_batch(tasks[:4 * w], executor=executor)  # warm: imports, caches per worker
             for stored in (False, True):
                 db = folder / f"{kind}{w}.db" if stored else None
                 t, c, got = _timed(manifest, db, executor=executor)
