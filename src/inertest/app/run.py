@@ -32,6 +32,7 @@ from inertest.api import fit, load_data, load_plan
 from inertest.errors import InertestError, PlanError
 from inertest.io.atomic import check_outputs, target_directory
 from inertest.io.data_file import file_sha256
+from inertest.io.frames import is_frame
 from inertest.plan import Instrument, Plan
 from inertest.quality.lab import (
     Equipment,
@@ -50,7 +51,18 @@ if TYPE_CHECKING:
 
 PathLike = str | os.PathLike[str]
 class DuplicateRunError(InertestError):
-    """The same data file is already filed for this instrument and procedure."""
+    """The same data file is already filed for this instrument and procedure.
+
+    ``str()`` speaks the Python API's language (``allow_duplicate=True``, ``store=False``);
+    :attr:`cli_message` the command line's (``--allow-duplicate``, ``--no-store``).
+    """
+
+    def __init__(self, message: str, cli_message: str | None = None) -> None:
+        super().__init__(message)
+        self.cli_message = cli_message
+
+    def __reduce__(self) -> tuple[type, tuple[str, str | None]]:  # pickled across processes
+        return (type(self), (str(self), self.cli_message))
 
 
 @dataclass(frozen=True)
@@ -100,6 +112,10 @@ class RunOutcome:
     conformance: Conformance | None = None
     notices: tuple[str, ...] = field(default=())
 
+    def to_pandas(self) -> object:
+        """The result's coefficients and combinations as a ``pandas.DataFrame``."""
+        return self.result.to_pandas()
+
     def to_dict(self) -> dict[str, object]:
         """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
         return _with_notices(with_blocks(
@@ -121,7 +137,7 @@ def _with_notices(doc: dict[str, object], notices: Sequence[str]) -> dict[str, o
 
 def run(
     plan: Plan | PathLike,
-    data: Mapping[str, Any] | PathLike,
+    data: Any,
     *,
     sigma: float | None = None,
     store: bool | str | HistoryStore = False,
@@ -132,6 +148,8 @@ def run(
     equipment: PathLike | Mapping[str, Equipment] | None = None,
     spec: PathLike | Spec | None = None,
     noise_model: str | None = None,
+    topic: str | None = None,
+    layout: PathLike | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -139,8 +157,9 @@ def run(
     ----------
     plan : Plan or path
         The test plan (TOML file or :class:`~inertest.plan.Plan`).
-    data : mapping of columns, or path
-        The measurements (CSV, Parquet or HDF5 file, or ``{column: array}``).
+    data : path, pandas.DataFrame, pyarrow.Table or mapping of arrays
+        The measurements: any file :func:`inertest.load_data` reads (CSV, Parquet, HDF5, ROS
+        bag, MCAP, ULog, TDMS, text, binary with ``layout``) or a table in memory.
     sigma : float, optional
         Known noise per reading [output unit]; estimated from the residuals when omitted.
     store : bool, str or HistoryStore
@@ -171,6 +190,9 @@ def run(
         stored run) and the report.
     noise_model : str, optional
         Overrides the plan's ``[procedure] noise_model`` (:func:`inertest.api.fit`).
+    topic, layout : optional
+        For recordings: the ROS topic / ULog message / TDMS group, and a binary file's TOML
+        record layout (:func:`inertest.load_data`).
 
     Returns
     -------
@@ -183,7 +205,7 @@ def run(
         nothing was stored or written.
     """
     plan_path = None if isinstance(plan, Plan) else Path(plan)
-    data_path = None if isinstance(data, Mapping) else Path(data)
+    data_path = Path(data) if isinstance(data, str | os.PathLike) else None
     if report_dir is not None:
         check_outputs([report_dir], [p for p in (plan_path, data_path) if p is not None])
     if pdf and report_dir is None:
@@ -195,7 +217,8 @@ def run(
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", plan_path),
                                 lab_source=lab_source)
     spec_doc = spec_of(spec)
-    d = data if isinstance(data, Mapping) else load_data(data)
+    d = load_data(data, topic, layout=layout) if data_path is not None else (
+        data if isinstance(data, Mapping) and not is_frame(data) else load_data(data))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=sigma, noise_model=noise_model)
@@ -336,10 +359,13 @@ def file_run(
             if not allow_duplicate:
                 earlier = db.runs_with_data(inst.serial, result.kind, data_sha256)
                 if earlier:
+                    said = (f"this data file (sha256 {data_sha256[:12]}...) is already filed "
+                            f"for {inst.serial} / {result.kind} (run {earlier[0]}); nothing "
+                            "stored.")
                     raise DuplicateRunError(
-                        f"this data file (sha256 {data_sha256[:12]}...) is already filed for "
-                        f"{inst.serial} / {result.kind} (run {earlier[0]}); nothing "
-                        "stored. Use --allow-duplicate to file it again, or --no-store")
+                        f"{said} Pass allow_duplicate=True to file it again, or store=False",
+                        cli_message=f"{said} Use --allow-duplicate to file it again, or "
+                                    "--no-store")
         report_path = None
         if report_dir is not None:
             history: list = []

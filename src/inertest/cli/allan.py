@@ -12,12 +12,14 @@ import numpy as np
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    DATA_PATH,
     REAL,
     check_paths,
     echo_json,
     figure_format,
     input_identity,
     print_table,
+    recording_options,
     save_figure,
 )
 from inertest.errors import DataError, InputError
@@ -74,7 +76,8 @@ def _tau_option(text: str) -> str | list[float]:
 
 
 @click.command()
-@click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--column", default=None,
               help="Column to analyse (tables; index for a 2-D .npy). Optional if only one.")
 @click.option("--rate", "rate_hz", type=REAL, required=True, help="Sample rate [Hz].")
@@ -95,7 +98,8 @@ def _tau_option(text: str) -> str | list[float]:
               help="Write the figure (.png, .svg or .pdf).")
 @click.option("--report", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write a self-contained HTML report (figure, noise terms, deviation table).")
-def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: str | None,
+def allan(data: Path, topic: str | None, layout: Path | None, column: str | None,
+          rate_hz: float, data_type: str, unit: str | None,
           taus: str, stats: str, dtype: str | None, no_noise_id: bool, as_json: bool,
           plot: Path | None, report: Path | None) -> None:
     """Allan, modified Allan, time, Hadamard and total deviations of DATA (NIST SP 1065).
@@ -127,7 +131,7 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
         raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
                          f"from {', '.join(STATISTICS)}")
     want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
-    samples = read_samples(data, column, dtype=dtype)
+    samples = read_samples(data, column, dtype=dtype, topic=topic, layout=layout)
     from rich.console import Console  # ~0.1 s: only when the command runs
     from rich.progress import (
         BarColumn,
