@@ -6,7 +6,8 @@ Each target is one line ending in PASS or MISS, measured in this run:
    bag, ROS 2 SQLite3, ROS 2 MCAP): inertest (:class:`inertest.io.recordings.Recording`, the
    numpy chunk walkers) against rosbags' ``AnyReader.messages`` + ``deserialize`` per message,
    on the same bag (written by rosbags' own writer, 100 000 messages). Target: >= 5x rosbags'
-   messages per second; the arrays are checked equal first.
+   messages per second; the arrays are checked equal first. CPU times (``time.process_time``),
+   best of several runs: the machine is shared.
 2. ``inertest noise`` on a ROS 1 bag of ``--messages`` Imu messages at 1 kHz (default 1e7; 1e8
    with ``--large``, 27.8 h; lz4 chunks, written with numpy by ``tests/recording_factory.py``),
    in a child process: wall time, messages per second, and the peak resident memory
@@ -47,7 +48,7 @@ def _rosbags(path: Path) -> tuple[float, np.ndarray]:
     """rosbags' own path: every message deserialised, its fields copied into arrays."""
     from rosbags.highlevel import AnyReader
 
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     with AnyReader([path]) as r:
         conns = [c for c in r.connections if c.topic == "/imu"]
         rows = []
@@ -57,20 +58,20 @@ def _rosbags(path: Path) -> tuple[float, np.ndarray]:
             rows.append((m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec,
                          w.x, w.y, w.z, a.x, a.y, a.z))
     out = np.array(rows, dtype=np.float64)
-    return time.perf_counter() - t0, out
+    return time.process_time() - t0, out
 
 
 def _ours(path: Path) -> tuple[float, np.ndarray]:
     from inertest.io.recordings import open_recording
 
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     rec = open_recording(path, topic="/imu")
     parts = []
     for b in rec.batches(_COLS):
         stamp = b["header.stamp.sec"] * 1_000_000_000 + b["header.stamp.nanosec"]
         parts.append(np.column_stack([stamp, *(b[c] for c in _COLS)]))
     out = np.concatenate(parts).astype(np.float64)
-    return time.perf_counter() - t0, out
+    return time.process_time() - t0, out
 
 
 def reading_speed(folder: Path, n: int = 100_000) -> None:

@@ -6,7 +6,7 @@ and channels come as 1-D array-likes that are read in slices (``len()``, ``a[i:j
 is done here block by block, to the same definitions:
 
 * time stamps (:func:`inertest.noise.imu.check_time_stamps`): the median positive interval
-  exactly, from the merged counts of the distinct intervals; gaps and non-increasing stamps;
+  exactly (:func:`exact_median`); gaps and non-increasing stamps;
   the longest clean segment; the jitter (standard deviation of the intervals in it, blocks
   combined by Chan et al.'s pairwise update);
 * outliers (:func:`inertest.noise.imu.find_outliers`): the running median of each block with
@@ -58,17 +58,22 @@ from inertest.noise.imu import (
 BLOCK = 1 << 20
 #: Bins of each histogram pass of :func:`exact_median`.
 _BINS = 1 << 16
-#: A bin holding at most this many values is sorted in memory.
+#: A bin holding at most this many values (and at most :data:`BLOCK`) is sorted in memory.
 _SORT_CAP = 1 << 22
+#: Longest Welch segment, log2 [samples] (that of :func:`inertest.noise.imu.psd_welch`).
+PSD_MAX_LOG2 = 16
+#: Welch segments transformed at a time (memory: this many segments and their spectra).
+PSD_GROUP = 8
 #: ``progress(stage, done, total)``: a stage's name and its work units.
 StageProgress = Callable[[str, int, int], None]
 
 assert set(_KALIBR_UNITS)  # the Kalibr terms are those of the in-memory analysis
 
 
-def _blocks(a: ArrayLike, start: int, stop: int, block: int = BLOCK,
+def _blocks(a: ArrayLike, start: int, stop: int, block: int | None = None,
             overlap: int = 0) -> Iterator[tuple[int, NDArray]]:
     """``(i, a[i - overlap : i + block])`` for i from ``start`` (clipped at ``start``)."""
+    block = BLOCK if block is None else block
     for i in range(start, stop, block):
         lo = max(start, i - overlap)
         yield i, np.asarray(a[lo:min(stop, i + block)], dtype=np.float64)  # type: ignore[index]
@@ -80,52 +85,62 @@ def _blocks(a: ArrayLike, start: int, stop: int, block: int = BLOCK,
 def exact_median(passes: Callable[[], Iterator[NDArray]], count: int) -> float:
     """The median (as ``np.median``) of ``count`` values given block by block.
 
-    ``passes()`` starts a new pass over the values. Each pass histograms the values still in
-    play into :data:`_BINS` bins and keeps the bin(s) holding the middle rank(s); once a bin
-    holds at most :data:`_SORT_CAP` values (or one value only), they are sorted and read. The
-    bins are computed by the same expression in every pass, so membership is exact.
+    ``passes()`` starts a new pass over the values. A first pass finds their range; each next
+    one histograms the values still in play into :data:`_BINS` equal bins and keeps the bin
+    holding the middle rank(s), as the exact interval of values that fall in it; once at most
+    :data:`_SORT_CAP` values (and one block) are in play, a last pass collects and sorts them:
+    three passes for most records, a few more for heavily tied ones.
     """
     if count == 0:
         return math.nan
-    ranks = sorted({(count - 1) // 2, count // 2})
-    return float(np.mean([_select(passes, r) for r in ranks]))
-
-
-def _select(passes: Callable[[], Iterator[NDArray]], rank: int) -> float:
-    """The value of rank ``rank`` (0-based, ascending) of the values of ``passes``."""
-    filters: list[tuple[float, float, int]] = []  # (lo, width, bin) of each level
-
-    def members(v: NDArray) -> NDArray:
-        for lo, width, b in filters:
-            v = v[_bin_of(v, lo, width) == b]
-        return v
-
-    lo, hi, n = math.inf, -math.inf, 0
+    lo, hi = math.inf, -math.inf
     for v in passes():
         if v.size:
-            lo, hi, n = min(lo, float(v.min())), max(hi, float(v.max())), n + v.size
-    below = 0
+            lo, hi = min(lo, float(v.min())), max(hi, float(v.max()))
+    ranks = sorted({(count - 1) // 2, count // 2})
+    return float(np.mean(_select(passes, ranks, count, lo, hi)))
+
+
+def _select(passes: Callable[[], Iterator[NDArray]], ranks: list[int], n: int, lo: float,
+            hi: float) -> list[float]:
+    """The values of ``ranks`` (0-based, ascending) among the values of ``passes`` in a range.
+
+    ``n`` values of ``passes`` lie in ``[lo, hi]``, ``lo`` and ``hi`` the smallest and
+    largest of them; the ranks count from ``lo``. Each histogram pass also keeps the smallest
+    and largest value of every bin: the bin index grows with the value (every float operation
+    of :func:`_bin_of` is monotone), so the members of the chosen bin are exactly the values
+    between those two, the range of the next pass.
+    """
+    cap = min(_SORT_CAP, BLOCK)  # what is sorted in memory: at most one block
     while True:
-        if lo == hi or n <= _SORT_CAP:
-            if lo == hi:
-                return lo
-            kept = np.concatenate([members(v) for v in passes()] or [np.empty(0)])
-            kept.sort()
-            return float(kept[rank - below])
+        if lo == hi:  # one value repeated (ties): nothing to hold
+            return [lo] * len(ranks)
+
+        def inside(lo: float = lo, hi: float = hi) -> Iterator[NDArray]:
+            for v in passes():
+                yield v[(v >= lo) & (v <= hi)]
+
+        if n <= cap:
+            values = np.sort(np.concatenate([v for v in inside()] or [np.empty(0)]))
+            return [float(values[r]) for r in ranks]
         width = (hi - lo) / _BINS
         counts = np.zeros(_BINS + 1, dtype=np.int64)
-        for v in passes():
-            m = members(v)
-            counts += np.bincount(_bin_of(m, lo, width), minlength=_BINS + 1)
+        mins = np.full(_BINS + 1, np.inf)
+        maxs = np.full(_BINS + 1, -np.inf)
+        for v in inside():
+            idx = _bin_of(v, lo, width)
+            counts += np.bincount(idx, minlength=_BINS + 1)
+            np.minimum.at(mins, idx, v)
+            np.maximum.at(maxs, idx, v)
         cum = np.cumsum(counts)
-        b = int(np.searchsorted(cum, rank - below, side="right"))
-        below += int(cum[b - 1]) if b > 0 else 0
-        filters.append((lo, width, b))
-        lo, hi, n = math.inf, -math.inf, 0
-        for v in passes():
-            m = members(v)
-            if m.size:
-                lo, hi, n = min(lo, float(m.min())), max(hi, float(m.max())), n + m.size
+        bins = [int(np.searchsorted(cum, r, side="right")) for r in ranks]
+        starts = [int(cum[b - 1]) if b > 0 else 0 for b in bins]
+        if len(set(bins)) > 1:  # the two middle ranks part: each on its own
+            return [_select(passes, [r - s], int(counts[b]), float(mins[b]), float(maxs[b]))[0]
+                    for r, b, s in zip(ranks, bins, starts, strict=True)]
+        b = bins[0]
+        ranks = [r - starts[0] for r in ranks]
+        n, lo, hi = int(counts[b]), float(mins[b]), float(maxs[b])
 
 
 def _bin_of(v: NDArray, lo: float, width: float) -> NDArray[np.int64]:
@@ -136,7 +151,7 @@ def _bin_of(v: NDArray, lo: float, width: float) -> NDArray[np.int64]:
 
 
 def stream_time_stamps(t: ArrayLike | None, *, n: int, rate_hz: float | None = None,
-                       gaps: str = "refuse", block: int = BLOCK) -> TimingReport:
+                       gaps: str = "refuse", block: int | None = None) -> TimingReport:
     """:func:`inertest.noise.imu.check_time_stamps` over stamps read in blocks (same errors)."""
     if gaps not in GAP_POLICIES:
         raise InputError(f"unknown gap policy {gaps!r}; use one of {', '.join(GAP_POLICIES)}")
@@ -149,25 +164,23 @@ def stream_time_stamps(t: ArrayLike | None, *, n: int, rate_hz: float | None = N
     size = len(t)  # type: ignore[arg-type]
     if size < 2:
         raise DataError("the time stamps must be one column of at least 2 values")
-    values = np.empty(0)
-    counts = np.empty(0, dtype=np.int64)
     t0 = float(np.asarray(t[0:1])[0])  # type: ignore[index]
+    m = 0
     for i, ts in _blocks(t, 0, size, block, overlap=1):
         if not np.all(np.isfinite(ts)):
             k = int(np.flatnonzero(~np.isfinite(ts))[0])
             j = max(0, i - 1) + k if i else k
             raise DataError(f"time stamp {j} is {ts[k]}; remove the row or fill in its time")
-        dt = np.diff(ts)
-        u, c = np.unique(dt[dt > 0], return_counts=True)
-        values, inv = np.unique(np.concatenate([values, u]), return_inverse=True)
-        counts = np.bincount(inv, weights=np.concatenate([counts, c]),
-                             minlength=values.size).astype(np.int64)
-    if values.size == 0:
+        m += int(np.count_nonzero(np.diff(ts) > 0))
+    if m == 0:
         raise DataError("the time stamps never increase; check the time column and its unit")
-    cum = np.cumsum(counts)
-    m = int(cum[-1])
-    median = float(np.mean([values[np.searchsorted(cum, r, side="right")]
-                            for r in sorted({(m - 1) // 2, m // 2})]))
+
+    def positive() -> Iterator[NDArray]:
+        for _, ts in _blocks(t, 0, size, block, overlap=1):
+            d = np.diff(ts)
+            yield d[d > 0]
+
+    median = exact_median(positive, m)
     if rate_hz is None:
         interval = median
     else:
@@ -277,7 +290,7 @@ class ChannelView:
         return self[0:len(self)]
 
 
-def psd_welch_stream(y: ArrayLike, rate_hz: float, *, group: int = 64
+def psd_welch_stream(y: ArrayLike, rate_hz: float, *, group: int | None = None
                      ) -> tuple[NDArray, NDArray]:
     """:func:`inertest.noise.imu.psd_welch` over a sliced array-like, in groups of segments.
 
@@ -286,9 +299,10 @@ def psd_welch_stream(y: ArrayLike, rate_hz: float, *, group: int = 64
     """
     from scipy.signal import welch
 
+    group = PSD_GROUP if group is None else group
     n = len(y)  # type: ignore[arg-type]
     k = int(math.floor(math.log2(max(n / 8.0, 16.0))))
-    nper = min(1 << min(k, 16), n)
+    nper = min(1 << min(k, PSD_MAX_LOG2), n)
     step = nper - nper // 2
     segments = (n - nper) // step + 1
     total: NDArray | None = None
@@ -378,14 +392,25 @@ def analyse_imu_noise_stream(
     if s1 - s0 < MIN_SAMPLES:
         raise DataError(f"the segment analysed has {s1 - s0} samples (from sample {s0}); the "
                         f"noise analysis needs at least {MIN_SAMPLES}: record longer")
-    for a in range(s0, s1, BLOCK):
-        b = min(s1, a + BLOCK)
-        bad = ~np.isfinite(np.column_stack([np.asarray(c[a:b], dtype=np.float64)  # type: ignore[index]
-                                            for c in channels]))
-        if bad.any():
-            r, c = (int(v[0]) for v in np.nonzero(bad))
-            raise DataError(f"channel {names[c]} has a missing or infinite value at sample "
-                            f"{a + r}; remove the row or analyse a clean segment")
+    first_bad: tuple[int, int] | None = None  # (sample, channel): the first row, then column
+    lows, highs = [math.inf] * len(channels), [-math.inf] * len(channels)
+    for j, c in enumerate(channels):
+        for a, v in _blocks(c, s0, s1):
+            bad = np.flatnonzero(~np.isfinite(v))
+            if bad.size:
+                hit = (a + int(bad[0]), j)
+                first_bad = hit if first_bad is None else min(first_bad, hit)
+                break
+            lows[j], highs[j] = min(lows[j], float(v.min())), max(highs[j], float(v.max()))
+    if first_bad is not None:
+        raise DataError(f"channel {names[first_bad[1]]} has a missing or infinite value at "
+                        f"sample {first_bad[0]}; remove the row or analyse a clean segment")
+    for j in range(len(channels)):
+        if lows[j] == highs[j]:  # no noise: nothing to fit (all deviations 0)
+            raise DataError(f"channel {names[j]} is constant ({lows[j]:g} "
+                            f"{_SI_RATE[kinds[j]]} in every sample): there is no noise to "
+                            "analyse; check the recording, or leave the channel out with "
+                            "--gyro-columns / --accel-columns")
     messages: list[str] = []
     if timing.gaps or timing.non_increasing:
         messages.append(
@@ -398,8 +423,8 @@ def analyse_imu_noise_stream(
                         "spacing")
     rate = timing.rate_hz
     window = max(3, int(OUTLIER_WINDOW) | 1)
-    result_channels = []
-    for j, src in enumerate(channels):
+    views, counts = [], []
+    for j, src in enumerate(channels):  # outliers of every channel first, as in memory
         view = ChannelView(src, s0, s1)
         m = len(view)
         tick(names[j], 0, 4)
@@ -437,6 +462,10 @@ def analyse_imu_noise_stream(
         if detrend:
             c0, c1 = _line(view, rate)
             view = ChannelView(src, s0, s1, clip=view.clip, line=(c0, c1, rate))
+        views.append(view)
+        counts.append(count)
+    result_channels = []
+    for j, (view, count) in enumerate(zip(views, counts, strict=True)):
         tick(names[j], 2, 4)
         dev = deviations(view, rate, ("oadev",), "octave", "rate", stream=True)["oadev"]
         own: list[str] = []

@@ -17,12 +17,11 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from recording_factory import T0_NS, fast_ros1_bag, write_imu_bag  # noqa: E402
-
 import inertest  # noqa: E402
 from inertest.cli import main  # noqa: E402
 from inertest.errors import DataError  # noqa: E402
 from inertest.io.recordings import open_recording  # noqa: E402
+from recording_factory import T0_NS, fast_ros1_bag, write_imu_bag  # noqa: E402
 
 KINDS = ("ros1", "sqlite3", "mcap")
 GYRO = [f"angular_velocity.{a}" for a in "xyz"]
