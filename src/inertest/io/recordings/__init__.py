@@ -250,9 +250,10 @@ def _open_rosbag(p: Path, topic: str | None, imu: bool) -> Recording:
         elif len(imus) > 1:
             counts = {t.count for t in imus}
             why = (" at different rates (message counts differ)" if len(counts) > 1 else "")
+            others = "" if len(filled) == len(imus) else f" (topics found: {listing})"
             raise DataError(f"{p} has {len(imus)} IMU topics{why}: "
-                            f"{', '.join(t.describe() for t in imus)}; choose one with --topic "
-                            f"(topics found: {listing})")
+                            f"{', '.join(t.describe() for t in imus)}; choose one with "
+                            f"--topic{others}")
         elif len(filled) == 1 and not imu:
             chosen = filled[0]
         else:

@@ -265,7 +265,7 @@ class RosBag:
 
 def _first(exc: BaseException) -> str:
     lines = str(exc).strip().splitlines()
-    return lines[0] if lines else type(exc).__name__
+    return lines[0].rstrip(".") if lines else type(exc).__name__
 
 
 def flatten(value: Any, prefix: str, out: dict[str, Any]) -> None:
