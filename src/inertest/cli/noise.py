@@ -142,7 +142,8 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
         with target_directory(report_dir, inputs=[p for p in (data, compare_yaml) if p]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if kalibr_out is not None:
-        write_kalibr_yaml(kalibr_out, result, source=data.name)
+        write_kalibr_yaml(kalibr_out, result, source=data.name,
+                          rostopic=topic if topic and topic.startswith("/") else "/imu0")
     if as_json:
         out = result.to_dict()
         out["kalibr"] = {kind: ({k: v.to_dict() for k, v in terms.items()} if terms else None)

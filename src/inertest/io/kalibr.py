@@ -109,9 +109,9 @@ def kalibr_yaml_text(result: ImuNoiseResult, *, source: str, rostopic: str = "/i
 
 
 def write_kalibr_yaml(path: str | os.PathLike[str], result: ImuNoiseResult, *,
-                      source: str) -> Path:
+                      source: str, rostopic: str = "/imu0") -> Path:
     """Write :func:`kalibr_yaml_text` to ``path`` atomically."""
-    return write_text(path, kalibr_yaml_text(result, source=source))
+    return write_text(path, kalibr_yaml_text(result, source=source, rostopic=rostopic))
 
 
 #: Kalibr's unit of each key (values are read in it, after conversion of a stated unit).
