@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -21,6 +23,11 @@ from inertest.errors import DataError, InputError
 from inertest.io.imu_recording import FORMATS, TIME_UNITS
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, RATE_UNITS
+
+if TYPE_CHECKING:
+    from inertest.io.imu_recording import ImuRecording
+    from inertest.io.recordings.imu import SpilledImu
+    from inertest.noise.imu import ImuNoiseResult
 
 _GAPS = ("refuse", "longest")
 _OUTLIERS = ("keep", "refuse", "clip")
@@ -78,8 +85,7 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
     from inertest.io.atomic import check_outputs, check_report_directory, target_directory
     from inertest.io.kalibr import KEYS, read_kalibr_yaml, write_kalibr_yaml
     from inertest.io.recordings.imu import SpilledImu, open_imu
-    from inertest.noise.imu import analyse_imu_noise, compare_kalibr
-    from inertest.noise.imu_stream import analyse_imu_noise_stream
+    from inertest.noise.imu import compare_kalibr
 
     check_paths([kalibr_out], [data, compare_yaml])
     if report_dir is not None:  # before any work: nothing is written half-way
@@ -94,34 +100,16 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
                else None)
     for m in yaml_notes:
         click.echo(safe_line(f"warning: {m}"), err=True)
-    with progress_bar("noise") as tick:  # long recordings: decoded once, then streamed
-        rec = open_imu(data, fmt=fmt, topic=topic, layout=layout, time_column=time_column,
-                       time_unit=time_unit, gyro_columns=gyro_columns,
-                       accel_columns=accel_columns, gyro_unit=gyro_unit, accel_unit=accel_unit,
-                       progress=lambda done, total: tick("reading", done, total))
-    rate = rate_hz if rate_hz is not None else rec.rate_hz
-    if rec.t is None and rate is None:
-        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
-                         "the time column with --time-column")
-    if isinstance(rec, SpilledImu):
-        with rec, progress_bar("noise") as tick:
-            result = analyse_imu_noise_stream(
-                rec.t, rec.channels, gyro_names=rec.gyro_names, accel_names=rec.accel_names,
-                rate_hz=rate, gaps=gaps, outliers=outliers,
-                outlier_threshold=outlier_threshold, detrend=detrend, progress=tick)
-    else:
-        for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
-                              *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3,
-                                   strict=False)]:
-            if col.size and (col == col[0]).all():  # no noise: nothing to fit (deviations 0)
-                raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} "
-                                "in every sample): there is no noise to analyse; check the "
-                                "recording, or leave the channel out with --gyro-columns / "
-                                "--accel-columns")
-        result = analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
-                                   accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
-                                   outliers=outliers, outlier_threshold=outlier_threshold,
-                                   detrend=detrend)
+    with contextlib.ExitStack() as spilled:
+        with progress_bar("noise") as tick:  # long recordings: decoded once, then streamed
+            rec = open_imu(data, fmt=fmt, topic=topic, layout=layout, time_column=time_column,
+                           time_unit=time_unit, gyro_columns=gyro_columns,
+                           accel_columns=accel_columns, gyro_unit=gyro_unit,
+                           accel_unit=accel_unit,
+                           progress=lambda done, total: tick("reading", done, total))
+        if isinstance(rec, SpilledImu):
+            spilled.enter_context(rec)  # its temporary files go, whatever happens next
+        result = _analyse(data, rec, rate_hz, gaps, outliers, outlier_threshold, detrend)
     comparisons = compare_kalibr(result, {k: claimed[k] for k in KEYS}) if claimed else ()
     if kalibr_out is not None and unresolved == "refuse":
         loose = [f"{c.name} {t.term}" for c in result.channels
@@ -171,3 +159,32 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
         click.echo(safe_line(f"kalibr: {kalibr_out}"))
     if report_dir is not None:
         click.echo(safe_line(f"report: {report_dir / 'index.html'}"))
+
+
+def _analyse(data: Path, rec: ImuRecording | SpilledImu, rate_hz: float | None, gaps: str,
+             outliers: str, outlier_threshold: float, detrend: bool) -> ImuNoiseResult:
+    """The noise analysis of a recording in memory, or streamed from its temporary files."""
+    from inertest.io.recordings.imu import SpilledImu
+    from inertest.noise.imu import analyse_imu_noise
+    from inertest.noise.imu_stream import analyse_imu_noise_stream
+
+    rate = rate_hz if rate_hz is not None else rec.rate_hz
+    if rec.t is None and rate is None:
+        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
+                         "the time column with --time-column")
+    if isinstance(rec, SpilledImu):
+        with progress_bar("noise") as tick:
+            return analyse_imu_noise_stream(
+                rec.t, rec.channels, gyro_names=rec.gyro_names, accel_names=rec.accel_names,
+                rate_hz=rate, gaps=gaps, outliers=outliers,
+                outlier_threshold=outlier_threshold, detrend=detrend, progress=tick)
+    for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
+                          *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3, strict=False)]:
+        if col.size and (col == col[0]).all():  # no noise: nothing to fit (all deviations 0)
+            raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} in "
+                            "every sample): there is no noise to analyse; check the recording, "
+                            "or leave the channel out with --gyro-columns / --accel-columns")
+    return analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
+                             accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
+                             outliers=outliers, outlier_threshold=outlier_threshold,
+                             detrend=detrend)

@@ -387,7 +387,7 @@ def recording_of(path: Path, *, fmt: str = "auto", topic: str | None = None,
 
 
 def open_imu(path: str | os.PathLike[str], *, fmt: str = "auto", topic: str | None = None,
-             layout: str | os.PathLike[str] | None = None, stream_from: int = STREAM_SAMPLES,
+             layout: str | os.PathLike[str] | None = None, stream_from: int | None = None,
              progress: Progress | None = None, **options: str | None
              ) -> ImuRecording | SpilledImu:
     """An IMU recording in memory, or spilled for streaming from ``stream_from`` samples on.
@@ -405,6 +405,7 @@ def open_imu(path: str | os.PathLike[str], *, fmt: str = "auto", topic: str | No
     if rec is None:
         return read_imu_recording(p, fmt=fmt, topic=topic, layout=layout,  # type: ignore[arg-type]
                                   **options)
-    if rec.count is not None and rec.count >= stream_from:
+    if rec.count is not None and rec.count >= (STREAM_SAMPLES if stream_from is None
+                                               else stream_from):
         return spill_imu(rec, progress=progress, **options)
     return read_imu(rec, **options)
