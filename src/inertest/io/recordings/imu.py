@@ -31,7 +31,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from inertest.errors import DataError, InputError, UnitError
-from inertest.io.imu_recording import ACCEL_SETS, GYRO_SETS, TIME_NAMES, ImuRecording
+from inertest.io.imu_recording import (
+    ACCEL_SETS,
+    GYRO_SETS,
+    TIME_NAMES,
+    ImuRecording,
+    _pick,
+    _split,
+)
 from inertest.io.raw_samples import SampleFile
 from inertest.io.recordings import (
     RECORDING_FORMATS,
@@ -70,31 +77,6 @@ def _names(rec: Recording) -> list[str]:
     return list(first)
 
 
-def _split(text: str | None) -> list[str] | None:
-    if text is None:
-        return None
-    names = [s.strip() for s in text.split(",") if s.strip()]
-    return names or None
-
-
-def _pick(names: list[str], given: list[str] | None, known: tuple[str, ...],
-          sets: list[tuple[str, ...]], what: str, rec: Recording) -> list[str]:
-    if given is not None:
-        missing = [c for c in given if c not in names]
-        if missing:
-            raise DataError(f"{_where(rec)} has no column {missing[0]!r}; it has "
-                            f"{', '.join(names)}: fix --{what}-columns")
-        if len(given) > 3:
-            raise InputError(f"--{what}-columns takes at most 3 columns, got {len(given)}")
-        return given
-    if known:
-        return list(known)
-    for s in sets:
-        if all(c in names for c in s):
-            return list(s)
-    return []
-
-
 def _where(rec: Recording) -> str:
     return f"{rec.path}{f' topic {rec.topic}' if rec.topic else ''}"
 
@@ -120,9 +102,12 @@ def plan(rec: Recording, *, time_column: str | None = None, time_unit: str = "au
     """Which columns are read, their factors to SI, and the time stamps (module docstring)."""
     names = _names(rec)
     g_given, a_given = _split(gyro_columns), _split(accel_columns)
-    gyro = _pick(names, g_given, rec.gyro if g_given is None else (), GYRO_SETS, "gyro", rec)
-    accel = _pick(names, a_given, rec.accel if a_given is None else (), ACCEL_SETS, "accel",
-                  rec)
+    table = dict.fromkeys(names)  # the columns a set is looked for in (values unread)
+    where = Path(_where(rec))
+    gyro = (list(rec.gyro) if g_given is None and rec.gyro
+            else _pick(table, g_given, GYRO_SETS, "gyro", where))  # type: ignore[arg-type]
+    accel = (list(rec.accel) if a_given is None and rec.accel
+             else _pick(table, a_given, ACCEL_SETS, "accel", where))  # type: ignore[arg-type]
     if not gyro and not accel:
         raise DataError(f"{_where(rec)}: no gyro or accelerometer columns found among "
                         f"{', '.join(names)}; name them with --gyro-columns and "

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import sqlite3
 import struct
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -417,16 +417,7 @@ def sqlite_batches(files: Sequence[Path], topic: str) -> Iterator[RawBatch]:
             cur = con.execute(
                 f"SELECT timestamp, data FROM messages WHERE topic_id IN "
                 f"({','.join('?' * len(ids))}) ORDER BY {'timestamp' if back else 'id'}", ids)
-            times: list[int] = []
-            datas: list[bytes] = []
-            for t, d in cur:
-                times.append(t)
-                datas.append(d)
-                if len(datas) >= BATCH_MESSAGES:
-                    yield raw_batch(datas, times)
-                    times, datas = [], []
-            if datas:
-                yield raw_batch(datas, times)
+            yield from rebatch((d, t) for t, d in cur)
         except (sqlite3.DatabaseError, *_apsw_errors()) as exc:
             raise DataError(f"{path} cannot be read as a ROS 2 SQLite3 bag: {exc}; it may be "
                             "truncated or still being written") from None
@@ -452,8 +443,9 @@ def raw_batch(datas: Sequence[bytes], log_ns: Sequence[int]) -> RawBatch:
 
 
 def rebatch(messages: Iterator[tuple[bytes, int]],
-            size: int = BATCH_MESSAGES) -> Iterator[RawBatch]:
-    """Group ``(data, log_ns)`` pairs (rosbags' message iterator) into :class:`RawBatch`."""
+            size: int | None = None) -> Iterator[RawBatch]:
+    """Group ``(data, log_ns)`` pairs into :class:`RawBatch` of :data:`BATCH_MESSAGES`."""
+    size = BATCH_MESSAGES if size is None else size
     datas: list[bytes] = []
     times: list[int] = []
     for data, t in messages:
@@ -465,5 +457,3 @@ def rebatch(messages: Iterator[tuple[bytes, int]],
     if datas:
         yield raw_batch(datas, times)
 
-
-BatchSource = Callable[[], Iterator[RawBatch]]
