@@ -281,7 +281,8 @@ def _open_rosbag(p: Path, topic: str | None, imu: bool) -> Recording:
 def _open_ulog(p: Path, topic: str | None) -> Recording:
     from inertest.io.recordings import ulog
 
-    chosen = ulog.choose_topic(p, topic)
+    found = ulog.topics(p)  # one parse of the whole log, for the choice and the messages
+    chosen = ulog.choose_topic(p, topic, found)
     gyro, accel = ulog.imu_columns(chosen)
     cache: dict[str, dict[str, NDArray]] = {}
 
@@ -295,7 +296,6 @@ def _open_ulog(p: Path, topic: str | None) -> Recording:
     notes = (f"PX4 ULog topic {chosen} read by pyulog; time stamps from timestamp [us]"
              + ("; rates = delta_angle / delta_angle_dt, delta_velocity / delta_velocity_dt"
                 if chosen.startswith("vehicle_imu") else ""),)
-    found = ulog.topics(p)
     return Recording(p, "ulog", chosen, None, (), units, ("timestamp",), "us", gyro, accel,
                      None, found.get(chosen), notes, ulog.listing(found), source)
 

@@ -60,9 +60,13 @@ def listing(found: dict[str, int]) -> str:
     return ", ".join(f"{k} ({n} messages)" for k, n in found.items()) or "none"
 
 
-def choose_topic(path: Path, topic: str | None) -> str:
-    """The topic asked for, or the first IMU topic in :data:`IMU_TOPICS`; errors name them."""
-    found = topics(path)
+def choose_topic(path: Path, topic: str | None,
+                 found: dict[str, int] | None = None) -> str:
+    """The topic asked for, or the first IMU topic in :data:`IMU_TOPICS`; errors name them.
+
+    ``found``: :func:`topics` of the file, when already read.
+    """
+    found = topics(path) if found is None else found
     if topic is not None:
         if topic not in found and _split(topic)[0] + ":0" not in found:
             raise DataError(f"{path} has no topic {topic!r}; topics found: {listing(found)}; "
