@@ -1,23 +1,37 @@
-# inertest: `make demo` sets everything up and runs the main job; `make test` runs the tests.
+# inertest: `make demo` sets up the core and runs the main job; `make test` installs every
+# extra and the test tools, then runs the tests. Either may run first.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed
+CORE := $(VENV)/.installed-core
+FULL := $(VENV)/.installed-test
 
 .PHONY: demo test lint bench clean
 
-$(STAMP): pyproject.toml
-	@echo "Setting up $(VENV) (first run only: installs numpy, scipy, ... about a minute)"
+$(BIN)/python:
+	@echo "[setup 1/2] creating $(VENV) with $(PYTHON) ..."
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --progress-bar off -e '.[test]'
-	touch $(STAMP)
+	$(BIN)/python -m pip install --upgrade pip
+
+# What the demo and `inertest fit` use: numpy, scipy, pyarrow, numba, matplotlib, SQLAlchemy.
+$(CORE): pyproject.toml | $(BIN)/python
+	@echo "[setup 2/2] installing inertest (core: about 770 MB; pip lists each package as it goes) ..."
+	$(BIN)/python -m pip install -e .
+	touch $(CORE)
 	@echo "$(VENV) ready"
 
-demo: $(STAMP)
+# Every extra (ROS, PX4, TDMS, HDF5, PostgreSQL, scikit-learn, sympy, pandas) and the test tools.
+$(FULL): pyproject.toml | $(BIN)/python
+	@echo "[setup] installing inertest with every extra and the test tools ..."
+	$(BIN)/python -m pip install -e '.[test]'
+	touch $(FULL) $(CORE)
+	@echo "$(VENV) ready for the tests"
+
+demo: $(CORE)
+	@echo "running the example campaign (one line per test as it starts) ..."
 	$(BIN)/inertest demo
 
-lint: $(STAMP)
+lint: $(FULL)
 	$(BIN)/ruff check src tests benchmarks
 	$(BIN)/lint-imports
 	$(BIN)/mypy
@@ -27,7 +41,7 @@ test: lint
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	PYTHONWARNINGS=error MPLBACKEND=Agg $(BIN)/python -m pytest -q
 
-bench: $(STAMP)
+bench: $(FULL)
 	$(BIN)/python benchmarks/run.py
 
 clean:

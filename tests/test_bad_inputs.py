@@ -826,6 +826,96 @@ def _(d):
     return _allan(d, "x.npy", "--rate", "100")
 
 
+# --- issue 30: recordings (ROS bags, MCAP, ULog) ------------------------------------------------
+def _bag(d: Path, name: str, kind: str = "ros1", n: int = 400, *, rate_hz: float = 200.0,
+         stamps=None, extra: bool = True) -> Path:
+    from recording_factory import T0_NS, _store, write_imu_bag
+
+    rng = np.random.default_rng(9)
+    ns = (T0_NS + (np.arange(n) * (1e9 / rate_hz)).astype(np.int64) if stamps is None
+          else stamps)
+    more = ()
+    if extra:
+        ts = _store(kind)
+        t = ts.types
+        hdr = (t["std_msgs/msg/Header"](seq=0, stamp=t["builtin_interfaces/msg/Time"](
+            sec=1, nanosec=0), frame_id="m") if kind == "ros1" else t["std_msgs/msg/Header"](
+            stamp=t["builtin_interfaces/msg/Time"](sec=1, nanosec=0), frame_id="m"))
+        v = t["geometry_msgs/msg/Vector3Stamped"](
+            header=hdr, vector=t["geometry_msgs/msg/Vector3"](x=1.0, y=2.0, z=3.0))
+        more = (("/mag", "geometry_msgs/msg/Vector3Stamped", [(int(ns[0]) + 1, v)]),)
+    return write_imu_bag(d / name, kind, ns, rng.normal(0, 0.01, (len(ns), 3)),
+                         rng.normal(0, 0.05, (len(ns), 3)), extra=more)
+
+
+@case("noise-bag-truncated")
+def _(d):
+    bag = _bag(d, "cut.bag")
+    data = bag.read_bytes()
+    bag.write_bytes(data[: len(data) // 2])
+    return ["noise", str(bag)]
+
+
+@case("noise-mcap-truncated")
+def _(d):
+    mcap = next(_bag(d, "cut_mcap", "mcap").glob("*.mcap"))
+    data = mcap.read_bytes()
+    mcap.write_bytes(data[: len(data) * 2 // 3])
+    return ["noise", str(mcap), "--topic", "/imu"]
+
+
+@case("noise-bag-empty-file")
+def _(d):
+    (d / "empty.bag").write_bytes(b"")
+    return ["noise", str(d / "empty.bag")]
+
+
+@case("noise-bag-no-messages")
+def _(d):
+    return ["noise", str(_bag(d, "none_sqlite", "sqlite3", n=0, stamps=np.empty(0, np.int64),
+                              extra=False))]
+
+
+@case("noise-bag-wrong-topic")
+def _(d):
+    return ["noise", str(_bag(d, "imu.bag")), "--topic", "/imu0"]
+
+
+@case("noise-bag-wrong-type")
+def _(d):
+    return ["noise", str(_bag(d, "imu_mcap", "mcap")), "--topic", "/mag"]
+
+
+@case("noise-bag-mixed-rate")
+def _(d):
+    from recording_factory import T0_NS
+
+    first = T0_NS + np.arange(600, dtype=np.int64) * 5_000_000  # 200 Hz for 3 s
+    then = first[-1] + np.arange(1, 601, dtype=np.int64) * 10_000_000  # then 100 Hz
+    return ["noise", str(_bag(d, "mixed.bag", stamps=np.r_[first, then]))]
+
+
+@case("noise-bag-two-imu-topics-at-two-rates")
+def _(d):
+    from recording_factory import T0_NS, _store, imu_message, write_imu_bag
+
+    ts = _store("ros1")
+    slow = [(T0_NS + k * 10_000_000, imu_message(ts, T0_NS + k * 10_000_000, [0, 0, 0],
+                                                 [0, 0, 9.8], ros1=True)) for k in range(100)]
+    ns = T0_NS + np.arange(200, dtype=np.int64) * 5_000_000
+    bag = write_imu_bag(d / "two.bag", "ros1", ns, np.zeros((200, 3)), np.ones((200, 3)),
+                        extra=(("/imu_slow", "sensor_msgs/msg/Imu", slow),))
+    return ["noise", str(bag)]
+
+
+@case("noise-ulog-wrong-topic")
+def _(d):
+    real = EXAMPLES.parents[1] / "shared" / "realdata" / "px4" / "sample.ulg"
+    if not real.exists():
+        pytest.skip("../shared/realdata not present")
+    return ["noise", str(real), "--topic", "sensor_accel"]
+
+
 for _name, _address in (("no-port", "gar bage"), ("broken-ipv6", "tcp://[::1:x"),
                         ("unknown-protocol", "http://h:8786"), ("port-range", "tcp://h:99999")):
     @case(f"batch-scheduler-{_name}")
@@ -940,6 +1030,19 @@ EXPECT = {
     "fit-systematic-sequence-disagrees-with-the-data": "fix the plan's turns",
     "fit-systematic-gap": "gap(s) in time",
     "fit-systematic-saturated-gyro": "reaches its range 25 deg/s",
+    "noise-bag-truncated": "is truncated or was not closed",
+    "noise-mcap-truncated": "it may be truncated or still being written",
+    "noise-bag-empty-file": "is empty (0 bytes)",
+    "noise-bag-no-messages": "holds no messages (topics found: /imu (sensor_msgs/msg/Imu, 0 "
+                             "messages)); the recording is empty",
+    "noise-bag-wrong-topic": "no topic '/imu0'; topics found: /imu (sensor_msgs/msg/Imu, 400 "
+                             "messages), /mag (geometry_msgs/msg/Vector3Stamped, 1 messages)",
+    "noise-bag-wrong-type": "topic /mag of",
+    "noise-bag-mixed-rate": "changes its rate: about 200 Hz at the start, about 100 Hz from t =",
+    "noise-bag-two-imu-topics-at-two-rates": "has 2 IMU topics at different rates (message "
+                                             "counts differ): /imu (sensor_msgs/msg/Imu, 200 "
+                                             "messages), /imu_slow",
+    "noise-ulog-wrong-topic": "no topic 'sensor_accel'; topics found: actuator_controls_0",
     "fit-report-manifest-behind-symlink": "lists sub/keep.txt, which lies behind the symbolic",
     "fit-report-manifest-outside-folder": "lists '../plan.toml', which is not a path inside",
     "thermal-report-manifest-behind-symlink": "behind the symbolic link",

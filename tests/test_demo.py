@@ -9,10 +9,15 @@ from inertest.cli import main
 def test_demo_prints_truth_vs_estimate_and_writes_report(tmp_path, examples_dir, capsys):
     rep = tmp_path / "inertest-report"
     assert main(["demo", "--examples", str(examples_dir), "--report", str(rep)]) == 0
-    out = capsys.readouterr().out
+    captured = capsys.readouterr()
+    out = captured.out
     campaign = tomllib.loads((examples_dir / "demo.toml").read_text())["test"]
     for test in campaign:
         assert test["title"] in out
+    # issue 30: one progress line per test as it starts (stderr), in the campaign's order
+    started = re.findall(r"^\[test (\d+)/(\d+)\] (.+) \.\.\.$", captured.err, flags=re.M)
+    assert [(int(k), int(n), t) for k, n, t in started] == [
+        (k, len(campaign), t["title"]) for k, t in enumerate(campaign, start=1)]
     # every estimate within 4 sigma of the truth it was simulated from, and about 95 % within 2
     ratios = [float(x) for x in re.findall(r"│\s+([+-]\d+\.\d\d) │\n", out)]
     assert len(ratios) >= 9 + 6 + 10 * (len(campaign) - 2)

@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 
 import numpy as np
+import pytest
 import yaml
 
 import inertest
@@ -79,3 +81,52 @@ def test_readme_polar_tumble_angle_convention_is_what_simulate_and_fit_use(examp
             rows = (m == "O-Np") & np.isclose(a, angle)
             assert rows.any()
             np.testing.assert_allclose(out[rows] * st, want, atol=1e-12)
+
+
+def _sh_block_after(marker: str) -> list[list[str]]:
+    """The commands of the first ```sh block after ``marker`` in the README, as argv lists."""
+    import shlex
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    block = readme.split(marker, 1)[1].split("```sh\n", 1)[1].split("```", 1)[0]
+    return [shlex.split(cmd) for cmd in block.replace("\\\n", " ").splitlines() if cmd.strip()]
+
+
+def test_readme_navigation_mode_example_runs_as_written(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(Path(__file__).resolve().parents[1])
+    commands = _sh_block_after("**Navigation-mode refinement, step by step**")
+    assert [c[1] for c in commands] == ["simulate", "fit", "nav-simulate", "nav-calibrate"]
+    for argv in commands:
+        assert argv[0] == "inertest"
+        args = [str(tmp_path / a) if a in ("rotation.csv", "start.json", "turns.parquet",
+                                           "nav-report") else a for a in argv[1:]]
+        if ">" in args:  # `... --json > start.json`
+            k = args.index(">")
+            capsys.readouterr()
+            assert main(args[:k]) == 0
+            Path(args[k + 1]).write_text(capsys.readouterr().out)
+        else:
+            assert main(args) == 0
+    out = capsys.readouterr().out
+    rms = [float(x) for x in re.findall(r"│\s+\d+\s+│\s+([\d.e+-]+)\s+│", out)]
+    assert len(rms) >= 3 and rms[0] > 1 and rms[1] < 0.1 and rms[-1] < 1e-3, out
+    assert (tmp_path / "nav-report" / "index.html").is_file()
+
+
+def test_readme_recordings_example_on_the_shipped_bag(examples_dir, tmp_path, capsys):
+    pytest.importorskip("rosbags")
+    [argv] = [c for c in _sh_block_after("## Recordings: ROS bags")]
+    assert argv[:3] == ["inertest", "noise", "examples/recordings/lasergyro.bag"]
+    bag = examples_dir / "recordings" / "lasergyro.bag"
+    assert (bag.parent / "LICENSE").is_file() and (bag.parent / "README.md").is_file()
+    kalibr = tmp_path / "imu.yaml"
+    assert main(["noise", str(bag), *argv[3:-1], str(kalibr)]) == 0
+    y = yaml.safe_load(kalibr.read_text())
+    assert y["rostopic"] == "/imu" and y["update_rate"] == 100
+    # 300 s of the PSINS recording: the bag's samples are read_psins' rates, bit for bit
+    from inertest.io.imu_recording import read_psins
+
+    ref = read_psins(examples_dir / "noise" / "lasergyro.imu.xz")
+    got = inertest.load_data(bag)
+    assert np.array_equal(got["angular_velocity.z"], ref.gyro[:30000, 2])
+    assert np.array_equal(got["linear_acceleration.x"], ref.accel[:30000, 0])

@@ -17,6 +17,7 @@ With a top-level ``equipment`` lab file every result also gets its uncertainty b
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -84,7 +85,8 @@ class DemoThermal:
     after_mg: dict[str, tuple[float, float]]
 
 
-def run_thermal(campaign: str | os.PathLike[str]) -> list[DemoThermal]:
+def run_thermal(campaign: str | os.PathLike[str], *,
+                progress: Started | None = None) -> list[DemoThermal]:
     """Simulate, fit and apply every ``[[thermal]]`` test of the campaign file."""
     from inertest.equipment.multiposition import motion
     from inertest.procedures.thermal_triad import fit_triad_thermal, simulate_triad_thermal
@@ -92,7 +94,9 @@ def run_thermal(campaign: str | os.PathLike[str]) -> list[DemoThermal]:
 
     cpath = Path(campaign)
     out = []
-    for t in read_toml(cpath, "campaign").get("thermal", []):
+    entries = read_toml(cpath, "campaign").get("thermal", [])
+    for k, t in enumerate(entries, start=1):
+        _started(progress, k, len(entries), str(t.get("title", "thermal triad")))
         plan_path = cpath.parent / t["plan"]
         laws_doc = read_toml(plan_path.parent / t.get("laws", "laws.toml"), "laws")
         plan = load_plan(plan_path)
@@ -153,8 +157,18 @@ def find_examples(start: Path | None = None) -> Path:
     )
 
 
-def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
-    """Simulate and fit every test listed in the campaign file."""
+#: ``progress(k, n, title)``, called as the k-th of n entries starts (one line per test).
+Started = Callable[[int, int, str], None]
+
+
+def _started(progress: Started | None, k: int, n: int, title: str) -> None:
+    if progress is not None:
+        progress(k, n, title)
+
+
+def run_campaign(campaign: str | os.PathLike[str], *,
+                 progress: Started | None = None) -> list[DemoTest]:
+    """Simulate and fit every test listed in the campaign file (``progress`` per test)."""
     cpath = Path(campaign)
     doc = read_toml(cpath, "campaign")
     tests = doc.get("test")
@@ -164,7 +178,8 @@ def run_campaign(campaign: str | os.PathLike[str]) -> list[DemoTest]:
     lab = read_equipment(cpath.parent / str(lab_file)) if lab_file is not None else None
     version = software_version()
     out = []
-    for t in tests:
+    for k, t in enumerate(tests, start=1):
+        _started(progress, k, len(tests), str(t.get("title", t.get("plan", ""))))
         plan_path = cpath.parent / t["plan"]
         truth_path = plan_path.parent / t.get("truth", "truth.toml")
         truth_doc = read_toml(truth_path, "truth")
@@ -256,7 +271,8 @@ class DemoNoise:
         return f"{self.data_path.name.split('.')[0]}_imu.yaml"
 
 
-def run_noise(campaign: str | os.PathLike[str]) -> list[DemoNoise]:
+def run_noise(campaign: str | os.PathLike[str], *,
+              progress: Started | None = None) -> list[DemoNoise]:
     """Analyse every IMU recording listed under ``[[noise]]`` of the campaign (there may be none).
 
     Each entry: ``title``, ``data`` (a recording relative to the campaign file, any format
@@ -272,7 +288,8 @@ def run_noise(campaign: str | os.PathLike[str]) -> list[DemoNoise]:
         raise PlanError(f"campaign {cpath}: each [[noise]] entry needs data = \"FILE\" (an IMU "
                         "recording, relative to the campaign file)")
     out = []
-    for e in entries:
+    for k, e in enumerate(entries, start=1):
+        _started(progress, k, len(entries), str(e.get("title", e["data"])))
         path = cpath.parent / e["data"]
         rec = read_imu_recording(path)
         if rec.t is None and rec.rate_hz is None:

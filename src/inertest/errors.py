@@ -66,3 +66,43 @@ def os_error_message(exc: OSError) -> tuple[str, bool]:
 def error_message(exc: InertestError | OSError) -> str:
     """The one-line message of an error a user or the machine caused (see above)."""
     return os_error_message(exc)[0] if isinstance(exc, OSError) else str(exc)
+
+
+class MissingExtraError(InertestError, ImportError):
+    """An optional part of inertest is used whose packages are not installed."""
+
+
+#: Optional packages -> the extra of ``pip install 'inertest[EXTRA]'`` that installs them.
+EXTRAS: dict[str, str] = {
+    "rosbags": "ros",
+    "pyulog": "px4",
+    "nptdms": "tdms",
+    "h5py": "hdf5",
+    "psycopg": "postgres",
+    "sklearn": "neural",
+    "sympy": "symbolic",
+    "pandas": "pandas",
+}
+
+
+def import_extra(module: str, what: str) -> object:
+    """Import an optional package, or raise :class:`MissingExtraError` naming the install.
+
+    Parameters
+    ----------
+    module : str
+        The package (a key of :data:`EXTRAS`, or a sub-module of one).
+    what : str
+        What needs it, for the message (``"reading ROS bags"``).
+    """
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        top = module.split(".")[0]
+        extra = EXTRAS.get(top)
+        hint = (f"pip install 'inertest[{extra}]'" if extra is not None
+                else f"pip install {top}")
+        raise MissingExtraError(f"{what} needs the package {top!r}, which is not installed: "
+                                f"{hint}") from None

@@ -40,13 +40,37 @@ def test_apply_recovers_gravity_and_the_turns(session, tmp_path, capsys):
     assert main(["apply", str(cal), str(data), "-o", str(out), "--gyr-unit", "deg/s"]) == 0
     assert "9" in capsys.readouterr().out
     t = read_table(out)
-    a = np.column_stack([t[f"acc_{c} [m/s^2]"] for c in "xyz"])
-    w = np.column_stack([t[f"gyr_{c} [deg/s]"] for c in "xyz"])
+    a = np.column_stack([t[f"acc_{c}"] for c in "xyz"])
+    w = np.column_stack([t[f"gyr_{c}"] for c in "xyz"])
     face = t["part"] == "z_a"
     np.testing.assert_allclose(a[face], [[0, 0, -9.81]] * int(face.sum()), atol=1e-9)
     turn = t["part"] == "x_rot"
     np.testing.assert_allclose(w[turn].sum(axis=0) / 200.0, [360, 0, 0], atol=1e-8)
-    assert "t_s" in t and "acc_x" not in t
+    assert list(t) == list(read_table(data))  # the input's names, in its order
+
+
+def test_apply_keeps_names_and_types_unless_asked(session, tmp_path, capsys):
+    """Issue 30: an integer column stays integer, names stay, --unit-in-names renames."""
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    cal, data = session
+    raw = read_table(data)
+    raw["sample"] = np.arange(len(raw["t_s"]), dtype=np.int64)
+    src = tmp_path / "raw.csv"
+    write_table(src, raw)
+    out = tmp_path / "cal.parquet"
+    assert main(["apply", str(cal), str(src), "-o", str(out)]) == 0
+    table = pq.read_table(out)
+    assert table.column_names == pacsv.read_csv(src).column_names
+    assert str(table.schema.field("sample").type) == "int64"
+    assert str(table.schema.field("acc_x").type) == "double"
+    assert table.schema.field("acc_x").metadata == {b"unit": b"m/s^2"}
+    assert "accelerometer -> m/s^2" in capsys.readouterr().out
+    named = tmp_path / "named.csv"
+    assert main(["apply", str(cal), str(src), "-o", str(named), "--unit-in-names"]) == 0
+    cols = pacsv.read_csv(named).column_names
+    assert "acc_x [m/s^2]" in cols and "gyr_z [rad/s]" in cols and "sample" in cols
 
 
 def test_apply_hdf5_units_as_attributes_and_parquet(session, tmp_path):
@@ -67,7 +91,7 @@ def test_apply_hdf5_units_as_attributes_and_parquet(session, tmp_path):
 
     write_hdf5_table(raw_h5, read_table(data))
     assert main(["apply", str(cal), str(raw_h5), "-o", str(pq)]) == 0
-    np.testing.assert_allclose(read_table(pq)["acc_x [m/s^2]"], t["acc_x"], rtol=1e-12)
+    np.testing.assert_allclose(read_table(pq)["acc_x"], t["acc_x"], rtol=1e-12)
 
 
 def test_bare_calibration_block_and_custom_columns(tmp_path, capsys):
@@ -82,8 +106,8 @@ def test_bare_calibration_block_and_custom_columns(tmp_path, capsys):
     assert main(["apply", str(cal), str(data), "-o", str(out), "--acc-columns", "ax,ay,az",
                  "--acc-unit", "g"]) == 0
     t = read_table(out)
-    np.testing.assert_allclose(t["ax [g]"], np.array([1.0, 0.0]) / 9.80665)
-    np.testing.assert_allclose(t["az [g]"], np.array([2.0, 0.0]) / 9.80665)
+    np.testing.assert_allclose(t["ax"], np.array([1.0, 0.0]) / 9.80665)
+    np.testing.assert_allclose(t["az"], np.array([2.0, 0.0]) / 9.80665)
 
 
 def test_bad_input_is_one_line_and_writes_nothing(session, tmp_path, capsys):
@@ -146,4 +170,4 @@ def test_review19_missing_accelerometer_column_refused_unless_only_gyroscope(
     assert main(["apply", str(cal), str(noz), "-o", str(out), "--only", "gyroscope"]) == 0
     assert "gyroscope -> rad/s" in capsys.readouterr().out
     got = read_table(out)
-    assert "gyr_x [rad/s]" in got and "acc_x" in got and "acc_x [m/s^2]" not in got
+    assert "gyr_x" in got and "acc_x" in got and "acc_x [m/s^2]" not in got

@@ -149,3 +149,18 @@ def test_a_yaml_larger_than_the_cap_is_refused_unread(tmp_path):
     p.write_text("gyroscope_noise_density: 1.0e-4\n" + "# pad\n" * 200_000)
     with pytest.raises(DataError, match="larger than 1024 KiB"):
         read_kalibr_yaml(p)
+
+
+def test_update_rate_from_float_stamps_is_rounded_to_six_digits():
+    """Issue 30: stamps of a day-long 100 Hz log written in float seconds gave
+    ``update_rate: 100.0000954``; the rate is written to 6 significant digits."""
+    g = np.random.default_rng(3)
+    n = 20_000
+    t = np.round(86_400.0 * 3 + np.arange(n) * 0.01, 5)  # float seconds, 10 us resolution
+    res = analyse_imu_noise(t, g.standard_normal((n, 3)) * 0.01, None)
+    assert res.rate_hz != 100.0  # the median interval carries the stamps' rounding
+    text = kalibr_yaml_text(res, source="float stamps")
+    assert "update_rate: 100  #" in text and yaml.safe_load(text)["update_rate"] == 100
+    from inertest.io.kalibr import _rate
+
+    assert [_rate(v) for v in (199.99812345, 1e6, 0.25)] == ["199.998", "1000000", "0.25"]

@@ -43,11 +43,9 @@ def local_pool(workers: int) -> Any:
 
 
 def _single_threaded_blas() -> None:
-    """Pool-worker initialiser: one BLAS/OpenMP thread (threadpoolctl, via scikit-learn)."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # pragma: no cover - scikit-learn brings it
-        return
+    """Pool-worker initialiser: one BLAS/OpenMP thread (threadpoolctl)."""
+    from threadpoolctl import threadpool_limits
+
     threadpool_limits(1)
 
 

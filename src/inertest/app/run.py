@@ -32,6 +32,7 @@ from inertest.api import fit, load_data, load_plan
 from inertest.errors import InertestError, PlanError
 from inertest.io.atomic import check_outputs, target_directory
 from inertest.io.data_file import file_sha256
+from inertest.io.frames import is_frame
 from inertest.plan import Instrument, Plan
 from inertest.quality.lab import (
     Equipment,
@@ -54,7 +55,18 @@ if TYPE_CHECKING:
 
 PathLike = str | os.PathLike[str]
 class DuplicateRunError(InertestError):
-    """The same data file is already filed for this instrument and procedure."""
+    """The same data file is already filed for this instrument and procedure.
+
+    ``str()`` speaks the Python API's language (``allow_duplicate=True``, ``store=False``);
+    :attr:`cli_message` the command line's (``--allow-duplicate``, ``--no-store``).
+    """
+
+    def __init__(self, message: str, cli_message: str | None = None) -> None:
+        super().__init__(message)
+        self.cli_message = cli_message
+
+    def __reduce__(self) -> tuple[type, tuple[str, str | None]]:  # pickled across processes
+        return (type(self), (str(self), self.cli_message))
 
 
 @dataclass(frozen=True)
@@ -111,6 +123,10 @@ class RunOutcome:
     filed_at: datetime | None = None
     report_id: str | None = None
 
+    def to_pandas(self) -> object:
+        """The result's coefficients and combinations as a ``pandas.DataFrame``."""
+        return self.result.to_pandas()
+
     def to_dict(self) -> dict[str, object]:
         """The result envelope with its ``test``, budget and conformance blocks (``--json``)."""
         return _with_notices(with_blocks(
@@ -132,7 +148,7 @@ def _with_notices(doc: dict[str, object], notices: Sequence[str]) -> dict[str, o
 
 def run(
     plan: Plan | PathLike,
-    data: Mapping[str, Any] | PathLike,
+    data: Any,
     *,
     sigma: float | None = None,
     store: bool | str | HistoryStore = False,
@@ -144,6 +160,8 @@ def run(
     spec: PathLike | Spec | None = None,
     noise_model: str | None = None,
     command: str | None = None,
+    topic: str | None = None,
+    layout: PathLike | None = None,
 ) -> RunOutcome:
     """Fit, report and store one test as a single transaction (``inertest fit``).
 
@@ -151,8 +169,9 @@ def run(
     ----------
     plan : Plan or path
         The test plan (TOML file or :class:`~inertest.plan.Plan`).
-    data : mapping of columns, or path
-        The measurements (CSV, Parquet or HDF5 file, or ``{column: array}``).
+    data : path, pandas.DataFrame, pyarrow.Table or mapping of arrays
+        The measurements: any file :func:`inertest.load_data` reads (CSV, Parquet, HDF5, ROS
+        bag, MCAP, ULog, TDMS, text, binary with ``layout``) or a table in memory.
     sigma : float, optional
         Known noise per reading [output unit]; estimated from the residuals when omitted.
     store : bool, str or HistoryStore
@@ -189,6 +208,9 @@ def run(
     command : str, optional
         The command line that ran this (``inertest fit ...``), stated in the report beside each
         input file's path and SHA-256, so that the report can be reproduced from itself.
+    topic, layout : optional
+        For recordings: the ROS topic / ULog message / TDMS group, and a binary file's TOML
+        record layout (:func:`inertest.load_data`).
 
     Returns
     -------
@@ -201,7 +223,7 @@ def run(
         nothing was stored or written.
     """
     plan_path = None if isinstance(plan, Plan) else Path(plan)
-    data_path = None if isinstance(data, Mapping) else Path(data)
+    data_path = Path(data) if isinstance(data, str | os.PathLike) else None
     sources = [Path(x) for x in (plan_path, data_path, equipment, spec)
                if isinstance(x, str | os.PathLike)]
     if report_dir is not None:
@@ -217,7 +239,8 @@ def run(
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", plan_path),
                                 lab_source=lab_source)
     spec_doc = spec_of(spec)
-    d = data if isinstance(data, Mapping) else load_data(data)
+    d = load_data(data, topic, layout=layout) if data_path is not None else (
+        data if isinstance(data, Mapping) and not is_frame(data) else load_data(data))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = fit(p, d, sigma=sigma, noise_model=noise_model)
@@ -592,9 +615,11 @@ def _refuse_duplicate(earlier: Sequence[str] | str | None, serial: str, kind: st
     if not earlier:
         return
     first = earlier if isinstance(earlier, str) else earlier[0]
+    said = (f"this data file (sha256 {data_sha256[:12]}...) is already filed for {serial} / "
+            f"{kind} (run {first}); nothing stored.")
     raise DuplicateRunError(
-        f"this data file (sha256 {data_sha256[:12]}...) is already filed for {serial} / {kind} "
-        f"(run {first}); nothing stored. Use --allow-duplicate to file it again, or --no-store")
+        f"{said} Pass allow_duplicate=True to file it again, or store=False",
+        cli_message=f"{said} Use --allow-duplicate to file it again, or --no-store")
 
 
 def _report_html(result: Any, plan: Plan | None, plan_text: str,

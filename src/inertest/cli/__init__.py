@@ -201,8 +201,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         click.echo(f"error: {safe_line(exc.format_message())}" if not isinstance(
             exc, click.UsageError) else _usage_line(exc), err=True)
         return int(exc.exit_code)
-    except InertestError as exc:
-        _error(str(exc))
+    except InertestError as exc:  # in the command line's words where they differ (options)
+        _error(getattr(exc, "cli_message", None) or str(exc))
         return EXIT_INPUT_ERROR
     except OSError as exc:
         line, status = _oserror_line(exc)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -335,3 +336,47 @@ def input_identity(
             rows.append(["filed at (UTC)", str(test["filed_at"]).replace("T", " ")[:19]])
     rows += [[k, given[k]] for k, _ in IDENTITY_OPTIONS if given.get(k)]
     return rows
+
+
+#: A DATA argument: a data file, or a ROS 2 bag folder (one holding metadata.yaml).
+DATA_PATH = click.Path(exists=True, path_type=Path)
+
+
+def recording_options(f: Any) -> Any:
+    """``--topic`` and ``--layout``, the options of a DATA argument that is a recording."""
+    f = click.option(
+        "--layout", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+        help="TOML layout of a binary record (size, field offsets, types, scales, units).")(f)
+    return click.option(
+        "--topic", default=None,
+        help="ROS topic, PX4 ULog message (name or name:N) or TDMS group (default: the IMU "
+             "topic, found by its type, or the only one).")(f)
+
+
+@contextlib.contextmanager
+def progress_bar(label: str) -> Iterator[Callable[[str, int, int | None], None]]:
+    """A progress bar on stderr (terminals only): yields ``tick(stage, done, total)``.
+
+    Nothing is drawn until a stage has taken a second, so short runs print nothing extra.
+    """
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+
+    console = Console(stderr=True)
+    tasks: dict[str, Any] = {}
+    with Progress(TextColumn(f"{label}: {{task.description}}"), BarColumn(),
+                  TaskProgressColumn(), TimeRemainingColumn(), console=console,
+                  transient=True, disable=not console.is_terminal) as bar:
+
+        def tick(stage: str, done: int, total: int | None) -> None:
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done, total=total)
+
+        yield tick

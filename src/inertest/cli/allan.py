@@ -12,12 +12,14 @@ import numpy as np
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    DATA_PATH,
     REAL,
     check_paths,
     echo_json,
     figure_format,
     input_identity,
     print_table,
+    recording_options,
     save_figure,
 )
 from inertest.errors import DataError, InputError
@@ -75,7 +77,8 @@ def _tau_option(text: str) -> str | list[float]:
 
 
 @click.command()
-@click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--column", default=None,
               help="Column to analyse (tables; index for a 2-D .npy). Optional if only one.")
 @click.option("--rate", "rate_hz", type=REAL, required=True, help="Sample rate [Hz].")
@@ -96,7 +99,8 @@ def _tau_option(text: str) -> str | list[float]:
               help="Write the figure (.png, .svg or .pdf).")
 @click.option("--report", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write a self-contained HTML report (figure, noise terms, deviation table).")
-def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: str | None,
+def allan(data: Path, topic: str | None, layout: Path | None, column: str | None,
+          rate_hz: float, data_type: str, unit: str | None,
           taus: str, stats: str, dtype: str | None, no_noise_id: bool, as_json: bool,
           plot: Path | None, report: Path | None) -> None:
     """Allan, modified Allan, time, Hadamard and total deviations of DATA (NIST SP 1065).
@@ -127,7 +131,7 @@ def allan(data: Path, column: str | None, rate_hz: float, data_type: str, unit: 
     if bad or not names:
         raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
                          f"from {', '.join(STATISTICS)}")
-    samples = read_samples(data, column, dtype=dtype)
+    samples = read_samples(data, column, dtype=dtype, topic=topic, layout=layout)
     short = [f"the record ({len(samples)} samples) is too short for {s}: it needs at least "
              f"{min_samples(s, data_type)} {data_type} samples; left out"
              for s in names if len(samples) < min_samples(s, data_type)]

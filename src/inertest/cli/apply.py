@@ -32,11 +32,12 @@ from pathlib import Path
 import click
 import numpy as np
 
-from inertest.cli._common import check_paths
+from inertest.cli._common import DATA_PATH, check_paths, recording_options
 from inertest.errors import DataError
 from inertest.io.calibration_file import load_calibration, read_json_object
-from inertest.io.data_file import read_table, write_table
+from inertest.io.data_file import write_table
 from inertest.io.hdf5_table import is_hdf5
+from inertest.io.recordings import read_data
 from inertest.procedures.spec import require_columns
 from inertest.units import ACCEL_UNITS, RATE_UNITS, accel_from_si, rate_from_si
 
@@ -53,7 +54,8 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
 
 @click.command(name="apply")
 @click.argument("calibration", type=_FILE)
-@click.argument("data", type=_FILE)
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Calibrated data file to write (.csv, .parquet, .h5).")
 @click.option("--acc-columns", default="acc_x,acc_y,acc_z", show_default=True,
@@ -77,10 +79,18 @@ def _columns(text: str, option: str) -> tuple[str, str, str]:
 @click.option("--only", type=click.Choice(["accelerometer", "gyroscope"]), default=None,
               help="Triad calibration: correct only this sensor (by default every sensor the "
               "calibration holds, and each needs its three raw columns).")
-def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_columns: str,
-          acc_unit: str, gyr_unit: str, temperature_column: str | None, time_column: str,
-          thermal_columns: str | None, extrapolate: bool, only: str | None) -> None:
-    """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA."""
+@click.option("--unit-in-names", is_flag=True,
+              help="Name the calibrated columns 'acc_x [m/s^2]' (default: the input's names; "
+              "the unit is printed, and stored in Parquet and HDF5).")
+def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None, output: Path,
+          acc_columns: str, gyr_columns: str, acc_unit: str, gyr_unit: str,
+          temperature_column: str | None, time_column: str, thermal_columns: str | None,
+          extrapolate: bool, only: str | None, unit_in_names: bool) -> None:
+    """Apply the triad calibration or thermal model in CALIBRATION to the raw columns of DATA.
+
+    The other columns are written as they were read: same names, same types (an integer
+    column stays integer). The calibrated columns keep their names unless --unit-in-names.
+    """
     check_paths([output], [calibration, data])
     # thermal models load their procedures (scipy.stats): only when a command runs
     from inertest.io.thermal_model import is_thermal_model, is_triad_thermal_model
@@ -89,11 +99,12 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     doc = read_json_object(calibration, "calibration", finite=False)
     if is_thermal_model(doc):
         _apply_thermal(calibration, data, output, temperature_column, time_column,
-                       thermal_columns, extrapolate)
+                       thermal_columns, extrapolate, (topic, layout))
         return
     if is_triad_thermal_model(doc):
         _apply_triad_thermal(calibration, data, output, temperature_column, time_column,
-                             thermal_columns, extrapolate, acc_unit)
+                             thermal_columns, extrapolate, acc_unit, (topic, layout),
+                             unit_in_names)
         return
     if temperature_column is not None or thermal_columns is not None:
         raise click.UsageError(f"{calibration} is a triad calibration, not a thermal model: "
@@ -101,7 +112,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
     acc_cols = _columns(acc_columns, "--acc-columns")
     gyr_cols = _columns(gyr_columns, "--gyr-columns")
     cal = load_calibration(calibration)
-    table = read_table(data)
+    table = read_data(data, topic=topic, layout=layout, keep_types=True)
     use_acc = cal.accelerometer is not None and only in (None, "accelerometer")
     use_gyr = cal.gyroscope is not None and only in (None, "gyroscope")
     if only is not None and not (use_acc or use_gyr):
@@ -124,7 +135,7 @@ def apply(calibration: Path, data: Path, output: Path, acc_columns: str, gyr_col
 
     def put(cols: tuple[str, str, str], values: np.ndarray, unit: str) -> None:
         for k, c in enumerate(cols):
-            name = c if is_hdf5(output) else f"{c} [{unit}]"
+            name = f"{c} [{unit}]" if unit_in_names and not is_hdf5(output) else c
             # keep the column order of the input: replace in place
             pos = list(out).index(c)
             items = list(out.items())
@@ -187,7 +198,8 @@ def _sample_interval(table: dict, data: Path, time_column: str) -> float:
 
 
 def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_column: str | None,
-                   time_column: str, columns: str | None, extrapolate: bool) -> None:
+                   time_column: str, columns: str | None, extrapolate: bool,
+                   recording: tuple[str | None, Path | None]) -> None:
     """Compensate the thermal model's quantity in DATA; write OUTPUT with the uncertainty."""
     from inertest.io.thermal_model import load_thermal_model
     from inertest.procedures.thermal_compensation import QUANTITIES
@@ -197,7 +209,7 @@ def _apply_thermal(model_path: Path, data: Path, output: Path, temperature_colum
             else [QUANTITIES[model.quantity][0]])
     table, arr, temp, rate = _thermal_inputs(model, model_path, "thermal model", data,
                                              temperature_column, time_column, cols, "--columns",
-                                             extrapolate)
+                                             extrapolate, recording)
     out = dict(table)
     units: dict[str, str] = {}
     unit = "deg/h" if model.quantity == "bias" else ""
@@ -233,6 +245,7 @@ def _check_finite_output(model_path: Path, out: dict[str, np.ndarray],
 def _thermal_inputs(
     model, model_path: Path, what: str, data: Path, temperature_column: str | None,
     time_column: str, cols: list[str] | tuple[str, ...], columns_option: str, extrapolate: bool,
+    recording: tuple[str | None, Path | None] = (None, None),
 ) -> tuple[dict, dict[str, np.ndarray], np.ndarray, np.ndarray | None]:
     """DATA's table, the columns the thermal model needs, the temperature and the rate.
 
@@ -242,7 +255,7 @@ def _thermal_inputs(
     if temperature_column is None:
         raise click.UsageError(f"{model_path} is a {what}: name the temperature column with "
                                "--temperature-column")
-    table = read_table(data)
+    table = read_data(data, topic=recording[0], layout=recording[1], keep_types=True)
     need = [temperature_column, *cols, *([time_column] if model.uses_rate else [])]
     missing = [c for c in need if c not in table]
     if missing:
@@ -303,7 +316,9 @@ def _rate_and_range_check(model, data: Path, temp: np.ndarray, time_s: np.ndarra
 
 def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
                          temperature_column: str | None, time_column: str,
-                         columns: str | None, extrapolate: bool, acc_unit: str) -> None:
+                         columns: str | None, extrapolate: bool, acc_unit: str,
+                         recording: tuple[str | None, Path | None],
+                         unit_in_names: bool = False) -> None:
     """Correct the raw triad columns of DATA with K, M, B at each row's temperature."""
     from inertest.io.thermal_model import load_triad_thermal_model
 
@@ -311,7 +326,7 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
     cols = _columns(columns or "output_x,output_y,output_z", "--columns")
     table, arr, temp, rate = _thermal_inputs(model, model_path, "triad thermal model", data,
                                              temperature_column, time_column, cols,
-                                             "--columns x,y,z", extrapolate)
+                                             "--columns x,y,z", extrapolate, recording)
     with np.errstate(over="ignore", invalid="ignore"):  # refused below, naming the model
         u, std = model.compensate(np.column_stack([arr[c] for c in cols]), temp, rate)
     hdf5 = is_hdf5(output)
@@ -323,7 +338,7 @@ def _apply_triad_thermal(model_path: Path, data: Path, output: Path,
             continue
         k = cols.index(name)
         for col, v in ((name, u[:, k]), (f"{name}_correction_std", std[:, k])):
-            key = col if hdf5 else f"{col} [{acc_unit}]"
+            key = f"{col} [{acc_unit}]" if unit_in_names and not hdf5 else col
             out[key] = accel_from_si(v, acc_unit)
             units[key] = acc_unit
     _check_finite_output(model_path, out, list(units))

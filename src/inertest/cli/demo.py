@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import click
@@ -28,7 +29,13 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
     )
 
     folder = examples_dir if examples_dir is not None else find_examples()
-    tests = run_campaign(folder / "demo.toml")
+
+    def started(what: str) -> Callable[[int, int, str], None]:
+        def line(k: int, n: int, title: str) -> None:  # one line per test, as it starts
+            click.echo(f"[{what} {k}/{n}] {title} ...", err=True)
+        return line
+
+    tests = run_campaign(folder / "demo.toml", progress=started("test"))
     for t in tests:
         click.echo(f"\n{t.title} ({t.plan_path}; noise {t.noise:g} per reading, seed {t.seed})")
         print_identity(t.to_dict())
@@ -36,7 +43,7 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         spec = "" if t.conformance is None else f" ({t.conformance.spec_name})"
         click.echo(f"verdict{spec}: "
                    f"{verdict_summary(None if t.conformance is None else t.conformance.to_dict())}")
-    noise = run_noise(folder / "demo.toml")
+    noise = run_noise(folder / "demo.toml", progress=started("noise"))
     for n in noise:
         from inertest.cli._common import print_table
         from inertest.report.imu_noise import summary_rows
@@ -45,7 +52,7 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         h, r = summary_rows(n.result)
         print_table("noise per channel: Kalibr noise density N and random walk K (< : upper "
                     "bound), IEEE 952 bias instability B", h, r)
-    thermal = run_thermal(folder / "demo.toml")
+    thermal = run_thermal(folder / "demo.toml", progress=started("thermal"))
     for th in thermal:
         click.echo(f"\n{th.title} ({th.plan_path}; noise {th.noise:g} per reading, seed "
                    f"{th.seed}): {len(th.result.step_temperature_c)} steps; held-out run, "

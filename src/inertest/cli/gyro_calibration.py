@@ -13,7 +13,14 @@ from typing import TYPE_CHECKING
 import click
 import numpy as np
 
-from inertest.cli._common import REAL, check_paths, echo_json, print_table
+from inertest.cli._common import (
+    DATA_PATH,
+    REAL,
+    check_paths,
+    echo_json,
+    print_table,
+    recording_options,
+)
 from inertest.errors import InputError, PlanError
 from inertest.plan import Plan
 from inertest.report.rounding import format_number, round_to_uncertainty
@@ -102,7 +109,8 @@ def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
 
 @click.command("nav-calibrate")
 @click.argument("plan", type=_FILE)
-@click.argument("data", type=_FILE)
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--initial", type=_FILE, required=True,
               help="JSON with the starting calibration (inertest fit --json output, or "
                    '{"gyroscope": {...}}).')
@@ -113,7 +121,8 @@ def _initial_calibration(path: Path, plan: Plan) -> TriadCalibration:
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Write index.html with the convergence figure into this folder.")
-def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, no_bias: bool,
+def nav_calibrate(plan: Path, data: Path, topic: str | None, layout: Path | None,
+                  initial: Path, check_interval: float, no_bias: bool,
                   max_iterations: int, as_json: bool, report_dir: Path | None) -> None:
     """Refine the gyro calibration by navigating through the 360-degree turns in DATA."""
     from inertest.api import load_data
@@ -125,7 +134,8 @@ def nav_calibrate(plan: Path, data: Path, initial: Path, check_interval: float, 
     p = _rotation_plan(plan)
     if max_iterations < 1:
         raise InputError("--max-iterations must be at least 1")
-    result = nav.calibrate(p, load_data(data), _initial_calibration(initial, p),
+    result = nav.calibrate(p, load_data(data, topic, layout=layout),
+                           _initial_calibration(initial, p),
                            check_interval_s=check_interval, estimate_bias=not no_bias,
                            max_iterations=max_iterations)
     if report_dir is not None:

@@ -207,6 +207,10 @@ def _document_of(sc: InsScenario) -> dict[str, Any]:
 
 def _closed_form_table(scenario: InsScenario, resp: SourceResponses) -> list[list[str]]:
     # Imported here: sympy takes ~1 s to import, and every inertest command imports this module.
+    from inertest.errors import import_extra
+
+    import_extra("sympy", "the closed forms of the constant and secular errors (--closed-forms, "
+                          "--report)")
     from inertest.ins.closed_forms import closed_forms, fit_constant_and_secular
     from inertest.ins.propagation import characteristic_periods
     from inertest.report.ins_errors import closed_form_rows

@@ -2,25 +2,42 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from inertest.cli import safe_line
-from inertest.cli._common import REAL, check_paths, echo_json, input_identity, print_table
+from inertest.cli._common import (
+    DATA_PATH,
+    REAL,
+    check_paths,
+    echo_json,
+    input_identity,
+    print_table,
+    progress_bar,
+    recording_options,
+)
 from inertest.errors import DataError, InputError
-from inertest.io.imu_recording import FORMATS, TIME_UNITS, read_imu_recording
+from inertest.io.imu_recording import FORMATS, TIME_UNITS
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, RATE_UNITS
+
+if TYPE_CHECKING:
+    from inertest.io.imu_recording import ImuRecording
+    from inertest.io.recordings.imu import SpilledImu
+    from inertest.noise.imu import ImuNoiseResult
 
 _GAPS = ("refuse", "longest")
 _OUTLIERS = ("keep", "refuse", "clip")
 
 
 @click.command()
-@click.argument("data", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("data", type=DATA_PATH)
 @click.option("--format", "fmt", type=click.Choice(FORMATS), default="auto", show_default=True,
               help="File format (auto: by suffix; PSINS text by content).")
+@recording_options
 @click.option("--time-column", default=None,
               help="Time-stamp column, or 'secs,nsecs' (ROS). Default a common name if any.")
 @click.option("--time-unit", type=click.Choice(TIME_UNITS), default="auto", show_default=True,
@@ -54,7 +71,8 @@ _OUTLIERS = ("keep", "refuse", "clip")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Write an HTML report folder (index.html).")
-def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
+def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
+          time_column: str | None, time_unit: str,
           gyro_columns: str | None, accel_columns: str | None, gyro_unit: str, accel_unit: str,
           rate_hz: float | None, gaps: str, outliers: str, outlier_threshold: float,
           detrend: bool, kalibr_out: Path | None, unresolved: str, compare_yaml: Path | None,
@@ -67,7 +85,8 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
     """
     from inertest.io.atomic import check_outputs, check_report_directory, target_directory
     from inertest.io.kalibr import KEYS, read_kalibr_yaml, write_kalibr_yaml
-    from inertest.noise.imu import analyse_imu_noise, compare_kalibr
+    from inertest.io.recordings.imu import SpilledImu, open_imu
+    from inertest.noise.imu import compare_kalibr
 
     check_paths([kalibr_out], [data, compare_yaml])
     if report_dir is not None:  # before any work: nothing is written half-way
@@ -82,23 +101,16 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
                else None)
     for m in yaml_notes:
         click.echo(safe_line(f"warning: {m}"), err=True)
-    rec = read_imu_recording(data, fmt=fmt, time_column=time_column, time_unit=time_unit,
-                             gyro_columns=gyro_columns, accel_columns=accel_columns,
-                             gyro_unit=gyro_unit, accel_unit=accel_unit)
-    rate = rate_hz if rate_hz is not None else rec.rate_hz
-    if rec.t is None and rate is None:
-        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
-                         "the time column with --time-column")
-    for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
-                          *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3, strict=False)]:
-        if col.size and (col == col[0]).all():  # no noise: nothing to fit (all deviations 0)
-            raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} in "
-                            "every sample): there is no noise to analyse; check the recording, "
-                            "or leave the channel out with --gyro-columns / --accel-columns")
-    result = analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
-                               accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
-                               outliers=outliers, outlier_threshold=outlier_threshold,
-                               detrend=detrend, time_unit=rec.time_unit)
+    with contextlib.ExitStack() as spilled:
+        with progress_bar("noise") as tick:  # long recordings: decoded once, then streamed
+            rec = open_imu(data, fmt=fmt, topic=topic, layout=layout, time_column=time_column,
+                           time_unit=time_unit, gyro_columns=gyro_columns,
+                           accel_columns=accel_columns, gyro_unit=gyro_unit,
+                           accel_unit=accel_unit,
+                           progress=lambda done, total: tick("reading", done, total))
+        if isinstance(rec, SpilledImu):
+            spilled.enter_context(rec)  # its temporary files go, whatever happens next
+        result = _analyse(data, rec, rate_hz, gaps, outliers, outlier_threshold, detrend)
     comparisons = compare_kalibr(result, {k: claimed[k] for k in KEYS}) if claimed else ()
     if kalibr_out is not None and unresolved == "refuse":
         loose = [f"{c.name} {t.term}" for c in result.channels
@@ -119,7 +131,8 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
         with target_directory(report_dir, inputs=[p for p in (data, compare_yaml) if p]) as tmp:
             (tmp / "index.html").write_text(html, encoding="utf-8")
     if kalibr_out is not None:
-        write_kalibr_yaml(kalibr_out, result, source=data.name)
+        write_kalibr_yaml(kalibr_out, result, source=data.name,
+                          rostopic=topic if topic and topic.startswith("/") else "/imu0")
     if as_json:
         out = result.to_dict()
         out["kalibr"] = {kind: ({k: v.to_dict() for k, v in terms.items()} if terms else None)
@@ -147,3 +160,33 @@ def noise(data: Path, fmt: str, time_column: str | None, time_unit: str,
         click.echo(safe_line(f"kalibr: {kalibr_out}"))
     if report_dir is not None:
         click.echo(safe_line(f"report: {report_dir / 'index.html'}"))
+
+
+def _analyse(data: Path, rec: ImuRecording | SpilledImu, rate_hz: float | None, gaps: str,
+             outliers: str, outlier_threshold: float, detrend: bool) -> ImuNoiseResult:
+    """The noise analysis of a recording in memory, or streamed from its temporary files."""
+    from inertest.io.recordings.imu import SpilledImu
+    from inertest.noise.imu import analyse_imu_noise
+    from inertest.noise.imu_stream import analyse_imu_noise_stream
+
+    rate = rate_hz if rate_hz is not None else rec.rate_hz
+    if rec.t is None and rate is None:
+        raise InputError(f"{data.name} has no time stamps: give the sample rate with --rate, or "
+                         "the time column with --time-column")
+    if isinstance(rec, SpilledImu):
+        with progress_bar("noise") as tick:
+            return analyse_imu_noise_stream(
+                rec.t, rec.channels, gyro_names=rec.gyro_names, accel_names=rec.accel_names,
+                rate_hz=rate, gaps=gaps, outliers=outliers,
+                outlier_threshold=outlier_threshold, detrend=detrend, progress=tick,
+                time_unit=getattr(rec, "time_unit", None))
+    for name, col, si in [*zip(rec.gyro_names, rec.gyro.T, ["rad/s"] * 3, strict=False),
+                          *zip(rec.accel_names, rec.accel.T, ["m/s^2"] * 3, strict=False)]:
+        if col.size and (col == col[0]).all():  # no noise: nothing to fit (all deviations 0)
+            raise DataError(f"channel {name} of {data.name} is constant ({col[0]:g} {si} in "
+                            "every sample): there is no noise to analyse; check the recording, "
+                            "or leave the channel out with --gyro-columns / --accel-columns")
+    return analyse_imu_noise(rec.t, rec.gyro, rec.accel, gyro_names=rec.gyro_names,
+                             accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
+                             outliers=outliers, outlier_threshold=outlier_threshold,
+                             detrend=detrend, time_unit=rec.time_unit)

@@ -10,12 +10,14 @@ import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import (
+    DATA_PATH,
     REAL,
     check_paths,
     command_line,
     echo_json,
     print_identity,
     print_table,
+    recording_options,
 )
 
 # The fit machinery is imported inside the commands: `inertest fit --help` stays within 2x of
@@ -49,7 +51,8 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
 
 @click.command()
 @click.argument("plan", type=_FILE)
-@click.argument("data", type=_FILE)
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--sigma", type=REAL, default=None,
               help="Known noise per reading in the output unit (default: from the residuals).")
 @click.option("--noise-model", default=None,
@@ -77,7 +80,8 @@ def simulate(plan: Path, truth: Path, output: Path, noise: float, seed: int | No
               help="Instrument specification (TOML, see examples/specs): a verdict per limited "
               "quantity under its ILAC-G8 decision rule, with the uncertainty budget.")
 def fit(
-    plan: Path, data: Path, sigma: float | None, noise_model: str | None, as_json: bool,
+    plan: Path, data: Path, topic: str | None, layout: Path | None, sigma: float | None,
+    noise_model: str | None, as_json: bool,
     report_dir: Path | None,
     pdf: bool, no_store: bool, db: str | None, tested_at: datetime | None,
     allow_duplicate: bool, equipment: Path | None, spec: Path | None,
@@ -98,7 +102,8 @@ def fit(
     out = run(plan, data, sigma=sigma, store=False if no_store else (db or True),
               report_dir=report_dir, pdf=pdf, tested_at=tested_at,
               allow_duplicate=allow_duplicate, equipment=equipment, spec=spec,
-              noise_model=noise_model, command=command_line())
+              noise_model=noise_model, command=command_line(), topic=topic,
+              layout=layout)
     for w in out.warnings:
         click.echo(f"warning: {safe_line(w)}", err=True)
     if as_json:
@@ -151,3 +156,30 @@ def print_result(result, truth: Mapping[str, float] | None = None) -> None:
         click.echo(safe_line(f"model check: {ident.checks.verdict} (see the warning above)"))
     for s in ident.not_separable:
         click.echo(f"not determined: {s}")
+    for line in headline_checks(result):
+        click.echo(safe_line(line))
+
+
+def headline_checks(result) -> list[str]:  # noqa: ANN001 - any procedure result
+    """The orientation-free fit's own checks, one line each (also in the JSON's ``result``).
+
+    How many static attitudes the detector found, |a| - g over them before and after the
+    calibration, and how far the calibrated gyros carry gravity from one attitude to the next.
+    """
+    summary = getattr(result, "summary", None)
+    intervals = getattr(result, "intervals", None)
+    if not callable(summary) or intervals is None:
+        return []
+    s = summary()
+    det = getattr(result, "detection", None)
+    factor = f", detector threshold {det.threshold_factor:g} x the initial variance" if (
+        det is not None) else ""
+    norm, carry = s["gravity_norm_rms"], s["gravity_transport_rms"]
+    return [
+        f"attitudes found: {len(intervals)} static intervals{factor}",
+        f"|a| - g over the attitudes (RMS): {norm['before']:.4g} {norm['unit']} raw -> "
+        f"{norm['after']:.4g} {norm['unit']} calibrated",
+        f"gravity carried by the gyros between attitudes (RMS angle error): "
+        f"{carry['before']:.4g} {carry['unit']} raw -> {carry['after']:.4g} {carry['unit']} "
+        "calibrated",
+    ]

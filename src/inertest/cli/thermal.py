@@ -8,16 +8,19 @@ import click
 import numpy as np
 
 from inertest.cli._common import (
+    DATA_PATH,
     REAL,
     check_paths,
     echo_json,
     figure_format,
     input_identity,
     print_table,
+    recording_options,
     save_figure,
 )
 from inertest.io.atomic import target_directory
-from inertest.io.data_file import read_table, write_table
+from inertest.io.data_file import write_table
+from inertest.io.recordings import read_data
 from inertest.plan import Plan
 from inertest.report.rounding import format_with_std
 
@@ -59,7 +62,8 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
 
 
 @thermal.command()
-@click.argument("data", type=_FILE)
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--quantity", type=click.Choice(QUANTITY_NAMES), default="scale_factor",
               show_default=True, help="scale_factor (column scale_factor) or bias (bias_deg_h).")
 @click.option("--validation-cycles", type=int, default=1, show_default=True,
@@ -87,7 +91,8 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
               "database.")
 @click.option("--db", default=None, help="History database URL or SQLite path (default: "
               "$INERTEST_DB or ~/.local/share/inertest/history.db).")
-def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_rate: bool,
+def fit(data: Path, topic: str | None, layout: Path | None, quantity: str,
+        validation_cycles: int, max_degree: int, no_rate: bool,
         hidden: int, max_iter: int, as_json: bool, plot: Path | None,
         report_dir: Path | None, model_out: Path | None, model_name: str,
         t_ref_c: float | None, serial: str, store: bool, db: str | None) -> None:
@@ -106,7 +111,7 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
         raise click.UsageError("--store needs --serial (the instrument's serial number)")
     from inertest.procedures.thermal_compensation import fit_thermal
 
-    result = fit_thermal(read_table(data), quantity=quantity,
+    result = fit_thermal(read_data(data, topic=topic, layout=layout), quantity=quantity,
                          validation_cycles=validation_cycles, max_degree=max_degree,
                          use_rate=not no_rate, hidden=hidden, max_iter=max_iter,
                          t_ref_c=t_ref_c, serial=serial)
@@ -158,7 +163,8 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
 
 @thermal.command()
 @click.argument("plan", type=_FILE)
-@click.argument("data", type=_FILE)
+@click.argument("data", type=DATA_PATH)
+@recording_options
 @click.option("--degree", type=int, default=2, show_default=True,
               help="Polynomial degree of each coefficient in (T - T_ref).")
 @click.option("--rate", "use_rate", is_flag=True,
@@ -173,9 +179,9 @@ def fit(data: Path, quantity: str, validation_cycles: int, max_degree: int, no_r
               "inertest apply.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False, path_type=Path),
               default=None, help="Write a self-contained HTML report into this folder.")
-def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | None,
-          sigma: float | None, as_json: bool, model_out: Path | None,
-          report_dir: Path | None) -> None:
+def triad(plan: Path, data: Path, topic: str | None, layout: Path | None, degree: int,
+          use_rate: bool, t_ref_c: float | None, sigma: float | None, as_json: bool,
+          model_out: Path | None, report_dir: Path | None) -> None:
     """Triad K, M, B against temperature from multi-position data at several temperatures.
 
     PLAN is a triad-multiposition plan; DATA has the columns temperature_c, branch
@@ -190,7 +196,7 @@ def triad(plan: Path, data: Path, degree: int, use_rate: bool, t_ref_c: float | 
 
     check_paths([model_out, report_dir], [plan, data])
     p = load_plan(plan)
-    result = fit_triad_thermal(p, read_table(data), degree=degree,
+    result = fit_triad_thermal(p, read_data(data, topic=topic, layout=layout), degree=degree,
                                use_rate=use_rate, sigma=sigma, t_ref_c=t_ref_c)
     model = result.model() if model_out is not None else None
     if report_dir is not None:

@@ -312,11 +312,21 @@ def _text_column(col: pa.ChunkedArray) -> NDArray:
 
 
 def file_sha256(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes (hex), read in blocks."""
+    """SHA-256 of a file's bytes (hex), read in blocks.
+
+    A folder (a ROS 2 bag) hashes the relative name and the bytes of each of its files in
+    name order; links are not followed out of it.
+    """
     h = hashlib.sha256()
-    with Path(path).open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
+    p = Path(path)
+    files = ([f for f in sorted(p.rglob("*")) if f.is_file() and not f.is_symlink()]
+             if p.is_dir() else [p])
+    for f in files:
+        if p.is_dir():
+            h.update(f.relative_to(p).as_posix().encode("utf-8") + b"\0")
+        with f.open("rb") as fh:
+            for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                h.update(block)
     return h.hexdigest()
 
 
@@ -327,8 +337,8 @@ def write_table(
 ) -> Path:
     """Write columns to CSV, Parquet or HDF5 (by suffix), atomically.
 
-    ``units`` (column -> unit) is stored as HDF5 dataset attributes; CSV and Parquet callers put
-    units in the column names.
+    ``units`` (column -> unit) is stored as HDF5 dataset attributes and as Parquet field
+    metadata (``unit``); CSV has no place for it (callers print it or put it in the names).
     """
     p = Path(path)
     suffix = p.suffix.lower()
@@ -343,6 +353,10 @@ def write_table(
     import pyarrow.parquet as pq
 
     table = pa.table({k: np.asarray(v) for k, v in columns.items()})
+    if units and suffix != ".csv":
+        table = table.cast(pa.schema([
+            f.with_metadata({"unit": units[f.name]}) if f.name in units else f
+            for f in table.schema]))
     with target_file(p) as tmp:
         if suffix == ".csv":
             pacsv.write_csv(table, tmp)

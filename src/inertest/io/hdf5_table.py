@@ -22,6 +22,13 @@ from inertest.io.atomic import target_file
 HDF5_SUFFIXES = (".h5", ".hdf5")
 
 
+def _h5py():  # noqa: ANN202 - the module
+    """h5py, or a one-line error naming the extra that installs it."""
+    from inertest.errors import import_extra
+
+    return import_extra("h5py", "reading and writing HDF5 tables")
+
+
 def is_hdf5(path: str | os.PathLike[str]) -> bool:
     """Whether ``path`` names an HDF5 file (by suffix)."""
     return Path(path).suffix.lower() in HDF5_SUFFIXES
@@ -29,7 +36,7 @@ def is_hdf5(path: str | os.PathLike[str]) -> bool:
 
 def read_hdf5_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
     """Read the root-level 1-D datasets of an HDF5 file into ``{column: ndarray}``."""
-    import h5py
+    h5py = _h5py()
 
     p = Path(path)
     if not p.exists():
@@ -90,7 +97,7 @@ def write_hdf5_table(
     units: Mapping[str, str] | None = None,
 ) -> Path:
     """Write columns as root-level datasets (with a ``unit`` attribute when given), atomically."""
-    import h5py
+    h5py = _h5py()
 
     p = Path(path)
     with target_file(p) as tmp:

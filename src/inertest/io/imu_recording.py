@@ -45,7 +45,10 @@ from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, RATE_UNITS
 
 #: The PSINS toolbox's gravity unit [m/s^2] (``glv.g0`` in ``glvf.m``); its ug is 1e-6 of it.
 PSINS_G0 = 9.7803267714
-FORMATS = ("auto", "csv", "parquet", "hdf5", "psins")
+FORMATS = ("auto", "csv", "parquet", "hdf5", "psins",
+           # read by inertest.io.recordings (ROS bags and MCAP, PX4 ULog, TDMS, text tables,
+           # binary records under a TOML layout)
+           "rosbag", "ulog", "tdms", "text", "layout")
 TIME_UNITS = ("auto", "s", "ms", "us", "ns")
 #: Seconds per unit of a time column.
 _TIME_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
@@ -68,6 +71,9 @@ _ACCEL_SETS = [("acc_x", "acc_y", "acc_z"), ("accel_x", "accel_y", "accel_z"),
                ("ax", "ay", "az"), ("fx", "fy", "fz"),
                *[tuple(f"{p}linear_acceleration.{a}" for a in "xyz")
                  for p in ("", "field.", "imu.")]]
+#: Column sets found without options (also by :mod:`inertest.io.recordings`).
+GYRO_SETS, ACCEL_SETS, TIME_NAMES = _GYRO_SETS, _ACCEL_SETS, _TIME_NAMES
+_RECORDINGS = ("rosbag", "ulog", "tdms", "text", "layout")
 
 
 @dataclass(frozen=True)
@@ -171,10 +177,13 @@ def detect_format(path: Path) -> str:
                              "save it as Parquet, which compresses inside")
         return fmt
     head = _read_text_lines(path, 40)
-    lines = [h.strip() for h in head if h.strip()]
-    if lines and (lines[0].startswith("%") or all(
-            len(h.split()) in (6, 7) for h in lines[:6] if not h.startswith("%"))):
+    from inertest.io.recordings.text_table import looks_like_psins
+
+    if looks_like_psins([h for h in head if h.strip()]):
         return "psins"
+    text = "".join(head)
+    if comp is None and text.strip() and "\x00" not in text and "\ufffd" not in text:
+        return "text"  # spaces or tabs between numbers (a header line is allowed)
     raise InputError(f"cannot tell the format of {path}; give --format "
                      f"({', '.join(FORMATS[1:])})")
 
@@ -316,15 +325,19 @@ def read_imu_recording(
     accel_columns: str | None = None,
     gyro_unit: str = "rad/s",
     accel_unit: str = "m/s^2",
+    topic: str | None = None,
+    layout: str | os.PathLike[str] | None = None,
 ) -> ImuRecording:
     """Read the gyro and accelerometer channels of a recording, in SI.
 
     Parameters
     ----------
     path : path
-        CSV, Parquet, HDF5 table, or PSINS text file (also ``.gz`` / ``.xz`` compressed).
-    fmt : {"auto", "csv", "parquet", "hdf5", "psins"}
-        File format; ``auto`` by suffix, else by content (PSINS).
+        CSV, Parquet, HDF5 table, or PSINS text file (also ``.gz`` / ``.xz`` compressed); a
+        recording of :mod:`inertest.io.recordings` (ROS bag or folder, MCAP, ULog, TDMS, text
+        table, binary records with ``layout``).
+    fmt : {"auto", "csv", "parquet", "hdf5", "psins", "rosbag", "ulog", "tdms", "text", "layout"}
+        File format; ``auto`` by suffix, else by content (PSINS, else a text table).
     time_column : str, optional
         Time column name, or ``"secs,nsecs"``; default a common name if there is one, else no
         time stamps (then a sample rate must be given to the analysis).
@@ -335,6 +348,11 @@ def read_imu_recording(
     gyro_unit : {"rad/s", "deg/s", "deg/h"}
     accel_unit : {"m/s^2", "g", "mg", "ug"}
         Units of the table columns ("g" is g0 = 9.80665 m/s^2). PSINS files carry their own.
+    topic : str, optional
+        ROS topic, ULog message or TDMS group (:mod:`inertest.io.recordings`); default the
+        IMU topic found by its type.
+    layout : path, optional
+        TOML layout of a binary record (:mod:`inertest.io.recordings.binary_layout`).
     """
     p = Path(path)
     if not p.exists():
@@ -351,8 +369,22 @@ def read_imu_recording(
     if fmt not in ("auto", "psins") and _compression(p) is not None:
         raise InputError(f"--format {fmt}: {p.name} is compressed and tables are not read "
                          "compressed; decompress it, or save it as Parquet (compressed inside)")
-    if fmt == "auto":
-        fmt = detect_format(p)
+    if fmt == "auto" or fmt in _RECORDINGS:
+        from inertest.io.recordings.imu import read_imu, recording_of
+
+        given = gyro_columns is not None or accel_columns is not None
+        rec = recording_of(p, fmt=fmt, topic=topic, layout=layout, columns_given=given)
+        if rec is None and fmt == "auto":
+            fmt = detect_format(p)
+            if fmt == "text":
+                rec = recording_of(p, fmt="text", columns_given=given)
+        if rec is not None:
+            return read_imu(rec, time_column=time_column, time_unit=time_unit,
+                            gyro_columns=gyro_columns, accel_columns=accel_columns,
+                            gyro_unit=gyro_unit, accel_unit=accel_unit)
+    if topic is not None or layout is not None:
+        raise InputError(f"{p.name}: --topic and --layout are for recordings (ROS bags, MCAP, "
+                         "ULog, TDMS; binary records); drop them")
     if fmt == "psins":
         if gyro_columns or accel_columns or time_column:
             raise InputError("a PSINS file has fixed columns; drop --gyro-columns, "

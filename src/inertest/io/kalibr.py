@@ -50,6 +50,18 @@ def _num(v: float) -> str:
     return format(float(v), ".10g")
 
 
+def _rate(v: float) -> str:
+    """A sample rate to 6 significant digits, written positionally (``100``, ``199.998``).
+
+    The median interval of float time stamps carries their rounding (``100.0000954`` Hz from
+    stamps written with 7 digits); 6 digits keep a crystal's real offset (1 ppm at 1 MHz is
+    already the 7th) and drop that noise. Positional so that YAML reads a number.
+    """
+    import numpy as np
+
+    return np.format_float_positional(float(f"{float(v):.6g}"), trim="-")
+
+
 def _comment(kind: str, param: str, term: KalibrTerm, result: ImuNoiseResult) -> list[str]:
     axes = result.sensor(kind)
     per_axis = ", ".join(
@@ -81,7 +93,7 @@ def kalibr_yaml_text(result: ImuNoiseResult, *, source: str, rostopic: str = "/i
         + (", straight line removed" if result.detrended else "") + ".",
         "# The bias instability B (the flat floor of the Allan deviation) is NOT the random walk.",
         f"rostopic: {rostopic}",
-        f"update_rate: {_num(result.rate_hz)}  # [Hz] sample rate of the recording",
+        f"update_rate: {_rate(result.rate_hz)}  # [Hz] sample rate of the recording (6 digits)",
     ]
     for key_sensor, kind in _SENSORS:
         terms = result.kalibr(kind)
@@ -97,9 +109,9 @@ def kalibr_yaml_text(result: ImuNoiseResult, *, source: str, rostopic: str = "/i
 
 
 def write_kalibr_yaml(path: str | os.PathLike[str], result: ImuNoiseResult, *,
-                      source: str) -> Path:
+                      source: str, rostopic: str = "/imu0") -> Path:
     """Write :func:`kalibr_yaml_text` to ``path`` atomically."""
-    return write_text(path, kalibr_yaml_text(result, source=source))
+    return write_text(path, kalibr_yaml_text(result, source=source, rostopic=rostopic))
 
 
 #: Kalibr's unit of each key (values are read in it, after conversion of a stated unit).

@@ -67,7 +67,8 @@ RAW_DTYPES = ("float32", "float64", "int16", "int32", "int64")
 
 
 def read_samples(
-    path: str | os.PathLike[str], column: str | None = None, *, dtype: str | None = None
+    path: str | os.PathLike[str], column: str | None = None, *, dtype: str | None = None,
+    topic: str | None = None, layout: str | os.PathLike[str] | None = None,
 ) -> NDArray:
     """Samples of one column, as an array or a read-only memory map.
 
@@ -81,11 +82,33 @@ def read_samples(
         Column name (tables) or index (2-D ``.npy``).
     dtype : str, optional
         Sample type of a raw binary file, one of :data:`RAW_DTYPES`.
+    topic, layout : optional
+        A recording's topic and a binary record's TOML layout
+        (:func:`inertest.io.recordings.read_data`); its columns are read like a table's.
     """
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(2, "no such file", str(p))
     suffix = p.suffix.lower()
+    from inertest.io.recordings import recording_format
+
+    if layout is not None or recording_format(p) is not None:
+        from inertest.io.recordings import open_recording
+
+        rec = open_recording(p, topic=topic, layout=layout)
+        names = list(rec.names)
+        if column is None:
+            raise InputError(f"{p} has columns {', '.join(names) or '(by message)'}; choose "
+                             "one with --column")
+        if names and column not in names:
+            raise DataError(f"{p} has no column {column!r}; it has {', '.join(names)}: fix "
+                            "--column")
+        values = rec.read([column]).get(column)
+        if values is None or values.dtype.kind not in "fiu":
+            raise DataError(f"column {column!r} of {p} is not numeric")
+        return np.asarray(values, dtype=np.float64)
+    if topic is not None:
+        raise InputError(f"{p.name}: --topic is for recordings (ROS bags, MCAP, ULog, TDMS)")
     if suffix in RAW_SUFFIXES:
         dt = dtype or RAW_SUFFIXES[suffix]
         if dt is None:

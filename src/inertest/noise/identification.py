@@ -644,8 +644,8 @@ class Event:
         return {**dataclasses.asdict(self), "test_level": EVENT_ALPHA}
 
 
-def largest_event(data: ArrayLike, result: DeviationResult, taus: NDArray,
-                  model_var: NDArray) -> Event | None:
+def largest_event(data: ArrayLike | None, result: DeviationResult, taus: NDArray,
+                  model_var: NDArray, *, phase: NDArray | None = None) -> Event | None:
     """Single-event check: the largest overlapping Allan term against the fitted model.
 
     Parameters
@@ -659,6 +659,9 @@ def largest_event(data: ArrayLike, result: DeviationResult, taus: NDArray,
         :data:`EVENT_MIN_AVERAGES` averages are used.
     model_var : (k,) array
         Allan variance of the fitted five-term model at ``taus``.
+    phase : (N + 1,) array, optional
+        The phase of a rate record (its mean removed) built by the caller, e.g. in a
+        memory-mapped file for a record streamed from disk; ``data`` is then not read.
 
     Returns
     -------
@@ -677,18 +680,23 @@ def largest_event(data: ArrayLike, result: DeviationResult, taus: NDArray,
     variance alone takes for rate random walk, quantization or flicker noise: the terms
     around it stand out at the taus where the noise is small.
     """
-    if isinstance(data, np.memmap) or not isinstance(data, (np.ndarray, list, tuple)):
-        return None
-    y = np.asarray(data, dtype=np.float64).ravel()
-    if y.size > EVENT_CHECK_MAX_SAMPLES or not np.all(np.isfinite(y)):
-        return None
     tau0 = 1.0 / result.rate_hz
-    if result.data_type == "rate":
-        x = np.empty(y.size + 1)
-        x[0] = 0.0
-        np.cumsum((y - y.mean()) * tau0, out=x[1:])
+    if phase is not None:
+        x = np.asarray(phase).view(np.ndarray)  # a memory map read in place
+        if x.size - 1 > EVENT_CHECK_MAX_SAMPLES:
+            return None
     else:
-        x = y
+        if isinstance(data, np.memmap) or not isinstance(data, (np.ndarray, list, tuple)):
+            return None
+        y = np.asarray(data, dtype=np.float64).ravel()
+        if y.size > EVENT_CHECK_MAX_SAMPLES or not np.all(np.isfinite(y)):
+            return None
+        if result.data_type == "rate":
+            x = np.empty(y.size + 1)
+            x[0] = 0.0
+            np.cumsum((y - y.mean()) * tau0, out=x[1:])
+        else:
+            x = y
     ms = np.rint(np.asarray(taus) / tau0).astype(np.int64)
     use = ((x.size - 1) // ms >= EVENT_MIN_AVERAGES) & (model_var > 0)
     if not use.any():
@@ -726,7 +734,7 @@ def _bounds_only(result: DeviationResult, instrument: str | None, taus: NDArray,
 
 def identify_noise(
     result: DeviationResult, *, instrument: str | None = "gyro",
-    data: ArrayLike | None = None,
+    data: ArrayLike | None = None, phase: NDArray | None = None,
 ) -> NoiseModel:
     """Fit the five IEEE 952 terms to an (overlapping) Allan deviation.
 
@@ -741,6 +749,9 @@ def identify_noise(
     data : (N,) array, optional
         The samples ``result`` was computed from (its unit and data type): with them the
         single-event check (:func:`largest_event`) runs too.
+    phase : (N + 1,) array, optional
+        Instead of ``data``, for a record too long to hold: its phase (a memory-mapped file),
+        as :func:`largest_event` builds it from a rate record.
 
     Returns
     -------
@@ -818,7 +829,8 @@ def identify_noise(
     chi2_fit, dof, few, outside = _verdict(var, fit_model, cov_of(p) + np.diag(floor), edf,
                                            int((p > 0).sum()))
     p_value = float(_chi2.sf(chi2_fit * dof, dof))
-    event = None if data is None else largest_event(data, result, taus, fit_model)
+    event = (largest_event(data, result, taus, fit_model, phase=phase)
+             if data is not None or phase is not None else None)
     fits = bool(p_value >= MODEL_CHECK_ALPHA and not outside.any()
                 and (event is None or event.p_value >= EVENT_ALPHA))
     with np.errstate(divide="ignore", invalid="ignore"):

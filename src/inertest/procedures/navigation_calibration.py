@@ -469,6 +469,14 @@ class NavigationCalibration:
         """The identifiable coefficients."""
         return self.identification.coefficients
 
+    def to_pandas(self) -> object:
+        """Coefficients as a DataFrame (:meth:`Identification.to_pandas`)."""
+        return self.identification.to_pandas()
+
+    def covariance_to_pandas(self) -> object:
+        """Named covariance as a DataFrame (:meth:`Identification.covariance_to_pandas`)."""
+        return self.identification.covariance_to_pandas()
+
     def to_dict(self) -> dict[str, object]:
         """The ``navigation-calibration`` result envelope."""
         it = self.iteration

@@ -417,6 +417,10 @@ def fit_thermal(
     the numpy forward pass of those arrays.
     """
     # scikit-learn (~1.5 s to import) loads only when a thermal model is fitted.
+    from inertest.errors import import_extra
+
+    import_extra("sklearn", "fitting thermal models (the neural network and its polynomial "
+                            "rival)")
     from sklearn.compose import TransformedTargetRegressor
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPRegressor

@@ -316,6 +316,41 @@ class Identification:
     noise_model_weights: Mapping[str, float] = field(default_factory=dict)
     bias_time_scale: float | None = None
 
+    def rows(self) -> list[dict[str, object]]:
+        """One row per coefficient, then per combination: name, kind, value, std, unit, terms."""
+        out: list[dict[str, object]] = [
+            {"name": k, "kind": "coefficient", "value": e.value, "std": e.std, "unit": e.unit,
+             "terms": {k: 1.0}} for k, e in self.coefficients.items()]
+        out += [{"name": c.name, "kind": "combination", "value": c.value, "std": c.std,
+                 "unit": c.unit, "terms": dict(c.terms)} for c in self.combinations]
+        return out
+
+    def to_pandas(self) -> object:
+        """What the data determine as a ``pandas.DataFrame`` indexed by name.
+
+        Columns ``kind`` (coefficient or combination), ``value``, ``std`` (1 sigma), ``unit``
+        and ``terms`` (the weights of a combination; ``{name: 1}`` for a coefficient).
+        """
+        from inertest.errors import import_extra
+
+        pd = import_extra("pandas", "to_pandas()")
+        return pd.DataFrame(self.rows()).set_index("name")  # type: ignore[attr-defined]
+
+    def covariance_to_pandas(self) -> object:
+        """The covariance of the coefficients as a ``pandas.DataFrame``, names on both axes.
+
+        In the coefficients' engineering units (``attrs["units"]``: name -> unit); meaningful
+        only along identifiable directions (the combinations).
+        """
+        from inertest.errors import import_extra
+
+        pd = import_extra("pandas", "covariance_to_pandas()")
+        names = list(self.names)
+        df = pd.DataFrame(np.asarray(self.covariance), index=names,  # type: ignore[attr-defined]
+                          columns=names)
+        df.attrs["units"] = {k: e.unit for k, e in self.coefficients.items()}
+        return df
+
     def to_dict(self) -> dict[str, object]:
         """JSON-ready summary (no per-sample arrays); the checks under ``"checks"``."""
         d: dict[str, object] = {
@@ -418,6 +453,14 @@ class LinearTestResult:
     def details(self) -> dict[str, object]:
         """The procedure's own block (``result`` in the envelope); empty by default."""
         return {}
+
+    def to_pandas(self) -> object:
+        """Coefficients and combinations as a DataFrame (:meth:`Identification.to_pandas`)."""
+        return self.identification.to_pandas()
+
+    def covariance_to_pandas(self) -> object:
+        """Named covariance as a DataFrame (:meth:`Identification.covariance_to_pandas`)."""
+        return self.identification.covariance_to_pandas()
 
     def to_dict(self) -> dict[str, object]:
         """The result :func:`envelope` with the identification and the procedure's block."""

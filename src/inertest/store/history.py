@@ -252,8 +252,10 @@ class HistoryStore:
         try:
             self.engine = _create_engine(self.url, backend)
         except (NoSuchModuleError, ModuleNotFoundError) as exc:
-            raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}; install "
-                             "it, or use a sqlite:/// path or postgresql+psycopg:// URL") from None
+            hint = ("pip install 'inertest[postgres]'" if backend == "postgresql"
+                    else "install it")
+            raise StoreError(f"no database driver for {self._shown}: {_reason(exc)}; {hint}, "
+                             "or use a sqlite:/// path or postgresql+psycopg:// URL") from None
         except (ArgumentError, TypeError, ValueError) as exc:
             raise StoreError(f"unusable database URL {self._shown}: {_reason(exc)}") from None
         self._ready = False
