@@ -14,4 +14,5 @@ EXAMPLES = {
     "centrifuge-nine-position": ("centrifuge", "truth.toml", 1e-9),
     "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
     "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
+    "turn-on-repeatability": ("turn_on_repeatability", "truth.toml", 0.0),  # truth gives noise
 }
