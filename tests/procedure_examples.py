@@ -15,4 +15,5 @@ EXAMPLES = {
     "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
     "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
     "turn-on-repeatability": ("turn_on_repeatability", "truth.toml", 0.0),  # truth gives noise
+    "in-run-stability": ("in_run_stability", "truth.toml", 0.0),  # truth gives noise
 }

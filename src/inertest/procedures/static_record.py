@@ -17,8 +17,9 @@ column ``time_s`` (checked against the plan's ``sample_rate_hz``).
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,6 +27,8 @@ from numpy.typing import NDArray
 from inertest.earth import earth_rate_enu, specific_force_enu
 from inertest.equipment.rate_table import direction_vector
 from inertest.errors import DataError, PlanError
+from inertest.noise.identification import simulate_noise
+from inertest.noise.record_noise import RecordNoise
 from inertest.plan import Field, Instrument, Plan
 from inertest.procedures.spec import require_columns
 from inertest.units import (
@@ -252,3 +255,45 @@ def noise_term_block(terms: Mapping[str, Mapping[str, object]]) -> dict[str, obj
                   "std": t.get("std"), "upper_bound": t.get("upper_bound"),
                   "unit": t.get("unit")}
     return out
+
+
+def with_allan_check(doc: dict[str, object], noise: RecordNoise) -> dict[str, object]:
+    """``doc`` with a check of the five-term Allan model of the in-run noise (and its message)."""
+    checks = doc.get("checks")
+    entry: dict[str, object] = {
+        "name": "in-run noise: five-term Allan model (IEEE Std 952-1997 Annex C)",
+        "verdict": "consistent" if noise.fits else "model does not fit",
+        "detail": noise.verdict,
+        "message": None if noise.fits else (
+            "the in-run noise is not described by the five-term Allan model "
+            f"({noise.verdict}); the in-run uncertainties rest on it: check the record for "
+            "steps, trends or vibration"),
+    }
+    if isinstance(checks, list):
+        checks.append(entry)
+    messages = doc.get("messages")
+    if not noise.fits and isinstance(messages, list) and entry["message"] not in messages:
+        messages.append(entry["message"])
+    return doc
+
+
+def in_run_noise(truth: Mapping[str, float], sensor: Sensor, n: int, rate_hz: float,
+                 rng: np.random.Generator) -> NDArray[np.float64]:
+    """IEEE 952 noise of a virtual instrument over ``n`` readings [SI] from the truth's terms."""
+    arw = float(truth.get("ARW", 0.0)) * sensor.si_per_random_walk_unit
+    b = float(truth.get("bias_instability", 0.0)) * sensor.si_per_bias_unit
+    k = float(truth.get("RRW", 0.0)) * sensor.si_per_rate_random_walk_unit
+    if arw == b == k == 0.0:
+        return np.zeros(n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate_noise(n, rate_hz, n_rw=arw, b=b, k=k, rng=rng)
+
+
+def with_white(noise: RecordNoise, sigma_si: float) -> RecordNoise:
+    """``noise`` with its white term set to a known ``sigma`` per reading (no uncertainty)."""
+    p = noise.p.copy()
+    p[1] = sigma_si**2 / noise.rate_hz
+    cov = noise.cov.copy()
+    cov[1, :] = cov[:, 1] = 0.0
+    return replace(noise, p=p, cov=cov)

@@ -34,10 +34,12 @@ between them, here power off and on). The test here:
 What counts as in-run: flicker slower than ``1 / (2 s T)`` (``T`` a run's duration, ``s`` the
 plan's ``bias_time_scale``, default 2) is a constant over a run and so counts as turn-on
 variation; a rate random walk is taken from each power-on. The random walk enters the in-run
-variance only when the pooled Allan variance shows it (:data:`inertest.noise.record_noise.
-RANDOM_WALK_CHI2`): one it cannot show but that dominates a run's mean makes the F test
-liberal (a random walk of 12 % of a run mean's variance raised its false-alarm rate from 5 %
-to about 8 %, tests/procedures/test_turn_on_repeatability.py).
+variance only when the pooled Allan variance determines it (:data:`inertest.noise.record_noise.
+RANDOM_WALK_CHI2`, :data:`~inertest.noise.record_noise.RANDOM_WALK_Z`): one it cannot show but
+that dominates a run's mean makes the F test liberal and counts as turn-on variation (the limits
+are stated in :mod:`inertest.noise.record_noise`). With white + flicker + a random walk of 3 %
+of a run mean's variance the test rejected at 6.5 % at its 5 % level
+(tests/procedures/test_turn_on_repeatability.py).
 
 Data columns: ``run`` (the power-on run of each reading, rows of a run together, runs in time
 order), ``output`` [output unit: a rate unit for a gyro, a specific-force unit for an
@@ -51,7 +53,6 @@ with one run per power-on.
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
@@ -63,7 +64,6 @@ from scipy import special
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.estimation.model_checks import model_checks
 from inertest.estimation.reml import bounded_minimum
-from inertest.noise.identification import simulate_noise
 from inertest.noise.record_noise import RecordNoise, fit_record_noise
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure
@@ -73,12 +73,15 @@ from inertest.procedures.static_record import (
     Runs,
     Sensor,
     chi2_std_interval,
+    in_run_noise,
     input_at_rest,
     noise_term_block,
     read_axis,
     read_runs,
     sensor_of,
     std_of_std,
+    with_allan_check,
+    with_white,
 )
 from inertest.results import Estimate, Identification, LinearTestResult
 
@@ -179,26 +182,6 @@ class TurnOnResult(LinearTestResult):
         return with_allan_check(super().to_dict(), self.noise)
 
 
-def with_allan_check(doc: dict[str, object], noise: RecordNoise) -> dict[str, object]:
-    """``doc`` with a check of the five-term Allan model of the in-run noise (and its message)."""
-    checks = doc.get("checks")
-    entry: dict[str, object] = {
-        "name": "in-run noise: five-term Allan model (IEEE Std 952-1997 Annex C)",
-        "verdict": "consistent" if noise.fits else "model does not fit",
-        "detail": noise.verdict,
-        "message": None if noise.fits else (
-            "the in-run noise is not described by the five-term Allan model "
-            f"({noise.verdict}); the in-run uncertainties rest on it: check the record for "
-            "steps, trends or vibration"),
-    }
-    if isinstance(checks, list):
-        checks.append(entry)
-    messages = doc.get("messages")
-    if not noise.fits and isinstance(messages, list) and entry["message"] not in messages:
-        messages.append(entry["message"])
-    return doc
-
-
 @dataclass(frozen=True)
 class TurnOnObservations:
     """The runs in SI with what the fit needs: sensor, rate, input at rest."""
@@ -254,7 +237,7 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
         if sigma is not None:  # a known white noise per reading replaces the fitted N
             s_si = known_sigma(sigma, sensor.si_per_output)
             assert s_si is not None
-            noise = _with_white(noise, s_si)
+            noise = with_white(noise, s_si)
         g = np.array([noise.mean_kernel(int(n)) for n in runs.lengths])   # (R, 4)
         v = np.maximum(g @ noise.p, 1e-300)
         nu = noise.variance_dof(g.mean(axis=0))
@@ -402,30 +385,6 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
 
 #: The procedure (the registry finds it here by the module's name).
 PROCEDURE = TurnOnRepeatability()
-
-
-def in_run_noise(truth: Mapping[str, float], sensor: Sensor, n: int, rate_hz: float,
-                 rng: np.random.Generator) -> NDArray[np.float64]:
-    """IEEE 952 noise of a virtual instrument over ``n`` readings [SI] from the truth's terms."""
-    arw = float(truth.get("ARW", 0.0)) * sensor.si_per_random_walk_unit
-    b = float(truth.get("bias_instability", 0.0)) * sensor.si_per_bias_unit
-    k = float(truth.get("RRW", 0.0)) * sensor.si_per_rate_random_walk_unit
-    if arw == b == k == 0.0:
-        return np.zeros(n)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return simulate_noise(n, rate_hz, n_rw=arw, b=b, k=k, rng=rng)
-
-
-def _with_white(noise: RecordNoise, sigma_si: float) -> RecordNoise:
-    """``noise`` with its white term set to a known ``sigma`` per reading (no uncertainty)."""
-    from dataclasses import replace
-
-    p = noise.p.copy()
-    p[1] = sigma_si**2 / noise.rate_hz
-    cov = noise.cov.copy()
-    cov[1, :] = cov[:, 1] = 0.0
-    return replace(noise, p=p, cov=cov)
 
 
 def _reml_tau2(b: NDArray[np.float64], v: NDArray[np.float64]) -> float:
