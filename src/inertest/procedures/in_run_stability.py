@@ -45,22 +45,22 @@ from numpy.typing import NDArray
 
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.estimation.model_checks import model_checks
-from inertest.noise.record_noise import RecordNoise, fit_record_noise, windows
+from inertest.noise.record_noise import RecordNoise, windows
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure
-from inertest.procedures.spec import known_sigma, noise_samples
+from inertest.procedures.spec import noise_samples
 from inertest.procedures.static_record import (
     STATIC_FIELDS,
     Sensor,
     chi2_std_interval,
     in_run_noise,
     input_at_rest,
+    noise_of,
     noise_term_block,
     read_axis,
-    read_runs,
+    read_static,
     sensor_of,
     with_allan_check,
-    with_white,
 )
 from inertest.results import Estimate, Identification, LinearTestResult
 
@@ -184,17 +184,13 @@ class InRunStability(Procedure[InRunStabilitySpec, StaticObservations, InRunStab
 
     def reduce(self, plan: Plan, data: Mapping[str, object], motion: Any) -> StaticObservations:
         """The record in SI, input at rest removed, settling readings left out."""
-        spec: InRunStabilitySpec = plan.procedure
-        sensor = sensor_of(plan.instrument, KIND)
-        at_rest = input_at_rest(plan, sensor, spec.input_axis)
-        settle = int(round(spec.settle_s * spec.sample_rate_hz))
-        runs = read_runs(data, procedure=KIND, sensor=sensor, at_rest=at_rest,
-                         settle_readings=settle)
+        runs, sensor, at_rest = read_static(plan, data, KIND)
         if len(runs.labels) > 1:
             raise PlanError(f"{KIND} analyses one continuous record; the data name "
                             f"{len(runs.labels)} runs ({', '.join(runs.labels[:4])}): give one "
                             "run per plan, or use turn-on-repeatability for several power-ons")
-        return StaticObservations(runs.values[0], sensor, float(spec.sample_rate_hz), at_rest)
+        return StaticObservations(runs.values[0], sensor, float(plan.procedure.sample_rate_hz),
+                                  at_rest)
 
     def identify(self, plan: Plan, obs: StaticObservations, *, sigma: float | None,
                  noise_model: str | None) -> InRunStabilityResult:
@@ -209,12 +205,7 @@ class InRunStability(Procedure[InRunStabilitySpec, StaticObservations, InRunStab
                 f"{KIND}: the record holds {M} window(s) of {spec.averaging_time_s:g} s "
                 f"({n / obs.rate_hz:g} s after settling); at least {MIN_WINDOWS} are needed for "
                 "a standard deviation: record longer or shorten averaging_time_s")
-        noise = fit_record_noise([y - y.mean()], obs.rate_hz, instrument=sensor.kind,
-                                 bias_time_scale=spec.bias_time_scale)
-        if sigma is not None:
-            s_si = known_sigma(sigma, sensor.si_per_output)
-            assert s_si is not None
-            noise = with_white(noise, s_si)
+        noise = noise_of([y - y.mean()], plan, sensor, sigma)
         u_win = windows(n, np.arange(M + 1) * m)
         means = y[: M * m].reshape(M, m).mean(axis=1)
         kernels = noise.unit_kernels(u_win)                    # (4, M, M)

@@ -297,3 +297,39 @@ def with_white(noise: RecordNoise, sigma_si: float) -> RecordNoise:
     cov = noise.cov.copy()
     cov[1, :] = cov[:, 1] = 0.0
     return replace(noise, p=p, cov=cov)
+
+
+def read_static(plan: Plan, data: Mapping[str, object], kind: str, *, need_run: bool = False
+                ) -> tuple[Runs, Sensor, float]:
+    """A static test's runs in SI, its sensor and the input at rest [SI].
+
+    The input at rest is removed and ``settle_s`` left out at the start of each run, from a plan
+    whose procedure has ``input_axis``, ``settle_s`` and ``sample_rate_hz``.
+    """
+    spec = plan.procedure
+    sensor = sensor_of(plan.instrument, kind)
+    at_rest = input_at_rest(plan, sensor, spec.input_axis)
+    settle = int(round(spec.settle_s * spec.sample_rate_hz))
+    runs = read_runs(data, procedure=kind, sensor=sensor, at_rest=at_rest,
+                     settle_readings=settle, need_run=need_run)
+    return runs, sensor, at_rest
+
+
+def noise_of(records: Sequence[NDArray[np.float64]], plan: Plan, sensor: Sensor,
+             sigma: float | None) -> RecordNoise:
+    """The records' noise from their pooled Allan variance.
+
+    A given ``sigma`` per reading [output unit] replaces the fitted white noise (with no
+    uncertainty).
+    """
+    from inertest.noise.record_noise import fit_record_noise
+    from inertest.procedures.spec import known_sigma
+
+    spec = plan.procedure
+    noise = fit_record_noise(records, float(spec.sample_rate_hz), instrument=sensor.kind,
+                             bias_time_scale=spec.bias_time_scale)
+    if sigma is None:
+        return noise
+    s_si = known_sigma(sigma, sensor.si_per_output)
+    assert s_si is not None
+    return with_white(noise, s_si)

@@ -64,10 +64,10 @@ from scipy import special
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.estimation.model_checks import model_checks
 from inertest.estimation.reml import bounded_minimum
-from inertest.noise.record_noise import RecordNoise, fit_record_noise
+from inertest.noise.record_noise import RecordNoise
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure
-from inertest.procedures.spec import known_sigma, noise_samples
+from inertest.procedures.spec import noise_samples
 from inertest.procedures.static_record import (
     STATIC_FIELDS,
     Runs,
@@ -75,13 +75,13 @@ from inertest.procedures.static_record import (
     chi2_std_interval,
     in_run_noise,
     input_at_rest,
+    noise_of,
     noise_term_block,
     read_axis,
-    read_runs,
+    read_static,
     sensor_of,
     std_of_std,
     with_allan_check,
-    with_white,
 )
 from inertest.results import Estimate, Identification, LinearTestResult
 
@@ -212,18 +212,13 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
 
     def reduce(self, plan: Plan, data: Mapping[str, object], motion: Any) -> TurnOnObservations:
         """The runs in SI, the input at rest removed and the settling readings left out."""
-        spec: TurnOnRepeatabilitySpec = plan.procedure
-        sensor = sensor_of(plan.instrument, KIND)
-        at_rest = input_at_rest(plan, sensor, spec.input_axis)
-        settle = int(round(spec.settle_s * spec.sample_rate_hz))
-        runs = read_runs(data, procedure=KIND, sensor=sensor, at_rest=at_rest,
-                         settle_readings=settle, need_run=True)
+        runs, sensor, at_rest = read_static(plan, data, KIND, need_run=True)
         if len(runs.labels) < MIN_RUNS:
             raise IdentifiabilityError(
                 f"{KIND} needs at least {MIN_RUNS} power-on runs (a standard deviation, its "
                 f"interval and the F test), got {len(runs.labels)}: "
                 f"{', '.join(runs.labels)}; record more turn-ons")
-        return TurnOnObservations(runs, sensor, float(spec.sample_rate_hz), at_rest)
+        return TurnOnObservations(runs, sensor, float(plan.procedure.sample_rate_hz), at_rest)
 
     def identify(self, plan: Plan, obs: TurnOnObservations, *, sigma: float | None,
                  noise_model: str | None) -> TurnOnResult:
@@ -232,12 +227,7 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
         sensor, runs = obs.sensor, obs.runs
         R = len(runs.labels)
         b = np.array([v.mean() for v in runs.values])
-        noise = fit_record_noise([v - v.mean() for v in runs.values], obs.rate_hz,
-                                 instrument=sensor.kind, bias_time_scale=spec.bias_time_scale)
-        if sigma is not None:  # a known white noise per reading replaces the fitted N
-            s_si = known_sigma(sigma, sensor.si_per_output)
-            assert s_si is not None
-            noise = with_white(noise, s_si)
+        noise = noise_of([v - v.mean() for v in runs.values], plan, sensor, sigma)
         g = np.array([noise.mean_kernel(int(n)) for n in runs.lengths])   # (R, 4)
         v = np.maximum(g @ noise.p, 1e-300)
         nu = noise.variance_dof(g.mean(axis=0))
