@@ -16,4 +16,5 @@ EXAMPLES = {
     "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
     "turn-on-repeatability": ("turn_on_repeatability", "truth.toml", 0.0),  # truth gives noise
     "in-run-stability": ("in_run_stability", "truth.toml", 0.0),  # truth gives noise
+    "warm-up": ("warm_up", "truth.toml", 0.0),  # truth gives noise
 }
