@@ -59,11 +59,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import special
 
 from inertest.errors import IdentifiabilityError, PlanError
 from inertest.estimation.model_checks import model_checks
-from inertest.estimation.reml import bounded_minimum
+from inertest.estimation.random_effects import random_effects
 from inertest.noise.record_noise import RecordNoise
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure
@@ -232,23 +231,14 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
         v = np.maximum(g @ noise.p, 1e-300)
         nu = noise.variance_dof(g.mean(axis=0))
 
-        tau2 = _reml_tau2(b, v)
-        w = 1.0 / (tau2 + v)
-        mu = float(w @ b / w.sum())
-        q_hk = float(w @ (b - mu) ** 2)
-        std_mu = math.sqrt(q_hk / ((R - 1) * w.sum()))
-        lo2, hi2 = _q_profile(b, v, 0.95)
+        re = random_effects(b, v, within_dof=nu)
+        tau2, mu, std_mu = re.tau2, re.mu, re.mu_std
+        lo2, hi2 = re.tau2_interval
+        F, p = re.F, re.p_value
 
         s = float(np.std(b, ddof=1))
         s_std = std_of_std(s, R)
         s_lo, s_hi = chi2_std_interval(s, R - 1)
-
-        w0 = 1.0 / v
-        mu0 = float(w0 @ b / w0.sum())
-        Q0 = float(w0 @ (b - mu0) ** 2)
-        F = Q0 / (R - 1)
-        p = float(special.fdtrc(R - 1, nu, F) if math.isfinite(nu)
-                  else special.chdtrc(R - 1, Q0))
         significant = p < spec.alpha
 
         u = sensor.si_per_bias_unit
@@ -375,47 +365,4 @@ class TurnOnRepeatability(Procedure[TurnOnRepeatabilitySpec, TurnOnObservations,
 
 #: The procedure (the registry finds it here by the module's name).
 PROCEDURE = TurnOnRepeatability()
-
-
-def _reml_tau2(b: NDArray[np.float64], v: NDArray[np.float64]) -> float:
-    """REML of the between-run variance ``tau^2 >= 0`` of ``b_r ~ N(mu, tau^2 + v_r)``."""
-    def nll(t: float) -> float:
-        w = 1.0 / (t + v)
-        mu = w @ b / w.sum()
-        return float(0.5 * (np.sum(np.log(t + v)) + math.log(w.sum()) + w @ (b - mu) ** 2))
-
-    spread = float(np.var(b, ddof=1)) if b.size > 1 else 0.0
-    hi = max(10.0 * spread, float(v.max()))
-    grid = np.geomspace(max(hi * 1e-8, 1e-300), hi, 41)
-    vals = np.array([nll(float(t)) for t in grid])
-    i = int(np.argmin(vals))
-    lo_t, hi_t = np.log(grid[max(i - 1, 0)]), np.log(grid[min(i + 1, grid.size - 1)])
-    x, fx = bounded_minimum(lambda lt: nll(float(np.exp(lt))), lo_t, hi_t, xatol=1e-4)
-    return 0.0 if nll(0.0) <= fx else float(np.exp(x))
-
-
-def _q_profile(b: NDArray[np.float64], v: NDArray[np.float64], confidence: float
-               ) -> tuple[float, float]:
-    """Q-profile interval of ``tau^2`` (Viechtbauer 2007): ``Q(tau^2)`` between chi2 quantiles."""
-    from scipy.optimize import brentq
-
-    dof = b.size - 1
-    a = 1.0 - confidence
-
-    def Q(t: float) -> float:
-        w = 1.0 / (t + v)
-        mu = w @ b / w.sum()
-        return float(w @ (b - mu) ** 2)
-
-    top = max(100.0 * float(np.var(b, ddof=1)), float(v.max()), 1e-300)
-
-    def root(level: float) -> float:
-        if Q(0.0) <= level:
-            return 0.0
-        hi = top
-        while Q(hi) > level:
-            hi *= 10.0
-        return float(brentq(lambda t: Q(t) - level, 0.0, hi, xtol=1e-14 * hi, maxiter=200))
-
-    return root(float(special.chdtri(dof, a / 2.0))), root(float(special.chdtri(dof, 1 - a / 2)))
 
