@@ -17,4 +17,5 @@ EXAMPLES = {
     "turn-on-repeatability": ("turn_on_repeatability", "truth.toml", 0.0),  # truth gives noise
     "in-run-stability": ("in_run_stability", "truth.toml", 0.0),  # truth gives noise
     "warm-up": ("warm_up", "truth.toml", 0.0),  # truth gives noise
+    "scale-factor-repeatability": ("scale_factor_repeatability", "truth.toml", 2.0),
 }
