@@ -18,4 +18,5 @@ EXAMPLES = {
     "in-run-stability": ("in_run_stability", "truth.toml", 0.0),  # truth gives noise
     "warm-up": ("warm_up", "truth.toml", 0.0),  # truth gives noise
     "scale-factor-repeatability": ("scale_factor_repeatability", "truth.toml", 2.0),
+    "temperature-sensitivity": ("temperature_sensitivity", "truth.toml", 0.01),
 }
