@@ -225,7 +225,6 @@ class InRunStability(Procedure[InRunStabilitySpec, StaticObservations, InRunStab
         g_mean = noise.mean_kernel(n)
         mean = float(y.mean())
         std_mean = math.sqrt(max(float(g_mean @ noise.p), 0.0))
-        nu_mean = noise.variance_dof(g_mean)
         u = sensor.si_per_bias_unit
         unit = sensor.bias_unit
         coefficients = {
@@ -254,12 +253,11 @@ class InRunStability(Procedure[InRunStabilitySpec, StaticObservations, InRunStab
                               sigma_given=False, labels=[f"window {k + 1}" for k in range(M)],
                               unit="window")
         white = math.sqrt(noise.p[1] * noise.rate_hz) / sensor.si_per_output
-        dof = [d for d in (nu_s, nu_mean) if math.isfinite(d)]
         ident = Identification(
             coefficients=coefficients, combinations=(), not_separable=tuple(not_sep),
             covariance=cov, names=names, noise_sigma=white, noise_unit=sensor.output_unit,
             sigma_from_residuals=sigma is None,
-            dof=max(int(math.floor(min(dof))), 1) if dof else M - 1, rank=1,
+            dof=max(int(math.floor(nu_s)), 1) if math.isfinite(nu_s) else M - 1, rank=1,
             residuals=(means - means.mean()) / sensor.si_per_output,
             noise_model="white + flicker" + (" + random walk" if noise.p[3] > 0 else "")
                         + " (Allan fit)",
