@@ -8,7 +8,8 @@ reading that campaign.toml states and a fixed seed per test, so the files are re
     python examples/fog_acceptance/generate.py --units 12 --out lot   # a lot of 12 units
 
 A lot: each unit gets its own serial (FOG-Z-1001, ...), its own coefficients drawn around the
-shipped unit's (unit-to-unit spread; unit 7 has a high bias, to stand out), its own seeds, and a
+shipped unit's (:func:`inertest.demo.lot_truths`: unit-to-unit spread, unit 7 with a high bias
+to stand out), its own seeds, and a
 folder with copies of the plans (serial replaced), its data and its campaign.toml. The data are
 simulated, not measured: they show the workflow, not a real gyro (licence: LICENSE beside this
 file).
@@ -25,22 +26,13 @@ from pathlib import Path
 import numpy as np
 
 import inertest
+from inertest.demo import lot_truths
 from inertest.io.data_file import write_table
 from inertest.io.plan_file import load_truth
 
 HERE = Path(__file__).resolve().parent
-#: Unit-to-unit spread of the lot (1 sigma), per test and coefficient: (absolute, relative).
-SPREAD = {
-    "turn-on": {"B": (0.12, 0), "turn_on_sigma": (0, 0.25), "bias_instability": (0, 0.2)},
-    "warm-up": {"B_final": (0.12, 0), "warm_up_amplitude": (0, 0.2), "time_constant": (0, 0.15)},
-    "in-run": {"B": (0.12, 0), "bias_instability": (0, 0.2), "ARW": (0, 0.15)},
-    "scale-factor": {"K": (0, 1e-4), "asymmetry": (10.0, 0), "K2": (0.03, 0)},
-    "thermal": {"temperature_sensitivity": (0.0015, 0)},
-}
-
-
-def write_unit(manifest: Path, out: Path, truths: dict[str, dict[str, float]], seed: int,
-               serial: str | None = None) -> None:
+def write_unit(manifest: Path, out: Path, truths: dict[str, dict[str, float]],
+               seed: int) -> None:
     """Simulate every test of ``manifest`` with ``truths`` and write the files it lists."""
     doc = tomllib.loads(manifest.read_text(encoding="utf-8"))
     for k, t in enumerate(doc["test"]):
@@ -68,8 +60,7 @@ def truths_of(manifest: Path) -> dict[str, dict[str, float]]:
 
 def write_lot(units: int, out: Path, seed: int = 100) -> None:
     """A lot of ``units`` units, each in its own folder with its campaign."""
-    rng = np.random.default_rng(seed)
-    base = truths_of(HERE / "campaign.toml")
+    lots = lot_truths(truths_of(HERE / "campaign.toml"), units, seed)
     for u in range(units):
         serial = f"FOG-Z-{1001 + u}"
         folder = out / serial
@@ -79,25 +70,17 @@ def write_lot(units: int, out: Path, seed: int = 100) -> None:
                 text = (HERE / sub / f).read_text(encoding="utf-8")
                 (folder / sub / f).write_text(text.replace("FOG-Z-0231", serial),
                                               encoding="utf-8")
-        offset = rng.normal(0.0, 1.0)   # one unit bias, shared by the tests that see it
-        truths = {}
-        for name, t in base.items():
-            t = dict(t)
-            for k, (a, r) in SPREAD.get(name, {}).items():
-                if k in ("B", "B_final"):
-                    t[k] = t[k] + a * offset + (0.9 if u == 6 else 0.0)
-                else:
-                    t[k] = t[k] * (1 + r * rng.normal()) + a * rng.normal()
-            truths[name] = t
+        truths = lots[u]
         text = (HERE / "campaign.toml").read_text(encoding="utf-8")
         text = text.replace("FOG-Z-0231", serial).replace("ATP-2026-0231", f"ATP-2026-{u + 1:04d}")
         text = re.sub(r'"\.\./(specs|lab)/', lambda m: f'"{(HERE.parent / m.group(1)).as_posix()}/',
                       text)
         (folder / "campaign.toml").write_text(text, encoding="utf-8")
-        write_unit(folder / "campaign.toml", folder, truths, seed=1000 * (u + 1), serial=serial)
+        write_unit(folder / "campaign.toml", folder, truths, seed=1000 * (u + 1))
 
 
 def main() -> None:
+    """The command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--units", type=int, default=0, help="write a lot of this many units")
     ap.add_argument("--out", type=Path, default=None, help="folder of the lot")

@@ -229,3 +229,22 @@ def test_the_example_fog_campaign_runs_from_the_cli(tmp_path, examples_dir, caps
     cert = json.loads((report / "certificate.json").read_text())
     assert [t["name"] for t in cert["tests"]] == ["turn-on", "warm-up", "in-run",
                                                   "scale-factor", "thermal"]
+
+
+def test_plan_check_of_a_campaign_predicts_each_clause_before_testing(tmp_path, capsys):
+    """A white-noise bias temperature test: the predicted U of the slope is 2 sigma sqrt((A^T
+    A)^-1) of the plan's simulated steps (six steps of 60 readings by default), within the
+    Monte Carlo's scatter; a clause no test verifies is "not verified"; exit 1 then."""
+    manifest = write_unit(tmp_path, serial="U-7", slope=0.004, limit=0.01, extra_clause=True)
+    (tmp_path / "thermal" / "truth.toml").write_text(
+        "[coefficients]\nB_ref = 0.3\ntemperature_sensitivity = 0.004\n")
+    manifest.write_text(manifest.read_text() + f"noise = {SIGMA}\n")
+    assert main(["plan-check", str(manifest), "--json", "--seed", "3"]) == 1
+    doc = json.loads(capsys.readouterr().out)
+    rows = {r["clause"]: r for r in doc["clauses"]}
+    T6 = np.repeat([-40.0, -20.0, 0.0, 20.0, 40.0, 60.0], 60)
+    A = np.column_stack([np.ones_like(T6), T6 - 20.0])
+    want = 2 * SIGMA * np.sqrt(np.linalg.inv(A.T @ A)[1, 1])
+    assert rows["tc"]["predicted_expanded"] == pytest.approx(want, rel=0.35)
+    assert rows["tc"]["status"] == "verifiable"
+    assert rows["rep"]["status"] == "not verified" and rows["rep"]["test"] is None

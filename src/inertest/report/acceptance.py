@@ -94,13 +94,14 @@ def acceptance_page(doc: Mapping[str, Any], results: Mapping[str, Any], *,
         identity.append(["site", f"latitude {float(site['latitude_deg']):.6f} deg"])
     if command:
         identity += [["command", command], ["working folder", str(Path.cwd())]]
-    for t in tests:
-        for f in t.get("files") or []:
-            identity += [[f"input ({t['name']})", f["path"]],
-                         [f"SHA-256 of {Path(f['path']).name}", f["sha256"]]]
+    files = [[t["name"], f["path"], f["sha256"]] for t in tests for f in t.get("files") or []]
     sections = [_clause_section(doc)]
     for t in tests:
         sections += _test_sections(t, results.get(str(t["name"])))
+    sections.append(Section("Input files", [table_html(
+        ["test", "file", "SHA-256"], files, left_columns=3,
+        caption="Every input of the series (the certificate reproduces from these and the "
+                "command above)")]))
     first = next((t.get("result") for t in tests if t.get("result")), None) or {}
     approval = approval_of(first) if first else Approval()
     return page(f"Acceptance certificate: {serial}", sections, identity=identity,
