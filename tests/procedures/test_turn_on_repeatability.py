@@ -153,7 +153,7 @@ def test_monte_carlo_turn_on_std_recovery_and_ratios():
 def test_monte_carlo_f_test_false_alarm_rate_at_its_level():
     """No turn-on offset: the within-run vs between-run F test rejects at about its 5 % level
     (in-run white + flicker + a rate random walk of 3 % of a run mean's variance)."""
-    mc, _ = _monte_carlo(400, tau_deg_h=0.0, rng=np.random.default_rng(12))
+    mc, _ = _monte_carlo(300, tau_deg_h=0.0, rng=np.random.default_rng(12))
     rate = float(np.mean(mc["p"] < 0.05))
-    print(f"turn-on F test: false-alarm rate {rate:.3f} at 0.05 (400 runs of the test)")
-    assert abs(rate - 0.05) <= 3 * np.sqrt(0.05 * 0.95 / 400)
+    print(f"turn-on F test: false-alarm rate {rate:.3f} at 0.05 (300 runs of the test)")
+    assert abs(rate - 0.05) <= 3 * np.sqrt(0.05 * 0.95 / 300)

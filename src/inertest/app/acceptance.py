@@ -512,8 +512,9 @@ def _clauses(c: Campaign, tests: Sequence[TestOutcome]) -> tuple[ClauseVerdict, 
     for lim in c.spec.limits:
         cid = lim.clause_id
         by = [t for t in tests if cid in t.test.verifies]
-        base = {"clause_id": cid, "requirement": lim.text(), "reference": lim.clause,
-                "quantity": lim.quantity, "unit": lim.unit}
+        base: dict[str, Any] = {"clause_id": cid, "requirement": lim.text(),
+                                "reference": lim.clause, "quantity": lim.quantity,
+                                "unit": lim.unit}
         if not by:
             rows.append(ClauseVerdict(**base, test=None, verdict=NOT_VERIFIED,
                                       note="no test of the campaign verifies this clause: add "
@@ -544,7 +545,8 @@ def _messages(tests: Sequence[TestOutcome], clauses: Sequence[ClauseVerdict]) ->
             out.append(f"test {t.test.name!r} verifies no clause of the spec (listed for "
                        "information)")
         if t.outcome is not None:
-            out += [f"{t.test.name}: {m}" for m in t.outcome.to_dict().get("messages", [])]
+            found = t.outcome.to_dict().get("messages")
+            out += [f"{t.test.name}: {m}" for m in (found if isinstance(found, list) else [])]
     for cl in clauses:
         if cl.verdict == NOT_VERIFIED:
             out.append(f"clause {cl.clause_id!r} ({cl.requirement}) is verified by no test of "

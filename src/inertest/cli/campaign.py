@@ -62,7 +62,7 @@ def campaign(manifest: Path, report_dir: Path | None, no_store: bool, db: str | 
 
     doc = out.to_dict()
     print_table(f"clauses of {c.spec.name}", CLAUSE_HEADER, clause_rows(doc))
-    for m in doc.get("messages") or []:  # type: ignore[union-attr]
+    for m in out.messages:
         click.echo(safe_line(f"note: {m}"))
     click.echo(safe_line(f"overall verdict: {out.overall}"
                          + ("" if out.complete else " (the series is incomplete)")))

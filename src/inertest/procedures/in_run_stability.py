@@ -281,7 +281,8 @@ class InRunStability(Procedure[InRunStabilitySpec, StaticObservations, InRunStab
                    "bias_time_scale": noise.bias_time_scale},
             at_rest={"value": obs.at_rest / u, "unit": unit},
             bias_unit=unit,
-            window_time_s=(np.arange(M) + 0.5) * m / obs.rate_hz, window_bias=means / u,
+            window_time_s=np.asarray((np.arange(M) + 0.5) * m / obs.rate_hz, dtype=np.float64),
+            window_bias=means / u,
             noise=noise)
 
     def truth_quantities(self, truth: Mapping[str, float]) -> dict[str, float]:

@@ -274,8 +274,8 @@ def lot_statistics(envelopes: Sequence[Mapping[str, object]], spec: Spec | None 
         if not isinstance(ident, Mapping):
             raise InputError(f"the {kind} result of {serial} has no identification block")
         coeffs = ident.get("coefficients") or {}
-        items = [(name, e) for name, e in coeffs.items()]  # type: ignore[union-attr]
-        items += [(str(c["name"]), c) for c in ident.get("combinations") or []]  # type: ignore[union-attr]
+        items = [(name, e) for name, e in coeffs.items()]
+        items += [(str(c["name"]), c) for c in ident.get("combinations") or []]
         for name, e in items:
             value, std = float(e["value"]), float(e["std"])
             if not (math.isfinite(value) and math.isfinite(std)):
@@ -351,6 +351,8 @@ def _capability(lim: Limit, unit: str, x: np.ndarray, s: float | None, tau: floa
     except UnitError:
         raise InputError(f'limit on "{lim.quantity}" is in {lim.unit}, the lot\'s values in '
                          f"{unit}: write the limit in {unit} or an equivalent unit") from None
+    lo: float | None
+    hi: float | None
     if lim.max_abs is not None:
         lo, hi = -lim.max_abs * f, lim.max_abs * f
     else:
