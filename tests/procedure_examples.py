@@ -15,4 +15,9 @@ EXAMPLES = {
     "servo-table": ("servo_table", "truth.toml", 0.5),  # arcsec per encoder reading
     "orientation-free": ("orientation_free", "truth.toml", 0.0),  # its truth file gives the noise
     "systematic": ("systematic", "truth.toml", 0.0),  # its truth file gives the noise
+    "turn-on-repeatability": ("turn_on_repeatability", "truth.toml", 0.0),  # truth gives noise
+    "in-run-stability": ("in_run_stability", "truth.toml", 0.0),  # truth gives noise
+    "warm-up": ("warm_up", "truth.toml", 0.0),  # truth gives noise
+    "scale-factor-repeatability": ("scale_factor_repeatability", "truth.toml", 2.0),
+    "temperature-sensitivity": ("temperature_sensitivity", "truth.toml", 0.01),
 }

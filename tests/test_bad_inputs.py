@@ -959,6 +959,99 @@ def _(d):
             str(d / "imu.yaml")]
 
 
+# --- campaign, lot: an acceptance series and the lot statistics (issue 32) ----------------------
+def _campaign(d: Path, *, campaign: str = "", test: str = "", verifies: str = '["tc"]',
+              data: str = "thermal/steps.csv", serial: str = "U-1") -> list[str]:
+    """A one-test campaign (a bias temperature test) in d/camp; returns ``campaign MANIFEST``."""
+    from inertest.io.data_file import write_table
+
+    c = d / "camp"
+    (c / "thermal").mkdir(parents=True, exist_ok=True)
+    (c / "thermal" / "plan.toml").write_text(
+        '[site]\nlatitude_deg = 34.25\n[instrument]\nkind = "rate-gyro"\nserial = "U-1"\n'
+        'output_unit = "deg/h"\n[procedure]\nkind = "temperature-sensitivity"\n'
+        'noise_model = "white"\n')
+    T = np.repeat([-20.0, 0.0, 20.0, 40.0], 10)
+    write_table(c / "thermal" / "steps.csv", {"temperature_c": T, "output": 8.5 + 0.004 * T})
+    (c / "spec.toml").write_text(
+        '[spec]\nname = "s"\n[[limit]]\nid = "tc"\nquantity = "temperature_sensitivity"\n'
+        'max_abs = 0.01\nunit = "deg/h/degC"\nclause = "IEEE Std 952-1997"\n')
+    (c / "campaign.toml").write_text(
+        f'[campaign]\nserial = "{serial}"\nspec = "spec.toml"\n{campaign}\n[[test]]\n'
+        f'name = "thermal"\nplan = "thermal/plan.toml"\ndata = "{data}"\n'
+        f"verifies = {verifies}\nsigma = 0.01\n{test}\n")
+    return ["campaign", str(c / "campaign.toml"), "--no-store"]
+
+
+@case("campaign-manifest-missing")
+def _(d):
+    return ["campaign", str(d / "nope.toml")]
+
+
+@case("campaign-manifest-invalid-toml")
+def _(d):
+    (d / "c.toml").write_text("[campaign\nserial = 1\n")
+    return ["campaign", str(d / "c.toml")]
+
+
+@case("campaign-unknown-clause")
+def _(d):
+    return _campaign(d, verifies='["tcc"]')
+
+
+@case("campaign-unknown-key")
+def _(d):
+    return _campaign(d, campaign='serail = "U-1"')
+
+
+@case("campaign-missing-data-file")
+def _(d):
+    return _campaign(d, data="thermal/nope.csv")
+
+
+@case("campaign-serial-is-not-the-plans")
+def _(d):
+    return _campaign(d, serial="U-2")
+
+
+@case("campaign-no-tests")
+def _(d):
+    argv = _campaign(d)
+    (d / "camp" / "campaign.toml").write_text('[campaign]\nserial = "U-1"\nspec = "spec.toml"\n')
+    return argv
+
+
+@case("campaign-data-with-nan")
+def _(d):
+    argv = _campaign(d)
+    p = d / "camp" / "thermal" / "steps.csv"
+    lines = p.read_text().splitlines()
+    lines[3] = lines[3].rsplit(",", 1)[0] + ",nan"
+    p.write_text("\n".join(lines) + "\n")
+    return [*argv[:2], "--db", str(d / "h.db")]
+
+
+@case("campaign-report-into-its-inputs")
+def _(d):
+    argv = _campaign(d)
+    return [*argv, "--report", str(d / "camp")]
+
+
+@case("plan-check-campaign-without-truth")
+def _(d):
+    return ["plan-check", _campaign(d)[1]]
+
+
+@case("lot-empty-database")
+def _(d):
+    return ["lot", "--db", str(d / "empty.db")]
+
+
+@case("lot-unknown-unit-type")
+def _(d):
+    return ["lot", "--db", str(d / "empty.db"), "--type", "FOG-Q"]
+
+
 #: Issue 34: what the one line of a case must say (the problem, the fix), so that no case passes
 #: on an error other than its own (the old ones were one clean line too, but misleading or about
 #: something else).
@@ -1026,6 +1119,12 @@ def _(d):
 
 
 EXPECT = {
+    "campaign-unknown-clause": 'clause \'tcc\', which spec file',
+    "campaign-missing-data-file": "thermal/nope.csv does not exist",
+    "campaign-serial-is-not-the-plans": "names the unit 'U-1', the campaign's unit is 'U-2'",
+    "campaign-data-with-nan": "test 'thermal':",
+    "plan-check-campaign-without-truth": "give truth =",
+    "lot-unknown-unit-type": "no campaign of unit type 'FOG-Q'",
     "fit-systematic-first-dwell-too-short": "rests 4 s before the first turn",
     "fit-systematic-sequence-disagrees-with-the-data": "fix the plan's turns",
     "fit-systematic-gap": "gap(s) in time",

@@ -26,3 +26,24 @@ def test_rate_round_trip_and_unknown_unit():
 
 def test_coefficient_units():
     assert [units.gyro_coefficient_unit(k) for k in (0, 1, 2)] == ["deg/h", "deg/h/g", "deg/h/g^2"]
+
+
+def test_square_roots_of_noise_densities_convert():
+    """IEEE Std 952-1997 Annex C: angle random walk in deg/sqrt(h) = 60 deg/h sqrt(s)."""
+    from inertest.units import convert
+
+    assert convert(1.0, "deg/sqrt(h)", "deg/h*sqrt(s)") == pytest.approx(60.0, rel=1e-15)
+    assert convert(1.0, "deg/h/sqrt(h)", "deg/h/sqrt(s)") == pytest.approx(1 / 60.0, rel=1e-15)
+    with pytest.raises(UnitError):
+        convert(1.0, "deg/sqrt(h)", "deg/h")
+    with pytest.raises(UnitError, match="sqrt"):
+        convert(1.0, "deg/sqrt h", "deg/sqrt(h)")
+
+
+def test_a_temperature_sensitivity_converts_per_kelvin_and_not_to_a_rate():
+    from inertest.units import convert
+
+    assert convert(0.004, "deg/h/degC", "deg/h/K") == 0.004
+    assert convert(1.0, "ug/degC^2", "ug/K^2") == 1.0
+    with pytest.raises(UnitError):
+        convert(0.004, "deg/h/degC", "deg/h")

@@ -12,13 +12,20 @@ The campaign file ``examples/demo.toml`` lists the tests::
 
 With a top-level ``equipment`` lab file every result also gets its uncertainty budget
 (:func:`inertest.app.run.judge`), shown beside the verdicts.
+
+An ``[[acceptance]]`` entry runs an acceptance campaign (``campaign``: a manifest, see
+:mod:`inertest.app.acceptance`) on its shipped data, and with ``lot = N`` also simulates a lot of
+N units of the same type (:func:`lot_truths`: each unit's coefficients drawn around the shipped
+unit's, one planted to stand out), fits their tests and writes the lot report
+(:mod:`inertest.quality.lot`).
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -208,6 +215,7 @@ def run_campaign(campaign: str | os.PathLike[str], *,
 def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[str], *,
                           noise: list[DemoNoise] | None = None,
                           thermal: list[DemoThermal] | None = None,
+                          acceptance: list[DemoAcceptance] | None = None,
                           command: str = "inertest demo") -> Path:
     """Write ``index.html`` (self-contained) and the simulated data files into ``directory``.
 
@@ -235,6 +243,7 @@ def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[st
     sections += noise_sections(noise or [])
     for th in thermal or ():
         sections += thermal_sections(th)
+    sections += acceptance_sections(acceptance or [])
     per_test = "one per test, in its identity table below"
     html = page("inertest: example test campaign", sections,
                 identity=[["command", command], ["input", "simulated from the "
@@ -253,6 +262,21 @@ def write_campaign_report(tests: list[DemoTest], directory: str | os.PathLike[st
             from inertest.io.kalibr import write_kalibr_yaml
 
             write_kalibr_yaml(tmp / n.yaml_name, n.result, source=n.data_path.name)
+        for a in acceptance or []:
+            from inertest.report.acceptance import write_acceptance_report
+            from inertest.report.lot import lot_page
+
+            (tmp / "acceptance").mkdir(exist_ok=True)
+            write_acceptance_report(
+                tmp / "acceptance", a.outcome.to_dict(),
+                {t.test.name: t.outcome.result for t in a.outcome.tests if t.outcome},
+                command=command)
+            if a.lot is not None:
+                (tmp / "lot.html").write_text(lot_page(
+                    a.lot, title=f"Lot report: {a.outcome.campaign.unit_type} (simulated)",
+                    identity=[["serial", f"lot of {len(a.lot.serials)} simulated units"],
+                              ["site", "simulated"], ["operator", "simulated"]]),
+                    encoding="utf-8")
     return Path(directory) / "index.html"
 
 
@@ -315,4 +339,116 @@ def noise_sections(entries: list[DemoNoise]) -> list[Section]:
             f"`inertest noise {n.data_path.name} --kalibr imu.yaml`)."),
             *[paragraph(m, note=True) for m in n.notes]]))
         out += [Section(f"{n.title}: {s.title}", s.parts) for s in imu_noise_sections(n.result)]
+    return out
+
+
+#: Unit-to-unit spread of a simulated lot of the FOG acceptance example (1 sigma), per test and
+#: coefficient: (absolute, relative). The bias is one offset per unit, seen by every test.
+LOT_SPREAD = {
+    "turn-on": {"B": (0.12, 0.0), "turn_on_sigma": (0.0, 0.25), "bias_instability": (0.0, 0.2)},
+    "warm-up": {"B_final": (0.12, 0.0), "warm_up_amplitude": (0.0, 0.2),
+                "time_constant": (0.0, 0.15)},
+    "in-run": {"B": (0.12, 0.0), "bias_instability": (0.0, 0.2), "ARW": (0.0, 0.15)},
+    "scale-factor": {"K": (0.0, 1e-4), "asymmetry": (10.0, 0.0), "K2": (0.03, 0.0)},
+    "thermal": {"temperature_sensitivity": (0.0015, 0.0)},
+}
+#: The unit of a simulated lot planted with a high bias (+0.9 deg/h), to stand out.
+LOT_OUTLIER = 6
+
+
+def lot_truths(base: dict[str, dict[str, float]], units: int,
+               rng: np.random.Generator | int | None = 100) -> list[dict[str, dict[str, float]]]:
+    """Each unit's truth per test: the shipped unit's, moved by :data:`LOT_SPREAD`."""
+    gen = np.random.default_rng(rng)
+    out = []
+    for u in range(units):
+        offset = float(gen.normal())      # one bias offset per unit, shared by its tests
+        truths = {}
+        for name, t in base.items():
+            t = dict(t)
+            for k, (a, r) in LOT_SPREAD.get(name, {}).items():
+                if k not in t:
+                    continue
+                if k in ("B", "B_final"):
+                    t[k] = t[k] + a * offset + (0.9 if u == LOT_OUTLIER else 0.0)
+                else:
+                    t[k] = t[k] * (1.0 + r * gen.normal()) + a * gen.normal()
+            truths[name] = t
+        out.append(truths)
+    return out
+
+
+@dataclass(frozen=True)
+class DemoAcceptance:
+    """The acceptance campaign of the demo and, with ``lot``, a simulated lot of its type."""
+
+    title: str
+    manifest: Path
+    outcome: Any                 # inertest.app.acceptance.AcceptanceOutcome
+    lot: Any = None              # inertest.quality.lot.LotStatistics
+
+
+def run_acceptance(campaign: str | os.PathLike[str]) -> list[DemoAcceptance]:
+    """Run every ``[[acceptance]]`` campaign of the demo file (not stored), and its lot."""
+    from inertest.app.acceptance import read_campaign, run_campaign
+    from inertest.io.plan_file import load_truth
+    from inertest.quality.lot import lot_statistics
+
+    cpath = Path(campaign)
+    out = []
+    for e in read_toml(cpath, "campaign").get("acceptance", []):
+        manifest = cpath.parent / e["campaign"]
+        c = read_campaign(manifest)
+        outcome = run_campaign(c, store=False)
+        lot = None
+        units = int(e.get("lot", 0))
+        if units >= 2:
+            base = {t.name: load_truth(t.truth) for t in c.tests if t.truth is not None}
+            docs = []
+            for u, truths in enumerate(lot_truths(base, units)):
+                serial = f"{c.serial.rsplit('-', 1)[0]}-{9001 + u}"
+                for k, t in enumerate(c.tests):
+                    if t.name not in truths:
+                        continue
+                    plan = load_plan(t.plan)
+                    plan = replace(plan, instrument=replace(plan.instrument, serial=serial))
+                    data = simulate(plan, truths[t.name], noise=t.noise,
+                                    rng=10_000 * (u + 1) + k)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        docs.append(fit(plan, data, sigma=t.sigma).to_dict())
+            verified: dict[str, list[str]] = {}
+            for t in outcome.tests:
+                if t.outcome is not None:
+                    for cid in t.test.verifies:
+                        verified.setdefault(cid, []).append(t.outcome.result.kind)
+            lot = lot_statistics(docs, c.spec, clause_procedures=verified)
+        out.append(DemoAcceptance(str(e.get("title", c.title)), manifest, outcome, lot))
+    return out
+
+
+def acceptance_sections(entries: list[DemoAcceptance]) -> list[Section]:
+    """The demo report's summary of each campaign (its certificate and lot report beside it)."""
+    from inertest.report.acceptance import CLAUSE_HEADER, clause_rows
+    from inertest.report.html import table_html
+
+    out = []
+    for e in entries:
+        doc = e.outcome.to_dict()
+        sec = Section(e.title, [paragraph(
+            f"An acceptance campaign ({e.manifest}): every test of one unit, each clause of its "
+            "specification judged with the test's expanded uncertainty, one certificate for the "
+            "series: acceptance/index.html and acceptance/certificate.json beside this report "
+            f"(the same as `inertest campaign {e.manifest} --report DIR`). Overall verdict: "
+            f"{e.outcome.overall}."),
+            table_html(CLAUSE_HEADER, clause_rows(doc), left_columns=4,
+                       caption="The certificate's clause table")])
+        if e.lot is not None:
+            sec.parts.append(paragraph(
+                f"A simulated lot of {len(e.lot.serials)} units of the same type (coefficients "
+                "drawn around this unit's, one with a high bias): lot statistics per quantity, "
+                "process capability against the specification and the units that stand out, "
+                "in lot.html beside this report (as `inertest lot --type ... --spec ...` gives "
+                "from the history database)."))
+        out.append(sec)
     return out

@@ -103,8 +103,11 @@ def _factor(unit: str, table: dict[str, float], what: str) -> float:
         raise UnitError(f'unknown {what} unit "{unit}"; use one of {known}') from None
 
 
-#: Factor to SI and dimension (exponents of rad, m, s, count, A, V) of each unit symbol that
-#: compound units (``deg/h/g^2``, ``count/(m/s^2)``, ``ug/g^2``) are written with.
+#: Factor to SI and dimension (exponents of rad, m, s, count, A, V, and temperature as the
+#: seventh where a symbol has one) of each unit symbol that compound units (``deg/h/g^2``,
+#: ``count/(m/s^2)``, ``ug/g^2``, ``deg/h/degC``) are written with. ``degC`` and ``K`` are
+#: temperature *differences* (a sensitivity per degree), the same size.
+_DIMENSIONS = 7
 _ATOMS: dict[str, tuple[float, tuple[int, ...]]] = {
     "rad": (1.0, (1, 0, 0, 0, 0, 0)), "mrad": (1e-3, (1, 0, 0, 0, 0, 0)),
     "urad": (MICRORAD_TO_RAD, (1, 0, 0, 0, 0, 0)), "deg": (DEG_TO_RAD, (1, 0, 0, 0, 0, 0)),
@@ -122,15 +125,18 @@ _ATOMS: dict[str, tuple[float, tuple[int, ...]]] = {
     "mV": (1e-3, (0, 0, 0, 0, 0, 1)),
     "1": (1.0, (0, 0, 0, 0, 0, 0)), "ppm": (PPM_TO_RATIO, (0, 0, 0, 0, 0, 0)),
     "%": (1e-2, (0, 0, 0, 0, 0, 0)),
+    "degC": (1.0, (0, 0, 0, 0, 0, 0, 1)), "K": (1.0, (0, 0, 0, 0, 0, 0, 1)),
 }
 
 
-def compound_unit(unit: str) -> tuple[float, tuple[int, ...]]:
+def compound_unit(unit: str) -> tuple[float, tuple[float, ...]]:
     """Factor to SI and dimension of a compound unit such as ``deg/h/g^2`` or ``count/(m/s^2)``.
 
     Symbols of :data:`_ATOMS` joined by ``*`` and ``/`` (left to right), with integer powers
-    ``^n`` and parentheses. The dimension is the tuple of exponents of (rad, m, s, count, A, V):
-    angles are kept apart from pure ratios, so ``urad`` and ``ppm`` do not convert.
+    ``^n``, parentheses and square roots ``sqrt(...)`` (noise densities: ``deg/sqrt(h)``, the
+    angle random walk of IEEE Std 952-1997 Annex C). The dimension is the tuple of exponents of
+    (rad, m, s, count, A, V), halves allowed: angles are kept apart from pure ratios, so
+    ``urad`` and ``ppm`` do not convert.
 
     Raises
     ------
@@ -140,20 +146,29 @@ def compound_unit(unit: str) -> tuple[float, tuple[int, ...]]:
     tokens = re.findall(r"[A-Za-z%]+|\d+|[()*/^]|\S", unit.replace(" ", ""))
     pos = 0
 
-    def term() -> tuple[float, list[int]]:
+    def term() -> tuple[float, list[float]]:
         nonlocal pos
         if pos >= len(tokens):
             raise UnitError(f'unit "{unit}" ends too early; write e.g. "deg/h/g^2"')
         tok = tokens[pos]
         pos += 1
-        if tok == "(":
+        if tok == "sqrt":
+            if pos >= len(tokens) or tokens[pos] != "(":
+                raise UnitError(f'unit "{unit}": write a square root as sqrt(h)')
+            pos += 1
+            f, d = expr()
+            if pos >= len(tokens) or tokens[pos] != ")":
+                raise UnitError(f'unit "{unit}" has an unclosed parenthesis')
+            pos += 1
+            f, d = math.sqrt(f), [x / 2 for x in d]
+        elif tok == "(":
             f, d = expr()
             if pos >= len(tokens) or tokens[pos] != ")":
                 raise UnitError(f'unit "{unit}" has an unclosed parenthesis')
             pos += 1
         elif tok in _ATOMS:
             f, dim = _ATOMS[tok]
-            d = list(dim)
+            d = [float(x) for x in dim] + [0.0] * (_DIMENSIONS - len(dim))
         else:
             known = ", ".join(_ATOMS)
             raise UnitError(f'unknown unit symbol "{tok}" in "{unit}"; use {known}')
@@ -165,7 +180,7 @@ def compound_unit(unit: str) -> tuple[float, tuple[int, ...]]:
             f, d = f**n, [x * n for x in d]
         return f, d
 
-    def expr() -> tuple[float, list[int]]:
+    def expr() -> tuple[float, list[float]]:
         nonlocal pos
         f, d = term()
         while pos < len(tokens) and tokens[pos] in "*/":

@@ -256,8 +256,8 @@ def add_identity_options(command: click.Command) -> None:
             add_identity_options(sub)
         return
     names = {p.name for p in command.params}
-    if not names & {"report", "report_dir"} or names & {"plan", "examples_dir"}:
-        return  # a plan (or the demo's plans) states the identity
+    if not names & {"report", "report_dir"} or names & {"plan", "examples_dir", "manifest"}:
+        return  # a plan (or the demo's or a campaign's plans) states the identity
     for name, doc in IDENTITY_OPTIONS:
         if name in names or f"id_{name}" in names:
             continue

@@ -22,6 +22,7 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
     from inertest.cli.procedure import print_result
     from inertest.demo import (
         find_examples,
+        run_acceptance,
         run_campaign,
         run_noise,
         run_thermal,
@@ -63,6 +64,20 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         flagged = [n for n, h in th.result.hysteresis.items() if h.significant]
         click.echo("  hysteresis heating vs cooling: "
                    + (", ".join(flagged) if flagged else "none significant"))
+    acceptance = run_acceptance(folder / "demo.toml")
+    for a in acceptance:
+        from inertest.cli._common import print_table
+        from inertest.report.acceptance import CLAUSE_HEADER, clause_rows
+
+        click.echo(f"\n{a.title} ({a.manifest})")
+        print_table(f"clauses of {a.outcome.campaign.spec.name}", CLAUSE_HEADER,
+                    clause_rows(a.outcome.to_dict()))
+        click.echo(f"overall verdict: {a.outcome.overall}")
+        if a.lot is not None:
+            from inertest.report.lot import SUMMARY_HEADER, summary_rows
+
+            print_table(f"lot of {len(a.lot.serials)} simulated units", SUMMARY_HEADER,
+                        summary_rows(a.lot))
     index = write_campaign_report(tests, report_dir, noise=noise, thermal=thermal,
-                                  command=command_line())
+                                  acceptance=acceptance, command=command_line())
     click.echo(f"\nreport: {index}")

@@ -20,8 +20,9 @@ EXIT_NOT_VERIFIABLE = 1
 @click.argument("plan", type=_FILE)
 @click.option("--spec", "spec_path", type=_FILE, default=None,
               help="Instrument specification (TOML, see examples/specs); required except for "
-              "a systematic calibration, whose every state's std is printed.")
-@click.option("--noise", "noise_path", type=_FILE, required=True,
+              "a systematic calibration, whose every state's std is printed, and a campaign, "
+              "which names its own.")
+@click.option("--noise", "noise_path", type=_FILE, default=None,
               help="Noise per reading in the output unit (TOML/JSON: sigma, position_offset, "
               "random_walk, flicker, unit) or the JSON of `inertest allan --json`; for a "
               "systematic calibration the IMU's noise (gyro_arw_deg_rt_h, acc_vrw_ug_rt_hz, "
@@ -48,9 +49,10 @@ EXIT_NOT_VERIFIABLE = 1
               "all --mc tests).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def plan_check(plan: Path, spec_path: Path | None, noise_path: Path, compare: tuple[Path, ...],
-               equipment: Path | None, truth: Path | None, sample_interval_s: float | None,
-               tur: float, n_mc: int, rel_error: float, seed: int, as_json: bool) -> None:
+def plan_check(plan: Path, spec_path: Path | None, noise_path: Path | None,
+               compare: tuple[Path, ...], equipment: Path | None, truth: Path | None,
+               sample_interval_s: float | None, tur: float, n_mc: int, rel_error: float,
+               seed: int, as_json: bool) -> None:
     """Predict each limited quantity's U from PLAN and a noise model, before testing.
 
     A limit is verifiable when the predicted U (k = 2: Type A from the plan and the noise,
@@ -58,9 +60,23 @@ def plan_check(plan: Path, spec_path: Path | None, noise_path: Path, compare: tu
     When a limit is not, the cheapest change (longer dwell, more positions or repeats, more
     mountings) that makes it verifiable is printed with its predicted U.
 
+    PLAN may also be an acceptance campaign (a manifest with a [campaign] table, see inertest
+    campaign): every test is then simulated on its nominal unit (its truth.toml, which carries
+    the unit's own noise) and each clause of the campaign's specification is predicted
+    verifiable or not, before anything is measured; --spec and --noise are not needed.
+
     Exit status: 0 when every limit is verifiable, 1 when one is not (marginal, not
     verifiable or not determined by the plan), 2 for bad input.
     """
+    from inertest.io.plan_file import read_toml
+
+    if "campaign" in read_toml(plan, "plan"):
+        _check_campaign(plan, tur=tur, n_mc=n_mc, rel_error=rel_error, seed=seed,
+                        as_json=as_json)
+        return
+    if noise_path is None:
+        raise click.UsageError("plan-check of a plan needs --noise NOISE.toml (a campaign "
+                               "names its own)")
     from inertest.api import load_plan
     from inertest.io.plan_file import load_truth
     from inertest.quality.conformance import read_spec
@@ -239,3 +255,45 @@ def _print(out) -> None:  # noqa: ANN001 - PlanCheck
                 [[c.quantity, _u(c.expanded, c.unit),
                   "-" if c.expanded is None else f"{c.expanded / c.tolerance:.3g}", c.status]
                  for c in s.limits])
+
+
+def _check_campaign(manifest: Path, *, tur: float, n_mc: int, rel_error: float, seed: int,
+                    as_json: bool) -> None:
+    """``plan-check CAMPAIGN``: which clauses the planned series can verify."""
+    from inertest.app.acceptance import read_campaign
+    from inertest.io.plan_file import load_truth
+    from inertest.quality.lab import read_equipment, select_equipment
+    from inertest.quality.plan_check import SeriesTest, check_series
+
+    c = read_campaign(manifest)
+    lab = read_equipment(c.equipment) if c.equipment is not None else None
+    tests = []
+    for t in c.tests:
+        from inertest.api import load_plan
+
+        p = load_plan(t.plan)
+        used = (select_equipment(lab, p.test.equipment, plan_source=f"plan {t.plan}",
+                                 lab_source=f"lab file {c.equipment}")
+                if lab is not None and p.test is not None else ())
+        tests.append(SeriesTest(t.name, p, None if t.truth is None else load_truth(t.truth),
+                                t.noise, t.verifies, used))
+    out = check_series(tests, c.spec, tur=tur, n_mc=min(n_mc, 100), rng=seed,
+                       rel_error=max(rel_error, 0.15))
+    if as_json:
+        echo_json(out.to_dict())
+    else:
+        rows = [[r.clause_id, r.test or "-", "-" if r.check is None else r.check.limit,
+                 "-" if r.check is None else _u(r.check.expanded, r.check.unit),
+                 "-" if r.check is None or r.check.expanded is None
+                 else f"{r.check.expanded / r.check.tolerance:.3g}", r.status]
+                for r in out.clauses]
+        print_table(f"campaign {manifest}: can the planned series verify {c.spec.name}?",
+                    ["clause", "test", "limit", "predicted U (k = 2)", "U / tolerance",
+                     "status"], rows)
+        for name, pred in out.predictions:
+            click.echo(safe_line(f"{name}: {pred.method}"))
+        click.echo(safe_line(f"rule: {out.rule}"))
+        click.echo("the planned series can verify every clause" if out.ok
+                   else "not every clause is verifiable as planned (see status)")
+    if not out.ok:
+        raise SystemExit(EXIT_NOT_VERIFIABLE)

@@ -133,7 +133,7 @@ def _noise_unit(unit: str) -> tuple[float, tuple[float, ...]]:
     from inertest.units import compound_unit
 
     u = unit.replace(" ", "").replace("√", "sqrt")
-    factor, dim = 1.0, np.zeros(6)
+    factor, dim = 1.0, np.zeros(len(compound_unit("1")[1]))
     for m in re.finditer(r"(/?)sqrt\(([^()]*)\)", u):
         f, d = compound_unit(m.group(2))
         sign = -0.5 if m.group(1) else 0.5

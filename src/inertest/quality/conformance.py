@@ -11,6 +11,7 @@ clause of the standard it comes from, and the decision rule::
     max_abs = 0.05                     # or min and/or max
     unit = "deg/h/g"
     clause = "IEEE Std 517-1974"
+    id = "3.2.4"                       # optional: how an acceptance campaign names the clause
 
 Decision rules (ILAC-G8:09/2019, sec. 4): ``guarded`` is guarded acceptance with a guard band
 ``w = U``, the expanded uncertainty (its k from the budget's effective degrees of freedom, 2 for
@@ -72,6 +73,9 @@ class Limit:
     quantity, unit, clause : str
     minimum, maximum, max_abs : float or None
         ``minimum <= x``, ``x <= maximum``, ``|x| <= max_abs`` [unit].
+    id : str
+        The clause's identifier in an acceptance campaign (``verifies = [...]`` of a test,
+        :mod:`inertest.app.acceptance`); the quantity's name when the spec gives none.
     """
 
     quantity: str
@@ -80,6 +84,12 @@ class Limit:
     minimum: float | None = None
     maximum: float | None = None
     max_abs: float | None = None
+    id: str = ""
+
+    @property
+    def clause_id(self) -> str:
+        """The identifier a campaign names the clause by: ``id``, else the quantity."""
+        return self.id or self.quantity
 
     def text(self) -> str:
         """The limit as printed: ``|DI| <= 0.05 deg/h/g``."""
@@ -226,6 +236,7 @@ _LIMIT_FIELDS = (
     Field("min", default=None),
     Field("max", default=None),
     Field("max_abs", default=None, minimum=0.0),
+    Field("id", "text", default="", doc="the clause's identifier in an acceptance campaign"),
 )
 
 
@@ -257,7 +268,13 @@ def spec_from_mapping(doc: Mapping[str, Any], *, source: str = "spec") -> Spec:
         except UnitError as exc:
             raise SpecError(f"{where}: {exc}") from None
         limits.append(Limit(quantity=v["quantity"], unit=v["unit"], clause=v["clause"],
-                            minimum=v["min"], maximum=v["max"], max_abs=v["max_abs"]))
+                            minimum=v["min"], maximum=v["max"], max_abs=v["max_abs"],
+                            id=v["id"]))
+    ids = [lim.id for lim in limits if lim.id]
+    twice = sorted({i for i in ids if ids.count(i) > 1})
+    if twice:
+        raise SpecError(f"{source}: clause id {twice[0]!r} names more than one limit; give each "
+                        "[[limit]] its own id")
     return Spec(name=h["name"], decision_rule=h["decision_rule"], limits=tuple(limits),
                 source=source)
 

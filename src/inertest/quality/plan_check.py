@@ -598,9 +598,18 @@ def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
     std, method, nominal, n = predict_std(plan, noise, truth=truth, n_mc=n_mc, rng=rng,
                                           rel_error=rel_error)
     budget = uncertainty_budget(plan, nominal, equipment)
-    # the same rule and wording as a fit's verdicts: a model coefficient the plan does not
-    # determine is "not determined", a name that is no quantity of the procedure an error
-    spec.check_quantities(list(std), model_names(nominal), kind=plan.kind)
+    checks = limit_checks(spec, std, nominal, budget, tur, kind=plan.kind)
+    return Prediction(label, n, method, std, tuple(checks), plan), nominal
+
+
+def limit_checks(spec: Spec, std: Mapping[str, tuple[float, str]], nominal: Any, budget: Any,
+                 tur: float, *, kind: str, k: float = K_PREDICTED) -> list[LimitCheck]:
+    """Each limit of ``spec`` against a predicted Type-A std and the budget's Type B, U = k u_c.
+
+    The same rule and wording as a fit's verdicts: a model coefficient the plan does not
+    determine is "not determined", a name that is no quantity of the procedure an error.
+    """
+    spec.check_quantities(list(std), model_names(nominal), kind=kind)
     checks = []
     for lim in spec.limits:
         tol = _tolerance(lim)
@@ -612,8 +621,8 @@ def _judge(label: str, plan: Plan, spec: Spec, noise: NoiseModel,
         s_a, unit = std[lim.quantity]
         b = budget.quantities.get(lim.quantity)
         checks.append(_limit_check(lim, spec, s_a, b.type_b if b is not None else 0.0, unit,
-                                   tur))
-    return Prediction(label, n, method, std, tuple(checks), plan), nominal
+                                   tur, k=k))
+    return checks
 
 
 def candidate_changes(plan: Plan) -> list[tuple[str, Plan]]:
@@ -871,11 +880,14 @@ def judge_sequence(pred: SequencePrediction, spec: Spec, *, names: Sequence[str]
     return tuple(out)
 
 
-def _limit_check(lim: Any, spec: Spec, s_a: float, u_b: float, unit: str, tur: float
-                 ) -> LimitCheck:
-    """The verdict on one limit from a Type-A and a Type-B std [``unit``] (module docstring)."""
+def _limit_check(lim: Any, spec: Spec, s_a: float, u_b: float, unit: str, tur: float,
+                 *, k: float = K_PREDICTED) -> LimitCheck:
+    """The verdict on one limit from a Type-A and a Type-B std [``unit``] (module docstring).
+
+    ``U = k sqrt(s_a^2 + u_b^2)``.
+    """
     tol = _tolerance(lim)
-    big_u = K_PREDICTED * math.sqrt(s_a**2 + u_b**2)
+    big_u = k * math.sqrt(s_a**2 + u_b**2)
     try:
         s_a_l, u_b_l, big_u_l = (convert(x, unit, lim.unit) for x in (s_a, u_b, big_u))
     except UnitError:
@@ -901,8 +913,194 @@ def _by_cost(changes: Sequence[tuple[str, Plan]], truth: Mapping[str, float]
     return [(label, p) for _, label, p in costed]
 
 
-__all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "IMU_NOISE_KEYS", "ImuNoise", "LimitCheck",
-           "NoiseFileError", "NoiseModel", "NominalTruthError", "PlanCheck", "Prediction",
-           "STATUSES", "SequencePrediction", "candidate_changes", "check_plan", "judge_sequence",
-           "predict_sequence", "predict_std", "read_imu_noise", "read_noise",
-           "std_relative_error"]
+__all__ = ["DEFAULT_TUR", "FLICKER_FLOOR", "IMU_NOISE_KEYS", "ClauseCheck", "ImuNoise",
+           "LimitCheck", "NoiseFileError", "NoiseModel", "NominalTruthError", "PlanCheck",
+           "Prediction", "STATUSES", "SequencePrediction", "SeriesCheck", "SeriesTest",
+           "candidate_changes", "check_plan", "check_series", "judge_sequence", "limit_checks",
+           "predict_by_simulation", "predict_sequence", "predict_std", "read_imu_noise",
+           "read_noise", "std_relative_error"]
+
+
+# --- a series of tests (an acceptance campaign) -------------------------------------------------
+
+
+def predict_by_simulation(plan: Plan, truth: Mapping[str, float], *, noise: float = 0.0,
+                          n_mc: int = 200, rng: np.random.Generator | int | None = 0,
+                          rel_error: float = 0.1, min_tests: int = _MC_MIN
+                          ) -> tuple[dict[str, tuple[float, str]], str, Any, int]:
+    """Predicted Type-A std of every quantity by simulating the whole test on the nominal unit.
+
+    The procedure's own virtual instrument (:meth:`inertest.procedures.base.Procedure.
+    simulate`) with ``truth``, which for the static acceptance tests carries the instrument's
+    own noise (angle random walk, bias instability, rate random walk, turn-on std) and ``noise``
+    white per reading [output unit]; each simulated test is fitted as data would be, and the
+    scatter of the estimates is the prediction. Stops like :func:`predict_std`'s Monte Carlo.
+
+    Returns
+    -------
+    std, method, nominal, readings
+        As :func:`predict_std` (``nominal``: the first simulated test's fit).
+    """
+    proc = procedure(plan.kind)
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    samples: dict[str, list[float]] = {}
+    units: dict[str, str] = {}
+    nominal: Any = None
+    readings = 0
+    done, err = 0, math.inf
+    while done < n_mc:
+        for _ in range(min(_MC_BLOCK, n_mc - done)):
+            done += 1
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                data = proc.simulate(plan, dict(truth), noise=noise, rng=gen)
+                try:
+                    fitted = proc.fit(plan, data)
+                except InertestError:
+                    continue
+            if nominal is None:
+                nominal, readings = fitted, len(next(iter(data.values())))
+            for k, (v, _, u) in quantities_of(fitted).items():
+                samples.setdefault(k, []).append(v)
+                units[k] = u
+        if samples:
+            most = max(len(v) for v in samples.values())
+            err = max(std_relative_error(v) for v in samples.values() if len(v) >= most // 2)
+            if done >= min(min_tests, n_mc) and err < rel_error:
+                break
+    if nominal is None:
+        raise PlanError(f"{plan.kind}: no simulated test of the nominal unit could be fitted")
+    most = max(len(v) for v in samples.values())   # a quantity resolved in half the tests
+    std = {k: (float(np.std(v, ddof=1)), units[k]) for k, v in samples.items()
+           if len(v) >= max(most // 2, 2)}
+    return std, (f"Monte Carlo: {done} simulated tests of the nominal unit (its own noise from "
+                 f"the truth, white {noise:g} per reading), fitted as data; std = scatter of "
+                 f"the estimates (relative standard error {err:.0%})"), nominal, readings
+
+
+@dataclass(frozen=True)
+class SeriesTest:
+    """A test of a series to predict: its name, plan, nominal unit, noise, clauses, equipment."""
+
+    name: str
+    plan: Plan
+    truth: Mapping[str, float] | None
+    noise: float
+    verifies: tuple[str, ...]
+    equipment: Sequence[Equipment] = ()
+
+
+@dataclass(frozen=True)
+class ClauseCheck:
+    """Whether the planned series can verify one clause (one row per verifying test)."""
+
+    clause_id: str
+    test: str | None
+    check: LimitCheck | None
+    status: str
+    note: str = ""
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form."""
+        out: dict[str, object] = {"clause": self.clause_id, "test": self.test,
+                                  "status": self.status, "note": self.note}
+        if self.check is not None:
+            c = self.check.to_dict()
+            c["reference"] = c.pop("clause")      # the standard's clause; "clause" is the id
+            out.update({k: v for k, v in c.items() if k != "status"})
+        return out
+
+
+@dataclass(frozen=True)
+class SeriesCheck:
+    """The outcome of :func:`check_series`: per test its prediction, per clause its status."""
+
+    predictions: tuple[tuple[str, Prediction], ...]
+    clauses: tuple[ClauseCheck, ...]
+    tur: float
+    rule: str
+
+    @property
+    def ok(self) -> bool:
+        """True when the planned series can verify every clause."""
+        return all(c.status == "verifiable" for c in self.clauses)
+
+    def to_dict(self) -> dict[str, object]:
+        """The ``plan-check`` JSON document of a campaign."""
+        return {"kind": "plan-check-series", "rule": self.rule, "test_uncertainty_ratio": self.tur,
+                "all_verifiable": self.ok, "clauses": [c.to_dict() for c in self.clauses],
+                "tests": {name: p.to_dict() for name, p in self.predictions}}
+
+
+def check_series(tests: Sequence[SeriesTest], spec: Spec, *, tur: float = DEFAULT_TUR,
+                 n_mc: int = 100, rng: int = 0, rel_error: float = 0.15) -> SeriesCheck:
+    """Which clauses of ``spec`` a planned series of tests can verify, before testing.
+
+    Each test is simulated on its nominal unit (:func:`predict_by_simulation`), its limits
+    (the clauses it verifies) judged as :func:`check_plan` judges them (U = 2 sqrt(Type A^2 +
+    Type B^2) against tolerance / TUR). A clause no test verifies is "not verified".
+
+    Raises
+    ------
+    PlanError
+        A test without a nominal unit (truth), a clause a test names that the spec lacks.
+    """
+    if not tur >= 1:
+        raise PlanError(f"the test uncertainty ratio must be >= 1, got {tur!r}")
+    ids = [lim.clause_id for lim in spec.limits]
+    predictions: list[tuple[str, Prediction]] = []
+    rows: list[ClauseCheck] = []
+    by_test: dict[str, dict[str, LimitCheck]] = {}
+    for k, t in enumerate(tests):
+        unknown = [v for v in t.verifies if v not in ids]
+        if unknown:
+            raise PlanError(f"test {t.name!r} verifies clause {unknown[0]!r}, which "
+                            f"{spec.source} does not have{did_you_mean(unknown[0], ids)}")
+        if not t.verifies:
+            continue
+        if t.truth is None:
+            raise NominalTruthError(
+                f"test {t.name!r}: plan-check simulates each test on the nominal unit; give "
+                "truth = \"FILE\" in the campaign's [[test]] (or put truth.toml beside its "
+                "plan): its coefficients and its own noise (ARW, bias_instability, ...)")
+        sub = dataclasses.replace(spec, limits=tuple(
+            lim for lim in spec.limits if lim.clause_id in t.verifies))
+        std, method, nominal, n = predict_by_simulation(
+            t.plan, t.truth, noise=t.noise, n_mc=n_mc, rng=rng + 7919 * k, rel_error=rel_error,
+            min_tests=30)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            budget = uncertainty_budget(t.plan, nominal, t.equipment)
+        # the coverage factor of the test's own degrees of freedom (few runs: large k)
+        dof = int(getattr(nominal.identification, "dof", 0) or 0)
+        cover = K_PREDICTED if dof <= 0 or dof > 1000 else float(
+            scipy_stats_t_ppf(0.5 + COVERAGE / 2, dof))
+        checks = limit_checks(sub, std, nominal, budget, tur, kind=t.plan.kind, k=cover)
+        predictions.append((t.name, Prediction("plan as written", n, method, std,
+                                               tuple(checks), t.plan)))
+        by_test[t.name] = {lim.clause_id: c for lim, c in zip(sub.limits, checks, strict=True)}
+    for lim in spec.limits:
+        cid = lim.clause_id
+        verifying = [t.name for t in tests if cid in t.verifies]
+        if not verifying:
+            rows.append(ClauseCheck(cid, None, None, "not verified",
+                                    "no test of the campaign verifies this clause"))
+        for name in verifying:
+            c = by_test[name][cid]
+            rows.append(ClauseCheck(cid, name, c, c.status, c.note))
+    rule = (f"verifiable when U (Type A predicted by simulating the test on the nominal unit + "
+            "Type B of the equipment; k of the test's degrees of freedom for 95.45 %) <= "
+            f"tolerance / {tur:g}; marginal below the tolerance; not verifiable from it on; not "
+            "verified: no test verifies the clause")
+    return SeriesCheck(tuple(predictions), tuple(rows), tur, rule)
+
+
+#: Coverage probability of a predicted U with few degrees of freedom (GUM G.3.2).
+COVERAGE = 0.9545
+
+
+def scipy_stats_t_ppf(p: float, dof: int) -> float:
+    """Student's t quantile (``scipy.special.stdtrit``)."""
+    from scipy.special import stdtrit
+
+    return float(stdtrit(dof, p))

@@ -57,3 +57,43 @@ class EstimateRow(Base):
     std: Mapped[float] = mapped_column(Float, nullable=False)
     unit: Mapped[str] = mapped_column(String(40), nullable=False)
     run: Mapped[Run] = relationship(back_populates="estimates")
+
+
+class Campaign(Base):
+    """One acceptance campaign: a series of runs on one unit under test, judged clause by clause.
+
+    Each run of the series stays its own row of ``runs``; :class:`CampaignRun` links them.
+    """
+
+    __tablename__ = "campaigns"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    campaign_uuid: Mapped[str] = mapped_column(String(36), unique=True, nullable=False)
+    serial: Mapped[str] = mapped_column(String(200), index=True, nullable=False)
+    unit_type: Mapped[str] = mapped_column(String(200), index=True, nullable=False)
+    title: Mapped[str] = mapped_column(Text, nullable=False)
+    spec_name: Mapped[str] = mapped_column(Text, nullable=False)
+    overall: Mapped[str] = mapped_column(String(40), nullable=False)
+    report_id: Mapped[str] = mapped_column(String(200), nullable=False)
+    tested_from: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    tested_to: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    filed_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    document_json: Mapped[str] = mapped_column(Text, nullable=False)
+    runs: Mapped[list[CampaignRun]] = relationship(
+        back_populates="campaign", cascade="all, delete-orphan", order_by="CampaignRun.position"
+    )
+
+
+class CampaignRun(Base):
+    """A stored run that belongs to a campaign, with the campaign's name for its test."""
+
+    __tablename__ = "campaign_runs"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    campaign_id: Mapped[int] = mapped_column(
+        ForeignKey("campaigns.id", ondelete="CASCADE"), index=True, nullable=False
+    )
+    run_uuid: Mapped[str] = mapped_column(String(36), index=True, nullable=False)
+    test_name: Mapped[str] = mapped_column(String(200), nullable=False)
+    position: Mapped[int] = mapped_column(Integer, nullable=False)
+    campaign: Mapped[Campaign] = relationship(back_populates="runs")
