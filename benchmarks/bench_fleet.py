@@ -79,8 +79,16 @@ def main(argv: list[str] | None = None) -> None:
         finally:
             store.close()
         lot = lot_statistics(docs)
-        print(f"  lot statistics of {len(docs)} stored runs: see `inertest lot`")
-        print("  " + str(lot)[:400])
+        print(f"  lot statistics of {len(docs)} stored runs (`inertest lot` prints them all):")
+        for q in lot.quantities:
+            if not q.quantity.startswith("B_"):
+                continue
+            u2u = ("-" if q.unit_to_unit is None else f"{q.unit_to_unit:.3g}")
+            cpk = ", ".join(f"Cpk {c.cpk:.2f}" for c in q.capability if c.cpk is not None)
+            print(f"    {q.quantity} [{q.unit}]: mean {q.mean:.3g}, unit-to-unit {u2u}"
+                  + (f", {cpk}" if cpk else "")
+                  + f"; {len(q.stand_out)} unit(s) stand out"
+                  + "".join(f" {s.serial} ({s.value:.3g})" for s in q.stand_out[:3]))
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
-"""A production lot of simulated MEMS accelerometer triads, as one batch (issue 31).
+r"""A production lot of simulated MEMS accelerometer triads, as one batch (issue 31).
 
 Each unit has its own errors, drawn from a production spread (scale factor 0.15 %, axis
-misalignment 600 urad, bias 8 mg; one unit in fifty with a bias of 30-45 mg, the tail a line
+misalignment 600 urad, bias 8 mg; one unit in fifty with a bias of 45-60 mg, the tail a line
 finds), and its own twelve-position test of the triad-multiposition example (120 readings,
 0.01 m/s^2 of noise per reading at 1670.7 count/(m/s^2)). The script writes, under FOLDER:
 one plan per unit (its serial), one data file per unit, the units' true coefficients
@@ -10,7 +10,7 @@ spec as default, then prints the commands that run the lot:
 
     python examples/fleet/make_fleet.py /tmp/fleet --units 1000
     inertest batch /tmp/fleet/batch.toml --workers 16 --db /tmp/fleet/history.db --quiet
-    inertest lot --db /tmp/fleet/history.db --procedure triad-multiposition \\
+    inertest lot --db /tmp/fleet/history.db --procedure triad-multiposition \
         --spec examples/fleet/spec.toml --report /tmp/fleet/lot.html
 
 Everything is simulated from a seed: the same command writes the same files.
@@ -40,7 +40,7 @@ def unit_truth(rng: np.random.Generator) -> dict[str, float]:
     truth |= {n: 600.0 * rng.standard_normal() for n in NAMES[3:9]}
     truth |= {f"B_{a}": 8.0 * rng.standard_normal() for a in "xyz"}
     if rng.random() < 0.02:  # the tail: a bias far out on one axis
-        truth[f"B_{rng.choice(list('xyz'))}"] = rng.choice([-1, 1]) * rng.uniform(30, 45)
+        truth[f"B_{rng.choice(list('xyz'))}"] = rng.choice([-1, 1]) * rng.uniform(45, 60)
     return truth
 
 
@@ -73,6 +73,7 @@ def make_fleet(folder: Path, units: int, *, seed: int = 2026, noise: float = 16.
 
 
 def main() -> None:
+    """Write the lot under FOLDER."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("folder", type=Path)
     ap.add_argument("--units", type=int, default=1000)

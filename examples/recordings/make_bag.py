@@ -22,6 +22,7 @@ T0_NS = 1_395_394_311_000_000_000
 
 
 def main() -> None:
+    """Write the example bag."""
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_typestore
 
