@@ -1500,11 +1500,8 @@ def test_16_concurrent_writers_lose_nothing(backend, tmp_path):
         url = os.environ.get("INERTEST_TEST_PG_URL", "")
         if not url:
             pytest.skip("no PostgreSQL server: set INERTEST_TEST_PG_URL")
-        import sqlalchemy as sa
-        engine = sa.create_engine(url)
-        with engine.begin() as conn:
-            conn.execute(sa.text("DROP TABLE IF EXISTS estimates, runs, alembic_version CASCADE"))
-        engine.dispose()
+        from postgres_reset import reset_postgres
+        reset_postgres(url)
     ctx = mp.get_context("spawn")
     procs = [ctx.Process(target=_writer, args=(url, k * 100, 1)) for k in range(16)]
     for p in procs:

@@ -5,16 +5,9 @@ from __future__ import annotations
 import os
 
 import pytest
-import sqlalchemy as sa
+from postgres_reset import reset_postgres
 
 PG_ENV = "INERTEST_TEST_PG_URL"
-
-
-def _reset_postgres(url: str) -> None:
-    engine = sa.create_engine(url)
-    with engine.begin() as conn:
-        conn.execute(sa.text("DROP TABLE IF EXISTS estimates, runs, alembic_version CASCADE"))
-    engine.dispose()
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
@@ -24,5 +17,5 @@ def db_url(request, tmp_path):
     url = os.environ.get(PG_ENV)
     if not url:
         pytest.skip(f"no PostgreSQL server: set {PG_ENV} (.ci/run starts one on localhost)")
-    _reset_postgres(url)
+    reset_postgres(url)
     return url
