@@ -740,6 +740,12 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     ``orders[m]``: lag-1 sums of the decimated phase ``x[0], x[m], ...`` and its differences
     (that many rows, see ``kernels.lag1_update``) are wanted; ``points[m]``: the decimated
     phase itself (``count + 1`` points, for the B1 ratio). TOTDEV is not handled here.
+
+    The overlapping Allan sums at ``8 m <= chunk`` are taken by first point, one chunk behind
+    the integration: when chunk ``[p0, p1)`` is in, the terms that start in ``[p0 - chunk,
+    p0)`` have all their points in the buffer, and ``kernels.allan_sums`` sums them for every
+    such tau at once, as in memory (three octaves per pass, tiles that stay in cache); the
+    terms that start in the last chunk are summed after it.
     """
     from inertest.noise import kernels  # numba: loaded on first use
 
@@ -765,7 +771,11 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     main = _Cursor(src)
     buf = np.zeros(2 * chunk + 1)  # buf[chunk + p - p0] = x[p] for p0 - chunk <= p < p1
     sums = {r: 0.0 for r in requests}
+    short = np.array(sorted(m for s, m in requests if s == "oadev" and 8 * m <= chunk),
+                     dtype=np.int64)
+    short_sums = np.zeros(short.size)
     work = sum(_work(s, m, nx) for s, m in requests)
+    requests = [r for r in requests if not (r[0] == "oadev" and 8 * r[1] <= chunk)]
     windows = {r: 0.0 for r in requests if r[0] in ("mdev", "tdev")}  # s_j of modified Allan
     states = {m: np.zeros((k, kernels.LAG1_FIELDS)) for m, k in orders.items()}
     counts = {m: (nx - 1) // m for m in set(orders) | set(points)}
@@ -773,6 +783,10 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     for p0 in range(0, nx, chunk):
         p1 = min(nx, p0 + chunk)
         main.next(p1 - p0, buf[chunk:])
+        if short.size and p0:  # the terms starting in the chunk before
+            first_point = p0 - chunk
+            count = np.clip(np.minimum(p0, nx - 2 * short) - first_point, 0, None)
+            short_sums += kernels.allan_sums(buf, short, count, False)
         seg = {lag: c.next(p1 - max(p0, lag)) for lag, c in cursors.items() if p1 > lag}
 
         def win(lag: int, a: int, b: int, p0: int = p0, seg: dict = seg) -> NDArray:
@@ -827,6 +841,12 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
                     pts[m].append(x[a - p0 : b - p0 : m].copy())
         buf[:chunk] = buf[chunk : 2 * chunk]
         tick(work * p1 // nx - work * p0 // nx)
+    if short.size:  # the terms starting in the last chunk, now at buf[0]
+        first_point = (nx - 1) // chunk * chunk
+        count = np.clip(nx - 2 * short - first_point, 0, None)
+        short_sums += kernels.allan_sums(buf[: nx - first_point], short, count, False)
+        sums.update({("oadev", int(m)): float(v) for m, v in zip(short, short_sums,
+                                                                 strict=True)})
     for r in windows:  # the last term of the modified Allan sum
         sums[r] += windows[r] * windows[r]
     return sums, states, {m: np.concatenate(v) for m, v in pts.items()}
