@@ -322,7 +322,9 @@ class CentrifugeNinePosition(Procedure[CentrifugeNinePositionSpec, CentrifugeObs
             w_ios, f = runs_motion.rate_and_force(labels[r], t[rows])
             return f, w_ios[:, 0]
 
-        runs = _reduce_runs(groups, t, plan.instrument.output_to_rate(cols["output"]), inputs)
+        k = plan.instrument.rad_s_per_output_unit
+        y = cols["output"] if k == 1.0 else plan.instrument.output_to_rate(cols["output"])
+        runs = _reduce_runs(groups, t, y, inputs)  # y is only read
         return CentrifugeObservations(runs, _coverage_messages(runs))
 
     def identify(self, plan: Plan, obs: CentrifugeObservations, *, sigma: float | None,
@@ -580,6 +582,8 @@ def _reduce_runs(groups: RowGroups, t: NDArray[np.float64], y: NDArray[np.float6
         "dof": np.zeros(m, dtype=np.int64),
     }
     within: list[NDArray[np.float64]] = []
+    longest = int(np.max(np.diff(groups.bounds))) if m else 0
+    scratch = np.empty(2 * longest)  # the cosines and sines of a run, reused run to run
     for r in range(m):
         rows = groups.span(r)
         t_run = t[rows]
@@ -595,7 +599,7 @@ def _reduce_runs(groups: RowGroups, t: NDArray[np.float64], y: NDArray[np.float6
         keep = _kept_rows(rows, mask)
         f, w_in = inputs(r, keep)
         try:
-            red = _run_reduction(t[keep], float(run_w[r]), y[keep], f, w_in)
+            red = _run_reduction(t[keep], float(run_w[r]), y[keep], f, w_in, scratch)
         except DataError as exc:
             raise DataError(f"{where}: {exc}") from None
         kept = red.within.size
@@ -652,7 +656,8 @@ class _Reduction:
 
 
 def _run_reduction(t: NDArray[np.float64], omega: float, y: NDArray[np.float64],
-                   f: NDArray[np.float64], w_in: NDArray[np.float64]) -> _Reduction:
+                   f: NDArray[np.float64], w_in: NDArray[np.float64],
+                   scratch: NDArray[np.float64] | None = None) -> _Reduction:
     """Whole-revolution means, structural means and residuals of one run's kept samples.
 
     ``f`` is the specific force [m/s^2], ``y`` the output rate and ``w_in`` the input rate on
@@ -676,13 +681,14 @@ def _run_reduction(t: NDArray[np.float64], omega: float, y: NDArray[np.float64],
     3. the residuals of the drift from its run model (:attr:`RunMeans.within_residuals_rad_s`,
        ``n - 5`` degrees of freedom: the basis has full rank once the weights exist).
 
-    The sense of the arm only turns the sign of the sines, which changes no fit.
+    The sense of the arm only turns the sign of the sines, which changes no fit. ``scratch``
+    (at least 2 n values) receives the cosines and sines (a new array when None).
     """
     from inertest.estimation import _whole_cycle_kernel as kernel  # numba: only when fitted
 
     n = t.size
     gram = np.zeros((5, 5))
-    cos_sin = np.empty((2, n))
+    cos_sin = (np.empty(2 * n) if scratch is None else scratch[: 2 * n]).reshape(2, n)
     kernel.gram(t, abs(omega), float(np.min(t)), cos_sin, gram)
     weights = whole_cycle_correction(gram, n, omega, 2)
     weights[0] += 1.0 / n
@@ -830,7 +836,7 @@ def _identify_runs(
     k = DEG_PER_H_TO_RAD_PER_S / s
     fit, ident = identify(
         A_rows,
-        y_rows / s,
+        y_rows if s == 1.0 else y_rows / s,  # no copy of the rows when s is 1
         names=COEFFICIENTS,
         units=ENGINEERING_UNIT,
         si_per_unit={n: k for n in COEFFICIENTS},
