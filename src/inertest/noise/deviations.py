@@ -266,8 +266,8 @@ def _block_mean(y: ArrayLike, progress: Progress | None = None, total: int = 0) 
     n = len(a)  # type: ignore[arg-type]
     s = 0.0
     for i in range(0, n, CHUNK):
-        blk = _samples(a, i, i + CHUNK)
-        bs = float(np.sum(blk, dtype=np.float64))
+        blk = np.asarray(a[i : i + CHUNK], dtype=np.float64)  # type: ignore[index]
+        bs = float(np.sum(blk))
         if not math.isfinite(bs):
             raise _not_finite(blk, i)
         s += bs
