@@ -741,11 +741,12 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     (that many rows, see ``kernels.lag1_update``) are wanted; ``points[m]``: the decimated
     phase itself (``count + 1`` points, for the B1 ratio). TOTDEV is not handled here.
 
-    The overlapping Allan sums at ``8 m <= chunk`` are taken by first point, one chunk behind
+    The overlapping Allan sums at ``2 m <= chunk`` are taken by first point, one chunk behind
     the integration: when chunk ``[p0, p1)`` is in, the terms that start in ``[p0 - chunk,
     p0)`` have all their points in the buffer, and ``kernels.allan_sums`` sums them for every
-    such tau at once, as in memory (three octaves per pass, tiles that stay in cache); the
-    terms that start in the last chunk are summed after it.
+    such tau at once, as in memory (three octaves per pass, tiles that stay in cache; a pass
+    over m, 2m and 4m reads 8m ahead, and 2 (4m) <= chunk); the terms that start in the last
+    chunk are summed after it.
     """
     from inertest.noise import kernels  # numba: loaded on first use
 
@@ -771,11 +772,11 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     main = _Cursor(src)
     buf = np.zeros(2 * chunk + 1)  # buf[chunk + p - p0] = x[p] for p0 - chunk <= p < p1
     sums = {r: 0.0 for r in requests}
-    short = np.array(sorted(m for s, m in requests if s == "oadev" and 8 * m <= chunk),
+    short = np.array(sorted(m for s, m in requests if s == "oadev" and 2 * m <= chunk),
                      dtype=np.int64)
     short_sums = np.zeros(short.size)
     work = sum(_work(s, m, nx) for s, m in requests)
-    requests = [r for r in requests if not (r[0] == "oadev" and 8 * r[1] <= chunk)]
+    requests = [r for r in requests if not (r[0] == "oadev" and 2 * r[1] <= chunk)]
     windows = {r: 0.0 for r in requests if r[0] in ("mdev", "tdev")}  # s_j of modified Allan
     states = {m: np.zeros((k, kernels.LAG1_FIELDS)) for m, k in orders.items()}
     counts = {m: (nx - 1) // m for m in set(orders) | set(points)}
