@@ -211,7 +211,21 @@ def test_runs_as_a_motion_match_the_kinematics_and_the_seed004_closed_form():
         np.testing.assert_allclose(rows.f_i[k], cf.position_axes(p) @ f_p, atol=1e-12)
         # the platform counter-rotates: the instrument turns with the Earth only
         np.testing.assert_allclose(np.linalg.norm(rows.omega_i[k]), OMEGA_IE, rtol=1e-9)
+    # the rate and force without the attitude: the same digits as the full inputs
+    w_only, f_only = m.rate_and_force("8@-8.85", t)
+    np.testing.assert_array_equal(w_only, ref.omega_ios)
+    np.testing.assert_array_equal(f_only, ref.f_ios)
+    # runs in several stretches of rows: each row gets its own run's inputs
+    stretch = np.array(["8@-8.85"] * 3 + ["1@4.43"] * 2 + ["8@-8.85"] * 2)
+    ts = np.linspace(0.0, 0.6, stretch.size)
+    both = m.inputs_of_rows(stretch, ts)
+    for k, lab in enumerate(stretch):
+        one = m.inputs(str(lab), ts[k:k + 1])
+        np.testing.assert_array_equal(both.f_i[k], one.f_i[0])
+        np.testing.assert_array_equal(both.C_ni[k], one.C_ni[0])
     with pytest.raises(InputError, match="unknown centrifuge run"):
         m.inputs("2@4.43", t)
+    with pytest.raises(InputError, match="unknown centrifuge run"):
+        m.rate_and_force("2@4.43", t)
     with pytest.raises(InputError, match="not one of 1..9"):
         cf.CentrifugeRuns(((10, 4.43),), radius_m=R, site=site)

@@ -30,3 +30,21 @@ def test_engineering_units():
     assert sdf_gyro.ENGINEERING_UNIT["DF"] == "deg/h"
     assert sdf_gyro.ENGINEERING_UNIT["DO"] == "deg/h/g"
     assert sdf_gyro.ENGINEERING_UNIT["DSI"] == "deg/h/g^2"
+
+
+def test_regressor_matrix_and_its_weighted_sum_from_moments_match_the_written_model():
+    rng = np.random.default_rng(1)
+    f = rng.normal(size=(40, 3))
+    w = rng.uniform(0.0, 1.0, 40)
+    fi, fo, fs = f.T
+    written = np.column_stack([np.ones(40), fi, fo, fs, fi * fo, fo * fs, fs * fi, fi**2,
+                               fo**2, fs**2])
+    np.testing.assert_array_equal(sdf_gyro.drift_regressors(f), written)
+    got = sdf_gyro.regressors_from_moments(w.sum(), w @ f, (f * w[:, None]).T @ f)
+    np.testing.assert_allclose(got, w @ written, rtol=1e-14)
+    with pytest.raises(InputError, match=r"shapes \(3,\) and \(3, 3\)"):
+        sdf_gyro.regressors_from_moments(1.0, np.zeros(2), np.zeros((3, 3)))
+    with pytest.raises(InputError, match=r"shape \(n, 3\)"):
+        sdf_gyro.drift(np.zeros((4, 2)), np.zeros(10))
+    with pytest.raises(InputError, match="expected 10 coefficients"):
+        sdf_gyro.drift(np.zeros((4, 3)), np.zeros(9))

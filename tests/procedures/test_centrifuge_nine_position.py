@@ -11,7 +11,9 @@ from inertest.cli import main
 from inertest.earth import OMEGA_IE, Site
 from inertest.equipment import centrifuge as machine
 from inertest.errors import DataError, InertestWarning, PlanError
+from inertest.estimation.reduction import whole_cycle_mask, whole_cycle_weights
 from inertest.io.data_file import read_table, write_table
+from inertest.models.sdf_gyro import coefficients_from_deg_h, drift, drift_regressors
 from inertest.plan import Instrument, Plan
 from inertest.procedures import centrifuge_nine_position as cnp
 from inertest.procedures.centrifuge_nine_position import CentrifugeNinePositionSpec as Spec9
@@ -125,7 +127,7 @@ def test_whole_cycle_regressor_means_equal_the_closed_forms():
         assert runs.revolutions[0] == 30
         np.testing.assert_allclose(runs.regressors[0], _closed_form_regressors(p, omega),
                                    rtol=1e-12, atol=1e-12)
-        plain = cnp.drift_regressors(f[:1065] / G0).mean(axis=0)
+        plain = drift_regressors(f[:1065] / G0).mean(axis=0)
         assert np.max(np.abs(plain - _closed_form_regressors(p, omega))) > 1e-4
         assert runs.noise_factor[0] == pytest.approx(1 / np.sqrt(1065), rel=1e-3)
     omega = 4.43
@@ -481,6 +483,96 @@ def test_within_run_residuals_are_the_noise_only():
     np.testing.assert_array_equal(runs.within_dof, runs.n_samples - 5)
     # runs in time order of their first data row (simulate: position, then rate)
     assert list(runs.position[np.argsort(runs.first_row)][:4]) == [1, 1, 1, 1]
+
+
+def _run_means_by_definition(pos, omega, t, y, f, w):
+    """Each run's whole-revolution means, written from the definitions (the reference).
+
+    The kept samples of :func:`whole_cycle_mask`, the weights of :func:`whole_cycle_weights`
+    applied to the regressor matrix written out, and the least-squares fits of numpy's
+    ``lstsq`` (a constant and the arm's harmonics, on the signed arm angle) for the structural
+    means and the residuals within the run.
+    """
+    out = {}
+    for p, wr in sorted(set(zip(pos.tolist(), omega.tolist(), strict=True))):
+        idx = np.flatnonzero((pos == p) & (omega == wr))
+        mask, _ = whole_cycle_mask(t[idx], wr)
+        keep = idx[mask]
+        fg = f[keep] / G0
+        wts = whole_cycle_weights(t[keep], wr)
+        a = wr * (t[keep] - t[keep].min())
+        b3 = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a)])
+        c = np.linalg.lstsq(b3, fg, rcond=None)[0]
+        m2 = np.outer(c[0], c[0]) + (np.outer(c[1], c[1]) + np.outer(c[2], c[2])) / 2
+        b5 = np.column_stack([b3, np.cos(2 * a), np.sin(2 * a)])
+        d = y[keep] - w[keep, 0]
+        out[(p, wr)] = {
+            "regressors": wts @ drift_regressors(fg), "drift": wts @ d,
+            "input": wts @ w[keep, 0], "noise": np.sqrt(wts @ wts), "samples": keep.size,
+            "structural": np.array([1.0, *c[0], m2[0, 1], m2[1, 2], m2[2, 0], m2[0, 0],
+                                    m2[1, 1], m2[2, 2]]),
+            "within": d - b5 @ np.linalg.lstsq(b5, d, rcond=None)[0], "first": idx.min()}
+    return out
+
+
+def test_run_means_equal_their_definition_with_runs_in_stretches_in_any_order():
+    # 1 kHz at 4.43 and -8.85 rad/s (1418.3 and 709.9 samples per revolution: the weights are
+    # corrected), runs of 4.3 revolutions (2 tiles of the reduction's sums and then some), in
+    # the order (7, -8.85) first half, (3, 4.43), (7, -8.85) second half, (3, -8.85): not
+    # sorted, one run in two stretches. Output: Earth rate + drift + noise + an arm harmonic.
+    plan = make_plan()
+    parts = []
+    for p, wr, half in ((7, -8.85, 0), (3, 4.43, None), (7, -8.85, 1), (3, -8.85, None)):
+        t = np.arange(int(4.3 * 2 * np.pi / abs(wr) * 1000)) / 1000.0
+        if half is not None:
+            t = np.array_split(t, 2)[half]
+        parts.append((np.full(t.size, p), np.full(t.size, wr), t))
+    pos, omega, t = (np.concatenate(c) for c in zip(*parts, strict=True))
+    f, w = cnp.machine_inputs(MACHINE(plan), pos, omega, t)
+    rng = np.random.default_rng(4)
+    y = (w[:, 0] + drift(f / G0, coefficients_from_deg_h(TRUTH)) + rng.normal(0, 1e-7, t.size)
+         + 1e-6 * np.cos(omega * t))
+    runs = cnp.run_means(pos, omega, t, y, f, w)
+    ref = _run_means_by_definition(pos, omega, t, y, f, w)
+    assert [(int(p), float(v)) for p, v in zip(runs.position, runs.omega, strict=True)] == list(ref)
+    start = 0
+    for r, key in enumerate(ref):
+        e = ref[key]
+        n = e["samples"]
+        assert runs.n_samples[r] == n and runs.first_row[r] == e["first"]
+        # zero means are sums of terms up to (R w^2 / g0)^2 = 200 that cancel: to rounding of
+        # those (1e-14 of the largest regressor), the others to 1e-13
+        scale = np.abs(e["regressors"]).max()
+        np.testing.assert_allclose(runs.regressors[r], e["regressors"], rtol=1e-13,
+                                   atol=1e-14 * scale)
+        np.testing.assert_allclose(runs.structural_regressors[r], e["structural"], rtol=1e-12,
+                                   atol=1e-14 * scale)
+        np.testing.assert_allclose(runs.f_mean_g[r], e["regressors"][1:4], atol=1e-14 * scale)
+        assert runs.drift_rad_s[r] == pytest.approx(e["drift"], rel=1e-12, abs=1e-20)
+        assert runs.input_rate_rad_s[r] == pytest.approx(e["input"], rel=1e-13)
+        assert runs.noise_factor[r] == pytest.approx(e["noise"], rel=1e-12)
+        np.testing.assert_allclose(runs.within_residuals_rad_s[start:start + n], e["within"],
+                                   rtol=0, atol=1e-12 * np.abs(e["within"]).max())
+        start += n
+
+
+def test_fit_does_not_depend_on_the_order_of_the_runs_in_the_file():
+    # Position offsets do not depend on the runs' order in time: the same runs written in
+    # reverse order give the same estimates, std and noise components (the units in time
+    # order differ from the runs' own order).
+    plan, data = _with_run_offsets(3e-7)
+    key = data["position"] * 100 + data["omega"]
+    change = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    rows = np.concatenate([np.arange(a, b) for a, b in
+                           zip(change[::-1], np.r_[change[1:], key.size][::-1], strict=True)])
+    flipped = {k: v[rows] for k, v in data.items()}
+    a = cnp.PROCEDURE.fit(plan, data, noise_model="position-offsets").identification
+    b = cnp.PROCEDURE.fit(plan, flipped, noise_model="position-offsets").identification
+    for k, e in a.coefficients.items():
+        assert b.coefficients[k].value == pytest.approx(e.value, rel=0, abs=1e-9 * e.std)
+        assert b.coefficients[k].std == pytest.approx(e.std, rel=1e-9)
+    for k, v in a.noise_components.items():
+        assert b.noise_components[k] == pytest.approx(v, rel=1e-9)
 
 
 def _with_run_offsets(b, seed=3, s=1e-7):

@@ -75,8 +75,10 @@ def chain(t, w, radius, links, wobble, ecc, fixture, earth_p, c_pe, gravity, ear
     earth_p : (3,) Earth rate in P [rad/s]; ``c_pe`` : (3, 3) P -> ENU; ``gravity`` [m/s^2].
     dg_kind : 0 none, 1 ``a sin(2 pi f t + ph)`` with ``dg_par = (a, 2 pi f, ph)``, 2
         ``offset + rate t`` with ``dg_par = (rate, offset)``, 3 the arrays ``dg, dg1, dg2``.
-    attitude (n, 3, 3), omega_ios (n, 3), f_ios (n, 3) : outputs; with ``full`` also
-        attitude_p (n, 3, 3), position_p, velocity_p, acceleration_p, omega_rel_p (n, 3).
+    attitude (n, 3, 3), omega_ios (n, 3), f_ios (n, 3) : outputs (an ``attitude`` of no rows:
+        not written, for the drift models, which need only the rate and the force); with
+        ``full`` also attitude_p (n, 3, 3), position_p, velocity_p, acceleration_p,
+        omega_rel_p (n, 3).
     """
     cl = np.cos(links)
     sl = np.sin(links)
@@ -87,6 +89,7 @@ def chain(t, w, radius, links, wobble, ecc, fixture, earth_p, c_pe, gravity, ear
     W = (earth_p[0], earth_p[1], earth_p[2])
     ro = (radius, 0.0, 0.0)
     zero = (0.0, 0.0, 0.0)
+    with_attitude = attitude.shape[0] > 0
     for n in range(t.size):
         tn = t[n]
         if dg_kind == 1:
@@ -168,8 +171,9 @@ def chain(t, w, radius, links, wobble, ecc, fixture, earth_p, c_pe, gravity, ear
             m2 = cx[2] * fa + cy[2] * fb + cz[2] * fc
             omega_ios[n, col] = m0 * i0 + m1 * i1 + m2 * i2
             f_ios[n, col] = m0 * f0 + m1 * f1 + m2 * f2
-            for r in range(3):
-                attitude[n, r, col] = c_pe[r, 0] * m0 + c_pe[r, 1] * m1 + c_pe[r, 2] * m2
+            if with_attitude:
+                for r in range(3):
+                    attitude[n, r, col] = c_pe[r, 0] * m0 + c_pe[r, 1] * m1 + c_pe[r, 2] * m2
             if full:
                 attitude_p[n, 0, col] = m0
                 attitude_p[n, 1, col] = m1

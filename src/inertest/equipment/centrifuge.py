@@ -45,6 +45,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -53,7 +54,7 @@ from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
 from inertest.earth import Site, earth_rate_enu
-from inertest.equipment.motion import Inputs
+from inertest.equipment.motion import Inputs, run_starts
 from inertest.equipment.type_b import TypeBSource, type_b_error
 from inertest.errors import InputError
 
@@ -433,10 +434,12 @@ def _evaluate(
     dgamma: NonSynchronisation | None,
     earth_rotation_in_acceleration: bool,
     full: bool,
+    with_attitude: bool = True,
 ) -> Any:
     """The chain of :func:`centrifuge_motion` through the fused kernel, block by block.
 
-    ``full``: a :class:`CentrifugeMotion`; otherwise only ``(f_ios, omega_ios, attitude)``.
+    ``full``: a :class:`CentrifugeMotion`; otherwise only ``(f_ios, omega_ios, attitude)``,
+    the attitude of no rows (not evaluated) when ``with_attitude`` is False.
     """
     tt = np.ascontiguousarray(np.atleast_1d(np.asarray(t, dtype=float)))
     if tt.ndim != 1 or (tt.size and not np.isfinite(tt.min() + tt.max())):
@@ -478,7 +481,8 @@ def _evaluate(
     else:
         kind, par = kernel.DGAMMA_ARRAYS, empty
     n = tt.size
-    out = [np.empty((n, 3, 3)), np.empty((n, 3)), np.empty((n, 3))]
+    out = [np.empty((n if with_attitude or full else 0, 3, 3)), np.empty((n, 3)),
+           np.empty((n, 3))]
     extra = ([np.empty((n, 3, 3))] + [np.empty((n, 3)) for _ in range(4)] if full
              else [np.empty((0, 3, 3))] + [np.empty((0, 3)) for _ in range(4)])
     for i0 in range(0, n, BLOCK):
@@ -599,13 +603,34 @@ class CentrifugeRuns:
             if not np.isfinite(w):
                 raise InputError(f"main-axis rate of a run must be finite [rad/s], got {w!r}")
 
-    @property
+    @cached_property
     def segments(self) -> tuple[str, ...]:
         """Run labels in plan order."""
         return tuple(str(run_labels(p, w)[0]) for p, w in self.runs)
 
     def inputs(self, segment: str, t: ArrayLike) -> Inputs:
         """Exact inputs of run ``segment`` at times ``t`` [s], shape (n,)."""
+        f_ios, omega_ios, attitude = instrument_inputs(t, **self._run(segment))
+        return Inputs(attitude, omega_ios, f_ios)
+
+    def rate_and_force(self, segment: str, t: ArrayLike
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Inertial angular rate and specific force on I, O, S of run ``segment`` at ``t`` [s].
+
+        :meth:`inputs` without the attitude (not evaluated): what the drift models need.
+
+        Returns
+        -------
+        omega_ios : ndarray, shape (n, 3)
+            Angular rate relative to inertial space [rad/s].
+        f_ios : ndarray, shape (n, 3)
+            Specific force [m/s^2].
+        """
+        f_ios, omega_ios, _ = _evaluate(t, **self._run(segment), full=False, with_attitude=False)
+        return omega_ios, f_ios
+
+    def _run(self, segment: str) -> dict[str, Any]:
+        """Arguments of :func:`instrument_inputs` for run ``segment`` (Type-B errors applied)."""
         try:
             p, w = self.runs[self.segments.index(segment)]
         except ValueError:
@@ -615,33 +640,36 @@ class CentrifugeRuns:
         if tilt:
             base = CentrifugeErrors() if errors is None else errors
             errors = replace(base, parallelism_x_rad=base.parallelism_x_rad + tilt)
-        f_ios, omega_ios, attitude = instrument_inputs(
-            t, w * (1.0 + type_b_error(self.type_b, "rate")), p,
-            radius_m=self.radius_m + type_b_error(self.type_b, "radius"),
-            gravity_m_s2=self.site.gravity_m_s2,
-            latitude_rad=self.site.latitude_rad, platform_heading_rad=self.platform_heading_rad,
-            errors=errors, dgamma=self.dgamma,
-            earth_rotation_in_acceleration=self.earth_rotation_in_acceleration)
-        return Inputs(attitude, omega_ios, f_ios)
+        return {"omega": w * (1.0 + type_b_error(self.type_b, "rate")), "position": p,
+                "radius_m": self.radius_m + type_b_error(self.type_b, "radius"),
+                "gravity_m_s2": self.site.gravity_m_s2, "latitude_rad": self.site.latitude_rad,
+                "platform_heading_rad": self.platform_heading_rad, "errors": errors,
+                "dgamma": self.dgamma,
+                "earth_rotation_in_acceleration": self.earth_rotation_in_acceleration}
 
     def inputs_of_rows(self, labels: ArrayLike, t: ArrayLike) -> Inputs:
         """Inputs of every data row, by its run label and time [s], shape (n,).
 
-        One evaluation of the kinematics per run, over that run's rows in their order.
+        One evaluation of the kinematics per run, over that run's rows in their order. The
+        rows of a run usually come one after another: the labels are compared at the changes
+        only, and a run in one stretch of rows is evaluated and written as a slice.
         """
-        lab = np.asarray(labels).astype(str)
+        lab = np.asarray(labels).astype(str, copy=False)
         tt = np.asarray(t, dtype=float)
         if lab.shape != tt.shape or lab.ndim != 1:
             raise InputError(f"labels and times need the same shape (n,), got {lab.shape} and "
                              f"{tt.shape}")
         C, w, f = np.empty((tt.size, 3, 3)), np.empty((tt.size, 3)), np.empty((tt.size, 3))
-        uniq, inverse = np.unique(lab, return_inverse=True)
-        order = np.argsort(inverse, kind="stable")
-        bounds = np.searchsorted(inverse[order], np.arange(uniq.size + 1))
+        starts = run_starts(lab)
+        ends = np.append(starts[1:], tt.size)
+        uniq, inverse = np.unique(lab[starts], return_inverse=True)
         for k, u in enumerate(uniq):
-            idx = order[bounds[k]:bounds[k + 1]]
-            part = self.inputs(str(u), tt[idx])
-            C[idx], w[idx], f[idx] = part.C_ni, part.omega_i, part.f_i
+            stretches = np.flatnonzero(inverse == k)
+            rows: slice | NDArray[np.intp] = (
+                slice(int(starts[stretches[0]]), int(ends[stretches[0]])) if stretches.size == 1
+                else np.concatenate([np.arange(starts[j], ends[j]) for j in stretches]))
+            part = self.inputs(str(u), tt[rows])
+            C[rows], w[rows], f[rows] = part.C_ni, part.omega_i, part.f_i
         return Inputs(C, w, f)
 
 

@@ -125,44 +125,46 @@ def flicker_row_covariance(
     The spectrum is ``1/f`` from ``f_lo = 1 / (2 s n)`` (``s`` the ``bias_time_scale`` in
     record lengths) to the Nyquist frequency (cycles per row), so
     ``c(L) = int cos(2 pi f L) / f df = Ci(pi L) - Ci(2 pi f_lo L)`` and
-    ``c(0) = ln(1 / (2 f_lo))`` (Ci the cosine integral).
+    ``c(0) = ln(1 / (2 f_lo))`` (Ci the cosine integral, evaluated by
+    :mod:`inertest.estimation._flicker_kernel`).
     """
+    from inertest.estimation import _flicker_kernel as kernel  # numba: only when evaluated
+
     f_lo = flicker_low(n, bias_time_scale)
-    lag = np.arange(1, n + 1, dtype=float)
     c = np.empty(n + 1)
     c[0] = np.log(0.5 / f_lo)
-    c[1:] = scipy.special.sici(np.pi * lag)[1] - scipy.special.sici(2 * np.pi * f_lo * lag)[1]
+    kernel.row_covariance(2 * np.pi * f_lo, _ci_pi_head(), c)
     return c
 
 
+def _ci_pi_head() -> NDArray[np.float64]:
+    """``Ci(pi L)`` for ``L < ASYMPTOTIC_FROM`` (scipy; ``L = 0`` unused)."""
+    from inertest.estimation._flicker_kernel import ASYMPTOTIC_FROM
+
+    head = np.zeros(ASYMPTOTIC_FROM)
+    head[1:] = scipy.special.sici(np.pi * np.arange(1, ASYMPTOTIC_FROM, dtype=float))[1]
+    return head
+
+
 def flicker_phi(
-    n: int, lags: NDArray[np.intp], block: int = 65536,
-    bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
+    n: int, lags: NDArray[np.intp], bias_time_scale: float = BIAS_TIME_SCALE_DEFAULT,
 ) -> tuple[float, NDArray[np.float64]]:
     """``c(0)``, and ``Phi`` at ``lags`` (sorted, ``0..n + 1``) of the flicker row covariance.
 
     ``Phi(k) = sum_{j<k} (c(0) / 2 + c(1) + ... + c(j))``, the even second antidifference of the
     row autocovariance ``c`` (:func:`flicker_row_covariance`), by the same running sums as
-    over the whole record (so the same numbers to the last bit), ``block`` lags at a time:
-    O(block) memory instead of five arrays of the record's length (~48 MB at 1e6 rows).
+    over the whole record (so the same numbers to the last bit), in one compiled loop up to
+    the largest lag asked for (``_flicker_kernel.second_antidifference``): no array of the
+    record's length.
     """
+    from inertest.estimation import _flicker_kernel as kernel  # numba: only when evaluated
+
     f_lo = flicker_low(n, bias_time_scale)
     c0 = float(np.log(0.5 / f_lo))
-    out = np.empty(lags.size)
-    s_prev = phi_prev = 0.0  # running sum of c(1..j), and Phi at the block's start
-    taken = 0
-    for j0 in range(0, n + 1, block):
-        j1 = min(j0 + block, n + 1)
-        lag = np.arange(max(j0, 1), j1, dtype=float)
-        cb = scipy.special.sici(np.pi * lag)[1] - scipy.special.sici(2 * np.pi * f_lo * lag)[1]
-        sums = np.cumsum(np.concatenate(([s_prev], cb)))  # sum c(1..j), j = j0 - 1 .. j1 - 1
-        if j0 > 0:
-            sums = sums[1:]
-        phi = np.cumsum(np.concatenate(([phi_prev], c0 / 2 + sums)))  # Phi(j0 .. j1)
-        stop = int(np.searchsorted(lags, j1, side="right"))
-        out[taken:stop] = phi[lags[taken:stop] - j0]
-        taken = stop
-        s_prev, phi_prev = float(sums[-1]), float(phi[-1])
+    want = np.ascontiguousarray(lags, dtype=np.int64)
+    out = np.empty(want.size)
+    taken = kernel.second_antidifference(int(n), 2 * np.pi * f_lo, c0, _ci_pi_head(), want,
+                                         out)
     if taken < lags.size:
         raise InputError(f"flicker kernel: lag {lags[taken]} beyond the record ({n} rows)")
     return c0, out

@@ -52,13 +52,24 @@ class RowGroups:
         """Row indices of run ``r`` in their original order."""
         return self.order[self.bounds[r] : self.bounds[r + 1]]
 
+    def span(self, r: int) -> slice | NDArray[np.intp]:
+        """The rows of run ``r``: a slice when they are one stretch of rows, else their indices.
+
+        Indexing with a slice gives views, not copies; the indices are those of :meth:`rows`.
+        """
+        a, b = int(self.bounds[r]), int(self.bounds[r + 1])
+        first, last = int(self.order[a]), int(self.order[b - 1])
+        return slice(first, last + 1) if last - first == b - a - 1 else self.rows(r)
+
 
 def group_rows(*keys: ArrayLike) -> RowGroups:
     """Group rows by the combination of their values in one or more key columns.
 
-    Each key column is coded by ``np.unique`` and the codes are combined into one integer per
-    row, then one stable sort finds the runs (``np.unique(axis=0)`` on stacked keys is ~10x slower
-    on millions of rows).
+    Test data come in stretches of rows with equal keys (the samples of one run, one after
+    another): only the first row of each stretch is coded (``np.unique`` of each key column
+    there, the codes combined into one integer), the stretches are sorted by their codes
+    (stable) and the rows follow, so that no sort runs over the rows themselves
+    (``np.unique(axis=0)`` on the stacked keys of millions of rows is some 100x slower).
 
     Parameters
     ----------
@@ -81,21 +92,33 @@ def group_rows(*keys: ArrayLike) -> RowGroups:
             "group_rows needs one or more 1-D key columns of equal length, got shapes "
             f"{[c.shape for c in cols]}"
         )
-    values, code = [], np.zeros(cols[0].size, dtype=np.int64)
+    n = cols[0].size
+    change = np.zeros(n, dtype=bool)
+    change[:1] = True
     for c in cols:
-        v, inverse = np.unique(c, return_inverse=True)
+        change[1:] |= c[1:] != c[:-1]  # NaN != NaN: a stretch of its own (np.unique merges)
+    starts = np.flatnonzero(change)
+    lengths = np.diff(np.append(starts, n))
+    values, code = [], np.zeros(starts.size, dtype=np.int64)
+    for c in cols:
+        v, inverse = np.unique(c[starts], return_inverse=True)
         values.append(v)
         code = code * v.size + inverse.reshape(-1)
-    order = np.argsort(code, kind="stable")
-    sorted_code = code[order]
-    starts = np.flatnonzero(np.r_[True, sorted_code[1:] != sorted_code[:-1]])
-    first = sorted_code[starts] if starts.size else sorted_code[:0]
+    by_code = np.argsort(code, kind="stable")  # stretches by run, in row order within a run
+    sorted_code = code[by_code]
+    first_row, length = starts[by_code], lengths[by_code]
+    offset = np.cumsum(length) - length  # where each stretch begins in ``order``
+    order = np.arange(n, dtype=np.intp)
+    if not np.array_equal(first_row, offset):  # else each run is one stretch, runs in order
+        order += np.repeat(first_row - offset, length)
+    new_run = np.flatnonzero(np.r_[True, sorted_code[1:] != sorted_code[:-1]]) if n else starts
+    first = sorted_code[new_run]
     run_keys: list[NDArray] = []
     for v in reversed(values):
         run_keys.append(v[first % v.size])
         first = first // v.size
     return RowGroups(keys=tuple(reversed(run_keys)), order=order,
-                     bounds=np.r_[starts, code.size].astype(np.intp))
+                     bounds=np.r_[offset[new_run], n].astype(np.intp))
 
 
 def whole_cycle_mask(t: ArrayLike, omega: float) -> tuple[NDArray[np.bool_], int]:
@@ -164,19 +187,61 @@ def whole_cycle_weights(t: ArrayLike, omega: float, *, harmonics: int = 2) -> ND
         Too few samples per cycle (fewer than ``2 harmonics + 1``) to average the harmonics out.
     """
     tt = np.asarray(t, dtype=float)
-    a = abs(float(omega)) * (tt - tt.min())
-    columns = [np.ones_like(a)]
-    for k in range(1, int(harmonics) + 1):
-        columns += [np.cos(k * a), np.sin(k * a)]
-    basis = np.column_stack(columns)
-    u = np.full(a.size, 1.0 / a.size)
-    target = np.zeros(basis.shape[1])
-    target[0] = 1.0
-    gram = basis.T @ basis
-    if a.size < basis.shape[1] or np.linalg.cond(gram) > 1e10:
+    rows = harmonic_rows(abs(float(omega)) * (tt - tt.min()), harmonics)
+    gram = rows @ rows.T
+    return 1.0 / tt.size + whole_cycle_correction(gram, tt.size, omega, harmonics) @ rows
+
+
+def harmonic_rows(angle: ArrayLike, harmonics: int) -> NDArray[np.float64]:
+    """The basis of :func:`whole_cycle_weights` at angles ``a`` [rad], one row per function.
+
+    Rows ``1, cos a, sin a, cos 2a, sin 2a, ..., cos(K a), sin(K a)`` (``K = harmonics``); the
+    higher harmonics from the first by the addition theorem (equal to ``cos(k a)`` to rounding).
+
+    Returns
+    -------
+    ndarray, shape (2 K + 1, n)
+    """
+    a = np.asarray(angle, dtype=float)
+    out = np.empty((2 * int(harmonics) + 1, a.size))
+    out[0] = 1.0
+    if harmonics >= 1:
+        np.cos(a, out=out[1])
+        np.sin(a, out=out[2])
+        c, s = out[1], out[2]
+        for k in range(2, int(harmonics) + 1):
+            ck, sk = out[2 * k - 3], out[2 * k - 2]
+            np.multiply(ck, c, out=out[2 * k - 1])
+            out[2 * k - 1] -= sk * s
+            np.multiply(sk, c, out=out[2 * k])
+            out[2 * k] += ck * s
+    return out
+
+
+def whole_cycle_correction(gram: ArrayLike, n: int, omega: float, harmonics: int
+                           ) -> NDArray[np.float64]:
+    """``l`` with the weights of :func:`whole_cycle_weights` equal to ``1/n + l @ rows``.
+
+    ``rows`` is :func:`harmonic_rows` of the run's ``n`` samples and ``gram = rows @ rows.T``:
+    the minimum-norm correction of the equal weights ``u`` that zeroes the weighted mean of
+    every harmonic is ``rows.T l`` with ``gram l = e_0 - rows u`` (``rows u`` is the first row
+    of ``gram`` over ``n``, the first basis function being 1). So a caller that sums
+    ``rows @ values`` (block by block, say) has every weighted mean, ``(e_0 / n + l) @ sums``,
+    without the weights.
+
+    Raises
+    ------
+    DataError
+        Too few samples per cycle (fewer than ``2 harmonics + 1``, or a Gram matrix of
+        condition number above 1e10) to average the harmonics out.
+    """
+    g = np.asarray(gram, dtype=float)
+    if n < g.shape[0] or np.linalg.cond(g) > 1e10:
         raise DataError(
             f"too few samples per cycle to average harmonics 1 to {int(harmonics)} of the motion "
-            f"at {abs(float(omega)):g} rad/s to zero; sample at least {basis.shape[1]} times per "
+            f"at {abs(float(omega)):g} rad/s to zero; sample at least {g.shape[0]} times per "
             "cycle"
         )
-    return u + basis @ np.linalg.solve(gram, target - basis.T @ u)
+    target = np.zeros(g.shape[0])
+    target[0] = 1.0
+    return np.asarray(np.linalg.solve(g, target - g[0] / n))

@@ -62,12 +62,60 @@ def drift_regressors(f_ios_g: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
+def regressors_from_moments(weight: float, first: ArrayLike, second: ArrayLike
+                            ) -> NDArray[np.float64]:
+    """A weighted sum of the rows of :func:`drift_regressors`, from moments of the force.
+
+    ``sum_i w_i Phi(f_i)`` needs only ``weight = sum w_i``, ``first = sum w_i f_i`` and
+    ``second = sum w_i f_i f_i^T``: computed so, the ``(n, 10)`` regressor matrix is never
+    built (whole-cycle means of long records).
+
+    Parameters
+    ----------
+    weight : float
+        Sum of the weights (1 for a weighted mean).
+    first : array_like, shape (3,)
+        Weighted sum of the specific force along (I, O, S) [g0].
+    second : array_like, shape (3, 3)
+        Weighted sum of its outer products [g0^2].
+
+    Returns
+    -------
+    ndarray, shape (10,)
+        ``sum w_i Phi(f_i)``, in the order of :data:`COEFFICIENTS`.
+    """
+    m1 = np.asarray(first, dtype=float)
+    m2 = np.asarray(second, dtype=float)
+    if m1.shape != (3,) or m2.shape != (3, 3):
+        raise InputError(f"moments need shapes (3,) and (3, 3), got {m1.shape} and {m2.shape}")
+    return np.array([float(weight), *m1, m2[0, 1], m2[1, 2], m2[2, 0], m2[0, 0], m2[1, 1],
+                     m2[2, 2]])
+
+
 def drift(f_ios_g: ArrayLike, coefficients: ArrayLike) -> NDArray[np.float64]:
-    """Static drift [same rate unit as ``coefficients``] for specific forces ``f_ios_g`` [g0]."""
+    """Static drift [same rate unit as ``coefficients``] for specific forces ``f_ios_g`` [g0].
+
+    ``drift_regressors(f) @ coefficients`` evaluated as
+    ``DF + fI (DI + DII fI + DIO fO) + fO (DO + DOO fO + DOS fS) + fS (DS + DSS fS + DSI fI)``
+    (equal to rounding), with temporaries of ``n`` values instead of the ``(n, 10)`` matrix.
+    """
     c = np.asarray(coefficients, dtype=float)
     if c.shape != (len(COEFFICIENTS),):
         raise InputError(f"expected {len(COEFFICIENTS)} coefficients, got shape {c.shape}")
-    return drift_regressors(f_ios_g) @ c
+    f = np.asarray(f_ios_g, dtype=float)
+    if f.ndim != 2 or f.shape[1] != 3:
+        raise InputError(f"specific force must have shape (n, 3), got {f.shape}")
+    df, di, do, ds, dio, dos, dsi, dii, doo, dss = (float(v) for v in c)
+    fi, fo, fs = f[:, 0], f[:, 1], f[:, 2]
+    out = np.full(f.shape[0], df)
+    for a, lin, square, cross, b in ((fi, di, dii, dio, fo), (fo, do, doo, dos, fs),
+                                     (fs, ds, dss, dsi, fi)):
+        term = a * square
+        term += lin
+        term += cross * b
+        term *= a
+        out += term
+    return out
 
 
 def coefficients_from_deg_h(values: Mapping[str, float]) -> NDArray[np.float64]:

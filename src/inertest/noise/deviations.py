@@ -290,19 +290,37 @@ def _level(y: NDArray) -> float:
     samples), and every statistic here is invariant to the constant left (a straight line of
     phase). The line makes the phase larger (about sqrt(32) times for white noise), and summed
     in one running sum it cost up to 45x in rounding (4e-11 at the longest taus of a float32
-    record). :func:`kernels.integrate_fused` therefore restarts the running sum every tile.
-    Against an exact rational reference (review 20, records of 1e6 samples; in brackets the
-    exact mean with one running sum, as the streamed path does): white, offset and float32
-    records within 8e-13 (1.2e-11), a drifting rate 4e-10 (1.1e-8), a random-walk rate 9e-11
-    (2e-11): all far below the digits a deviation has.
+    record). :func:`kernels.integrate_fused` therefore restarts the running sum every tile
+    (as every other phase build does, :func:`kernels.integrate`). Against an exact rational
+    reference (review 20, records of 1e6 samples; in brackets the exact mean with one running
+    sum, as the streamed path had it until issue 31): white, offset and float32 records within
+    8e-13 (1.2e-11), a drifting rate 4e-10 (1.1e-8), a random-walk rate 9e-11 (2e-11): all far
+    below the digits a deviation has.
     """
     if y.size < _FUSE_ROWS:
         return _block_mean(y)
     return float(np.mean(y[::_LEVEL_STRIDE]))
 
 
+def _samples(y: ArrayLike, start: int, stop: int) -> NDArray:
+    """Samples ``y[start:stop]`` as an array the kernels read as it is.
+
+    Float32 or float64 in native byte order and contiguous (no float64 copy of a float32
+    block); anything else is converted to float64.
+    """
+    blk = np.asarray(y[start:stop])  # type: ignore[index]
+    if blk.dtype in (np.float32, np.float64) and blk.dtype.isnative and blk.flags.c_contiguous:
+        return blk
+    return np.ascontiguousarray(blk, dtype=np.float64)
+
+
 class _RatePhase(_Phase):
-    """Phase of a (possibly memory-mapped) rate record, rebuilt per read from checkpoints."""
+    """Phase of a (possibly memory-mapped) rate record, rebuilt per read from checkpoints.
+
+    The phase's running sum restarts every ``kernels.TILE`` samples of the record
+    (:func:`kernels.integrate`), as in memory, so a read from a checkpoint, a cursor and the
+    one pass give the same digits, and the rounding does not pile up over the record.
+    """
 
     def __init__(self, y: ArrayLike, tau0: float, mean: float) -> None:
         self.y = y
@@ -315,17 +333,20 @@ class _RatePhase(_Phase):
 
     @property
     def checkpoints(self) -> NDArray:
-        """``cum[k CHUNK]``, ``cum[k] = sum_{i<k} (y_i - mean)`` summed in order (first use)."""
+        """State ``(base, c)`` of the running sum at sample ``k CHUNK``, shape (k, 2).
+
+        Built on first use (``kernels.integrate``).
+        """
         if self._checkpoints is None:
-            ck = [0.0]
-            c = 0.0
+            state = (0.0, 0.0)
+            ck = [state]
             buf = np.empty(CHUNK + 1)
             from inertest.noise import kernels  # numba: loaded on first use
             for i in range(0, self.n, CHUNK):
-                blk = np.ascontiguousarray(self.y[i : i + CHUNK],  # type: ignore[index]
-                                           dtype=np.float64)
-                c = kernels.integrate(blk, self.mean, c, self.tau0, buf[: blk.size + 1])
-                ck.append(c)
+                blk = _samples(self.y, i, i + CHUNK)
+                state = kernels.integrate(blk, self.mean, i, *state, self.tau0,
+                                          buf[: blk.size + 1])
+                ck.append(state)
             self._checkpoints = np.asarray(ck)
         return self._checkpoints
 
@@ -336,11 +357,12 @@ class _RatePhase(_Phase):
             return np.empty(0)
         k = start // CHUNK
         base = k * CHUNK
-        blk = np.ascontiguousarray(self.y[base : stop - 1], dtype=np.float64)  # type: ignore[index]
+        blk = _samples(self.y, base, stop - 1)
         out = np.empty(blk.size + 1)
         from inertest.noise import kernels
 
-        kernels.integrate(blk, self.mean, float(self.checkpoints[k]), self.tau0, out)
+        b, c = self.checkpoints[k]
+        kernels.integrate(blk, self.mean, base, float(b), float(c), self.tau0, out)
         return out[start - base : stop - base]
 
 
@@ -454,7 +476,7 @@ def phase_source(
         if fuse not in ("octave", "hadamard"):
             mean = _block_mean(yc)
             x = _work_array(n + 1)
-            kernels.integrate(yc, mean, 0.0, tau0, x)
+            kernels.integrate(yc, mean, 0, 0.0, 0.0, tau0, x)
             return _MemoryPhase(x, tau0, owned=[x])
         # No pass for the exact mean: the level removed is estimated (_level), and a NaN or
         # an infinity anywhere makes the last phase point not finite.
@@ -658,8 +680,9 @@ def _decimated(src: _Phase, m: int, count: int):  # noqa: ANN202 - generator of 
 # --------------------------------------------------------------------------- one streamed pass
 # Streaming evaluates every tau of every statistic in one pass over the record. Each term is
 # indexed by the largest phase index p it reads; its other points lie at lags 0 < L <= 3m
-# behind p. The pass integrates each chunk of phase once (the running sum carried in sample
-# order, so the points are the digits of the in-memory phase) and keeps the last CHUNK points
+# behind p. The pass integrates each chunk of phase once (the running sum restarted every
+# kernels.TILE samples of the record, its state carried from chunk to chunk, so the points are
+# the digits of a phase built whole with the same level) and keeps the last CHUNK points
 # as a tail: lags up to one chunk are views of that buffer. Each longer lag L gets its own
 # cursor, a second integrator running L points behind, shared by every tau that needs that lag
 # (on the octave grid the lags 2m of one tau and m of the next coincide). Memory: the buffer
@@ -675,7 +698,7 @@ class _Cursor:
     def __init__(self, src: _Phase) -> None:
         self.src = src
         self.pos = 0
-        self.c = 0.0
+        self.state = (0.0, 0.0)  # of the running sum (kernels.integrate)
         self.buf = np.empty(0)
 
     def next(self, count: int, out: NDArray | None = None) -> NDArray:
@@ -695,8 +718,9 @@ class _Cursor:
             if self.buf.size < count + 1:
                 self.buf = np.empty(count + 1)
             out = self.buf
-        blk = np.ascontiguousarray(src.y[p : min(q, src.n)], dtype=np.float64)  # type: ignore[index]
-        self.c = kernels.integrate(blk, src.mean, self.c, src.tau0, out[: blk.size + 1])
+        blk = _samples(src.y, p, min(q, src.n))
+        self.state = kernels.integrate(blk, src.mean, p, *self.state, src.tau0,
+                                       out[: blk.size + 1])
         return out[:count]
 
 
@@ -716,6 +740,13 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     ``orders[m]``: lag-1 sums of the decimated phase ``x[0], x[m], ...`` and its differences
     (that many rows, see ``kernels.lag1_update``) are wanted; ``points[m]``: the decimated
     phase itself (``count + 1`` points, for the B1 ratio). TOTDEV is not handled here.
+
+    The overlapping Allan sums at ``2 m <= chunk`` are taken by first point, one chunk behind
+    the integration: when chunk ``[p0, p1)`` is in, the terms that start in ``[p0 - chunk,
+    p0)`` have all their points in the buffer, and ``kernels.allan_sums`` sums them for every
+    such tau at once, as in memory (three octaves per pass, tiles that stay in cache; a pass
+    over m, 2m and 4m reads 8m ahead, and 2 (4m) <= chunk); the terms that start in the last
+    chunk are summed after it.
     """
     from inertest.noise import kernels  # numba: loaded on first use
 
@@ -741,14 +772,22 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     main = _Cursor(src)
     buf = np.zeros(2 * chunk + 1)  # buf[chunk + p - p0] = x[p] for p0 - chunk <= p < p1
     sums = {r: 0.0 for r in requests}
+    short = np.array(sorted(m for s, m in requests if s == "oadev" and 2 * m <= chunk),
+                     dtype=np.int64)
+    short_sums = np.zeros(short.size)
+    work = sum(_work(s, m, nx) for s, m in requests)
+    requests = [r for r in requests if not (r[0] == "oadev" and 2 * r[1] <= chunk)]
     windows = {r: 0.0 for r in requests if r[0] in ("mdev", "tdev")}  # s_j of modified Allan
     states = {m: np.zeros((k, kernels.LAG1_FIELDS)) for m, k in orders.items()}
     counts = {m: (nx - 1) // m for m in set(orders) | set(points)}
     pts: dict[int, list[NDArray]] = {m: [] for m in points}
-    work = sum(_work(s, m, nx) for s, m in requests)
     for p0 in range(0, nx, chunk):
         p1 = min(nx, p0 + chunk)
         main.next(p1 - p0, buf[chunk:])
+        if short.size and p0:  # the terms starting in the chunk before
+            first_point = p0 - chunk
+            count = np.clip(np.minimum(p0, nx - 2 * short) - first_point, 0, None)
+            short_sums += kernels.allan_sums(buf, short, count, False)
         seg = {lag: c.next(p1 - max(p0, lag)) for lag, c in cursors.items() if p1 > lag}
 
         def win(lag: int, a: int, b: int, p0: int = p0, seg: dict = seg) -> NDArray:
@@ -798,11 +837,17 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
             b = min(p1, count * m + 1)
             if b > a:
                 if m in states:
-                    kernels.lag1_extend(np.ascontiguousarray(x[a - p0 : b - p0 : m]), states[m])
+                    kernels.lag1_extend(x[a - p0 : b - p0 : m], states[m])  # strided: no copy
                 if m in pts:
                     pts[m].append(x[a - p0 : b - p0 : m].copy())
         buf[:chunk] = buf[chunk : 2 * chunk]
         tick(work * p1 // nx - work * p0 // nx)
+    if short.size:  # the terms starting in the last chunk, now at buf[0]
+        first_point = (nx - 1) // chunk * chunk
+        count = np.clip(nx - 2 * short - first_point, 0, None)
+        short_sums += kernels.allan_sums(buf[: nx - first_point], short, count, False)
+        sums.update({("oadev", int(m)): float(v) for m, v in zip(short, short_sums,
+                                                                 strict=True)})
     for r in windows:  # the last term of the modified Allan sum
         sums[r] += windows[r] * windows[r]
     return sums, states, {m: np.concatenate(v) for m, v in pts.items()}

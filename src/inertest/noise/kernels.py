@@ -62,19 +62,39 @@ def sum_third_diff(x0: NDArray, x1: NDArray, x2: NDArray, x3: NDArray, stride: i
     return s
 
 
-@numba.njit(cache=True, nogil=True)
-def integrate(y: NDArray, mean: float, start: float, tau0: float, out: NDArray) -> float:
-    """Phase from rates: ``c_0 = start, c_{k+1} = c_k + (y_k - mean)``, ``out[k] = tau0 c_k``.
+#: Samples per tile of the phase's running sum (:func:`integrate`, :func:`integrate_fused`).
+TILE = 4096
 
-    ``out`` has ``len(y) + 1`` elements; returns the final running sum. The sum runs strictly
-    in sample order, so a record integrated in pieces from checkpoints gives the same digits.
+
+@numba.njit(cache=True, nogil=True)
+def integrate(y: NDArray, mean: float, first: int, base: float, c: float, tau0: float,
+              out: NDArray) -> tuple[float, float]:
+    """Phase from rates, summed tile by tile: ``out[k] = tau0 (base + c)`` after sample k - 1.
+
+    The running sum of ``y - mean`` restarts at every sample whose index in the record is a
+    multiple of :data:`TILE`, and the finished tile's sum is added to ``base`` (the sum of the
+    tiles before), so its rounding does not pile up over the record; these are the sums of
+    :func:`integrate_fused`, whatever piece of the record a call integrates. ``y`` holds the
+    samples ``first, first + 1, ...`` of the record (float32 or float64: converted exactly, one
+    sample at a time), ``(base, c)`` is the state after sample ``first - 1`` (``(0, 0)`` at the
+    start), ``out`` has ``len(y) + 1`` elements (``out[0]`` the phase at ``first``). Returns
+    the state after the last sample, from which the next call continues.
     """
-    c = start
-    out[0] = tau0 * c
-    for k in range(y.shape[0]):
-        c += y[k] - mean
-        out[k + 1] = tau0 * c
-    return c
+    n = y.shape[0]
+    out[0] = tau0 * (base + c)
+    i = 0
+    k = first
+    while i < n:
+        if k % TILE == 0 and k > 0:
+            base += c
+            c = 0.0
+        stop = min(n, i + TILE - k % TILE)
+        for j in range(i, stop):
+            c += y[j] - mean
+            out[j + 1] = tau0 * (base + c)
+        k += stop - i
+        i = stop
+    return base, c
 
 
 @numba.njit(cache=True, nogil=True)
@@ -1163,8 +1183,6 @@ def greenhall_edf_many(alpha: NDArray, d: int, m: NDArray, terms: NDArray, modif
 # L1 the sums that read the whole record at m = 1 (and, for HDEV, the series x[::2]) are taken
 # from it, so the record is not read back from memory for them.
 
-#: Samples per tile of :func:`integrate_fused`.
-_FUSE_TILE = 4096
 
 
 @numba.njit(cache=True, nogil=True, fastmath=True)
@@ -1246,7 +1264,7 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
     """:func:`integrate` from 0, with the m = 1 noise-type rows (and HDEV sums) on the way.
 
     ``out`` (``len(y) + 1``) receives the phase, summed tile by tile: the running sum of each
-    tile of :data:`_FUSE_TILE` samples starts from 0 and is added to the sum of the tiles
+    tile of :data:`TILE` samples starts from 0 and is added to the sum of the tiles
     before, so its rounding does not pile up over the record (the level ``mean`` removed may
     be an estimate, leaving a line of phase: see ``deviations._level``). While each tile is in
     cache: ``rows[0]`` gets rows 0-1 of :func:`lag1_first_two` at m = 1; with
@@ -1261,7 +1279,7 @@ def integrate_fused(y: NDArray, mean: float, tau0: float, out: NDArray, quarter:
     acc2 = np.zeros(9)
     nq = quarter.shape[0]
     nh = (nx + 1) // 2 if nq > 0 else 0  # points of x[::2]
-    tile = _FUSE_TILE
+    tile = TILE
     # x[::2] a tile at a time: hb[k] = x[2 (hbase + k)] for k < hlen (a copy of half the
     # record would cost its page faults and its writes)
     hb = np.empty(tile // 2 + 8)

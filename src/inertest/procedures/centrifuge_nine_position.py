@@ -36,7 +36,7 @@ At a single rate that sum is again a constant and DF is not separable from DII, 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -49,12 +49,19 @@ from inertest.errors import DataError, InertestWarning, InputError, PlanError
 from inertest.estimation.identify import identify
 from inertest.estimation.least_squares import LinearFit, weighted_least_squares
 from inertest.estimation.noise_models import NOISE_MODELS, check_noise_model
-from inertest.estimation.reduction import group_rows, whole_cycle_mask, whole_cycle_weights
+from inertest.estimation.reduction import (
+    RowGroups,
+    group_rows,
+    whole_cycle_correction,
+    whole_cycle_mask,
+)
+from inertest.estimation.units import PositionDesign
 from inertest.models.sdf_gyro import (
     COEFFICIENTS,
     ENGINEERING_UNIT,
     coefficients_from_deg_h,
-    drift_regressors,
+    drift,
+    regressors_from_moments,
 )
 from inertest.plan import Field, Plan, read_fields
 from inertest.procedures.base import Procedure, TypeBErrors
@@ -305,11 +312,19 @@ class CentrifugeNinePosition(Procedure[CentrifugeNinePositionSpec, CentrifugeObs
                ) -> CentrifugeObservations:
         """Whole-revolution means of every run (position, rate) with the machine's inputs."""
         cols = require_columns(data, ("position", "omega", "t", "output"), (), procedure=KIND)
-        pos = _positions(cols["position"])
-        omega = cols["omega"]
-        f, w_ios = machine_inputs(motion, pos, omega, cols["t"])
-        runs = run_means(pos, omega, cols["t"], plan.instrument.output_to_rate(cols["output"]),
-                         f, w_ios)
+        pos, omega, t = _positions(cols["position"]), cols["omega"], cols["t"]
+        _check_rates(omega)
+        groups = group_rows(pos, omega)
+        runs_motion = _runs_motion(motion, groups)
+        labels = runs_motion.segments
+
+        def inputs(r: int, rows: slice | NDArray[np.intp]) -> tuple[NDArray, NDArray]:
+            w_ios, f = runs_motion.rate_and_force(labels[r], t[rows])
+            return f, w_ios[:, 0]
+
+        k = plan.instrument.rad_s_per_output_unit
+        y = cols["output"] if k == 1.0 else plan.instrument.output_to_rate(cols["output"])
+        runs = _reduce_runs(groups, t, y, inputs)  # y is only read
         return CentrifugeObservations(runs, _coverage_messages(runs))
 
     def identify(self, plan: Plan, obs: CentrifugeObservations, *, sigma: float | None,
@@ -359,26 +374,33 @@ class CentrifugeNinePosition(Procedure[CentrifugeNinePositionSpec, CentrifugeObs
         ``sample_rate_hz`` from ``t = 0`` up to and including the first sample at or after the
         end of the last revolution (:func:`~inertest.equipment.centrifuge.run_times`), so that
         the run spans ``revolutions`` whole revolutions by the rule of
-        :func:`~inertest.estimation.reduction.whole_cycle_mask`. Inputs from
-        :func:`machine_inputs` (exact, Earth rotation included); output rate = input rate on I
-        (Earth rate) + drift. ``truth`` maps coefficient names to deg/h, deg/h/g, deg/h/g^2;
-        missing names are 0.
+        :func:`~inertest.estimation.reduction.whole_cycle_mask`. Inputs from the machine's
+        exact kinematics run by run (those of :func:`machine_inputs`, Earth rotation included);
+        output rate = input rate on I (Earth rate) + drift. ``truth`` maps coefficient names
+        to deg/h, deg/h/g, deg/h/g^2; missing names are 0.
 
         Returns columns ``position``, ``omega`` [rad/s], ``t`` [s], ``output`` [output unit].
         """
         spec: CentrifugeNinePositionSpec = plan.procedure
         coef = coefficients_from_deg_h(truth)
-        pos_l, w_l, t_l = [], [], []
-        for p in spec.positions:
-            for w in spec.omegas_rad_s:
-                t = machine.run_times(w, spec.sample_rate_hz, spec.revolutions)
-                pos_l.append(np.full(t.size, p, dtype=np.int64))
-                w_l.append(np.full(t.size, w))
-                t_l.append(t)
-        pos, omega, t = np.concatenate(pos_l), np.concatenate(w_l), np.concatenate(t_l)
-        f, w_ios = machine_inputs(motion, pos, omega, t)
-        rate = w_ios[:, 0] + drift_regressors(f / G0) @ coef
-        output = plan.instrument.rate_to_output(rate) + noise_samples(rate.size, noise, rng)
+        runs = [(p, w) for p in spec.positions for w in spec.omegas_rad_s]
+        times = [machine.run_times(w, spec.sample_rate_hz, spec.revolutions) for _, w in runs]
+        sizes = [t.size for t in times]
+        pos = np.repeat(np.array([p for p, _ in runs], dtype=np.int64), sizes)
+        omega = np.repeat(np.array([w for _, w in runs], dtype=float), sizes)
+        t = np.concatenate(times)
+        # Run by run (the machine's rate and force, no attitude), into the one output column:
+        # no temporaries of the whole test.
+        rate = np.empty(t.size)
+        runs_motion = motion.runs(tuple(runs))
+        i = 0
+        for label, tr in zip(runs_motion.segments, times, strict=True):
+            w_ios, f = runs_motion.rate_and_force(label, tr)
+            f /= G0
+            rate[i:i + tr.size] = w_ios[:, 0] + drift(f, coef)
+            i += tr.size
+        output = plan.instrument.rate_to_output(rate)
+        output += noise_samples(rate.size, noise, rng)
         return {"position": pos, "omega": omega, "t": t, "output": output}
 
 
@@ -409,9 +431,14 @@ def machine_inputs(
         Specific force [m/s^2] (with the Earth-rate terms ``2 W x v + W x (W x p)``) and
         inertial angular rate [rad/s] on I, O, S.
     """
-    labels = machine.run_labels(position, omega)
-    inputs = machine_motion(centrifuge, position, omega).inputs_of_rows(labels, t)
-    return inputs.f_i, inputs.omega_i
+    pos, tt = np.asarray(position), np.asarray(t, dtype=float)
+    groups = group_rows(pos, np.asarray(omega, dtype=float))
+    runs = _runs_motion(centrifuge, groups)
+    f, w_ios = np.empty((tt.size, 3)), np.empty((tt.size, 3))
+    for r, label in enumerate(runs.segments):  # one evaluation per run, no attitude
+        rows = groups.span(r)
+        w_ios[rows], f[rows] = runs.rate_and_force(label, tt[rows])
+    return f, w_ios
 
 
 def machine_motion(
@@ -432,7 +459,12 @@ def machine_motion(
         One segment per distinct (position, rate), labelled as by
         :func:`inertest.equipment.centrifuge.run_labels`.
     """
-    groups = group_rows(np.asarray(position), np.asarray(omega, dtype=float))
+    return _runs_motion(centrifuge,
+                        group_rows(np.asarray(position), np.asarray(omega, dtype=float)))
+
+
+def _runs_motion(centrifuge: machine.Centrifuge, groups: RowGroups) -> machine.CentrifugeRuns:
+    """The machine running the runs of ``groups`` (keys position, rate), segments in their order."""
     return centrifuge.runs(tuple((int(p), float(w)) for p, w in zip(*groups.keys, strict=True)))
 
 
@@ -499,20 +531,42 @@ def run_means(
         )
     for name, a in (("omega", w), ("t", tt), ("output", y), ("specific force", f),
                     ("angular rate", wi)):
+        if np.isfinite(np.min(a)) and np.isfinite(np.max(a)):  # no temporary for good data
+            continue
         bad = np.flatnonzero(~np.all(np.isfinite(a.reshape(n, -1)), axis=1))
-        if bad.size:
-            raise DataError(
-                f'column "{name}" has {bad.size} NaN/inf value(s) (first at data row '
-                f"{bad[0] + 1}); remove or repair those rows"
-            )
-    pos_i = _positions(pos)
-    if np.any(w == 0.0):
-        row = int(np.flatnonzero(w == 0.0)[0])
         raise DataError(
-            f"main-axis rate omega must be nonzero [rad/s], got 0 at data row {row + 1}; give "
-            "the arm's signed rate (positive counter-clockwise, negative clockwise seen from above)"
+            f'column "{name}" has {bad.size} NaN/inf value(s) (first at data row '
+            f"{bad[0] + 1}); remove or repair those rows"
         )
-    groups = group_rows(pos_i, w)
+    pos_i = _positions(pos)
+    _check_rates(w)
+    return _reduce_runs(group_rows(pos_i, w), tt, y,
+                        lambda r, rows: (f[rows], wi[rows, 0]))
+
+
+def _check_rates(omega: NDArray[np.float64]) -> None:
+    """A zero main-axis rate is refused, naming its first row."""
+    if np.all(omega != 0.0):
+        return
+    row = int(np.flatnonzero(omega == 0.0)[0])
+    raise DataError(
+        f"main-axis rate omega must be nonzero [rad/s], got 0 at data row {row + 1}; give "
+        "the arm's signed rate (positive counter-clockwise, negative clockwise seen from above)"
+    )
+
+
+#: The specific force [m/s^2] and input rate on I [rad/s] of the given rows of run ``r``.
+RunInputs = Callable[[int, "slice | NDArray[np.intp]"], tuple[NDArray[np.float64],
+                                                              NDArray[np.float64]]]
+
+
+def _reduce_runs(groups: RowGroups, t: NDArray[np.float64], y: NDArray[np.float64],
+                 inputs: RunInputs) -> RunMeans:
+    """:func:`run_means` of checked columns, the inputs of each run's kept rows from ``inputs``.
+
+    Run by run, so that nothing of the whole test's length is built but the residuals within
+    runs; the kinematics are asked for the kept samples of one run at a time.
+    """
     run_pos, run_w = groups.keys
     m = len(groups)
     out: dict[str, Any] = {
@@ -523,41 +577,43 @@ def run_means(
         "output": np.zeros(m),
         "input": np.zeros(m),
         "phi": np.zeros((m, len(COEFFICIENTS))),
-        "f": np.zeros((m, 3)),
         "structural": np.zeros((m, len(COEFFICIENTS))),
         "first": np.zeros(m, dtype=np.int64),
         "dof": np.zeros(m, dtype=np.int64),
     }
     within: list[NDArray[np.float64]] = []
+    longest = int(np.max(np.diff(groups.bounds))) if m else 0
+    scratch = np.empty(2 * longest)  # the cosines and sines of a run, reused run to run
     for r in range(m):
-        idx = groups.rows(r)
-        mask, n_rev = whole_cycle_mask(tt[idx], run_w[r])
+        rows = groups.span(r)
+        t_run = t[rows]
+        mask, n_rev = whole_cycle_mask(t_run, run_w[r])
         where = f"run at position {int(run_pos[r])}, omega {run_w[r]:g} rad/s"
         if n_rev < 1:
-            span = float(tt[idx].max() - tt[idx].min())
+            span = float(t_run.max() - t_run.min())
             raise DataError(
                 f"{where} covers {span:g} s, less than one whole revolution "
                 f"({_TWO_PI / abs(run_w[r]):g} s); record at least one full revolution per run "
                 "(the method averages whole revolutions)"
             )
-        keep = idx[mask]
-        f_g = f[keep] / G0
+        keep = _kept_rows(rows, mask)
+        f, w_in = inputs(r, keep)
         try:
-            wts = whole_cycle_weights(tt[keep], run_w[r], harmonics=2)
+            red = _run_reduction(t[keep], float(run_w[r]), y[keep], f, w_in, scratch)
         except DataError as exc:
             raise DataError(f"{where}: {exc}") from None
+        kept = red.within.size
         out["revolutions"][r] = n_rev
-        out["n_samples"][r] = keep.size
-        out["n_dropped"][r] = idx.size - keep.size
-        out["noise"][r] = float(np.sqrt(wts @ wts))
-        out["output"][r] = wts @ y[keep]
-        out["input"][r] = wts @ wi[keep, 0]
-        out["phi"][r] = wts @ drift_regressors(f_g)  # per run: no (n, 10) temporary
-        out["f"][r] = wts @ f_g
-        out["structural"][r] = _structural_row(tt[keep], run_w[r], f_g)
-        out["first"][r] = idx.min()
-        e, out["dof"][r] = _within_run_residuals(tt[keep], run_w[r], y[keep] - wi[keep, 0])
-        within.append(e)
+        out["n_samples"][r] = kept
+        out["n_dropped"][r] = t_run.size - kept
+        out["noise"][r] = red.noise_factor
+        out["output"][r] = red.output
+        out["input"][r] = red.input
+        out["phi"][r] = red.regressors
+        out["structural"][r] = red.structural
+        out["first"][r] = rows.start if isinstance(rows, slice) else rows.min()
+        out["dof"][r] = kept - 5
+        within.append(red.within)
     return RunMeans(
         position=run_pos.astype(np.int64),
         omega=run_w.astype(float),
@@ -568,7 +624,7 @@ def run_means(
         output_rate_rad_s=out["output"],
         input_rate_rad_s=out["input"],
         regressors=out["phi"],
-        f_mean_g=out["f"],
+        f_mean_g=out["phi"][:, 1:4].copy(),
         structural_regressors=out["structural"],
         first_row=out["first"],
         within_residuals_rad_s=np.concatenate(within),
@@ -576,29 +632,79 @@ def run_means(
     )
 
 
-def _within_run_residuals(
-    t: NDArray[np.float64], omega: float, drift: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], int]:
-    """Samples of one run minus a constant and the arm's first two harmonics (least squares).
+def _kept_rows(rows: slice | NDArray[np.intp], mask: NDArray[np.bool_]
+               ) -> slice | NDArray[np.intp]:
+    """The rows of a run that ``mask`` keeps: a slice again when they are its first ones."""
+    if isinstance(rows, slice):
+        k = int(np.count_nonzero(mask))
+        if k == mask.size or not mask[k:].any():  # whole revolutions from the first sample
+            return slice(rows.start, rows.start + k)
+        return np.flatnonzero(mask) + rows.start
+    return rows[mask]
 
-    Returns the residuals [rad/s] and their degrees of freedom (samples minus the rank).
+
+@dataclass(frozen=True)
+class _Reduction:
+    """One run's whole-revolution means (:func:`_run_reduction`)."""
+
+    noise_factor: float
+    output: float
+    input: float
+    regressors: NDArray[np.float64]
+    structural: NDArray[np.float64]
+    within: NDArray[np.float64]
+
+
+def _run_reduction(t: NDArray[np.float64], omega: float, y: NDArray[np.float64],
+                   f: NDArray[np.float64], w_in: NDArray[np.float64],
+                   scratch: NDArray[np.float64] | None = None) -> _Reduction:
+    """Whole-revolution means, structural means and residuals of one run's kept samples.
+
+    ``f`` is the specific force [m/s^2], ``y`` the output rate and ``w_in`` the input rate on
+    I [rad/s]. One basis ``b = (1, cos a, sin a, cos 2a, sin 2a)``, ``a = |w| (t - t0)``
+    (:func:`~inertest.estimation.reduction.harmonic_rows`), serves all three, in three passes
+    over the samples (:mod:`inertest.estimation._whole_cycle_kernel`) that build nothing of the
+    run's length but its cosines, sines and residuals:
+
+    1. the Gram matrix ``G = sum b b^T``, whence the whole-cycle weights ``w = c . b``
+       (:func:`~inertest.estimation.reduction.whole_cycle_weights`:
+       ``c = e_0 / n + whole_cycle_correction(G)``); their sum is ``c . G[0]`` and the sum of
+       their squares (the noise factor squared) ``c G c``;
+    2. the weighted sums of the drift (the output's mean is the input's plus the drift's, so
+       that their difference is the drift's, summed as such), the input rate, the force in g0
+       and its products (the regressors' means,
+       :func:`~inertest.models.sdf_gyro.regressors_from_moments`); the
+       sums of ``f``, ``cos a f``, ``sin a f``, for the structural means
+       (:attr:`RunMeans.structural_regressors`: the least-squares fit of a constant and the
+       first harmonic to the force, ``G[:3, :3]^-1 sum b[:3] f``); and ``sum b d`` for the
+       run model of the drift ``d`` (constant and two harmonics, ``G^-1 sum b d``);
+    3. the residuals of the drift from its run model (:attr:`RunMeans.within_residuals_rad_s`,
+       ``n - 5`` degrees of freedom: the basis has full rank once the weights exist).
+
+    The sense of the arm only turns the sign of the sines, which changes no fit. ``scratch``
+    (at least 2 n values) receives the cosines and sines (a new array when None).
     """
-    a = omega * (t - t.min())
-    basis = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a), np.cos(2 * a),
-                             np.sin(2 * a)])
-    c, _, rank, _ = np.linalg.lstsq(basis, drift, rcond=None)
-    return drift - basis @ c, int(t.size - rank)
+    from inertest.estimation import _whole_cycle_kernel as kernel  # numba: only when fitted
 
-
-def _structural_row(
-    t: NDArray[np.float64], omega: float, f_g: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """Continuous whole-revolution means of the regressors from a constant + first-harmonic fit."""
-    a = omega * (t - t.min())
-    basis = np.column_stack([np.ones_like(a), np.cos(a), np.sin(a)])
-    c, *_ = np.linalg.lstsq(basis, f_g, rcond=None)  # rows: constant, cos, sin; columns I, O, S
-    m2 = np.outer(c[0], c[0]) + 0.5 * (np.outer(c[1], c[1]) + np.outer(c[2], c[2]))
-    return np.array([1.0, *c[0], m2[0, 1], m2[1, 2], m2[2, 0], m2[0, 0], m2[1, 1], m2[2, 2]])
+    n = t.size
+    gram = np.zeros((5, 5))
+    cos_sin = (np.empty(2 * n) if scratch is None else scratch[: 2 * n]).reshape(2, n)
+    kernel.gram(t, abs(omega), float(np.min(t)), cos_sin, gram)
+    weights = whole_cycle_correction(gram, n, omega, 2)
+    weights[0] += 1.0 / n
+    sums = np.zeros(25)
+    kernel.weighted_sums(cos_sin, y, w_in, f, 1.0 / G0, weights, sums)
+    fio, fos, fsi, fii, foo, fss = sums[5:11]
+    second = np.array([[fii, fio, fsi], [fio, foo, fos], [fsi, fos, fss]])
+    c3 = np.linalg.solve(gram[:3, :3], sums[11:20].reshape(3, 3))  # rows 1, cos, sin
+    m2 = np.outer(c3[0], c3[0]) + 0.5 * (np.outer(c3[1], c3[1]) + np.outer(c3[2], c3[2]))
+    within = np.empty(n)
+    kernel.basis_residuals(cos_sin, y, w_in, np.linalg.solve(gram, sums[20:25]), within)
+    return _Reduction(noise_factor=float(np.sqrt(weights @ gram @ weights)),
+                      output=float(sums[1] + sums[0]), input=float(sums[1]),
+                      regressors=regressors_from_moments(float(weights @ gram[0]), sums[2:5],
+                                                         second),
+                      structural=regressors_from_moments(1.0, c3[0], m2), within=within)
 
 
 def _drop_rounding_columns(a: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -719,9 +825,10 @@ def _identify_runs(
         # so that the unit-weight sigma is the noise per sample, estimated from the run means'
         # residuals (robust to offsets between runs, which it counts as noise).
         root_n = 1.0 / runs.noise_factor
-        A_rows, y_rows, labels = A * root_n[:, None], y * root_n, None
+        A_rows: NDArray[np.float64] | PositionDesign = A * root_n[:, None]
+        y_rows = y * root_n
     else:
-        A_rows, y_rows, labels = _sample_rows(runs, A, y)
+        A_rows, y_rows = _sample_rows(runs, A, y)
     # Solve for x / s with s the known per-sample sigma (1 rad/s when unknown), so that the
     # observations are O(1) when the noise is known.
     known = sigma_rad_s is not None
@@ -729,7 +836,7 @@ def _identify_runs(
     k = DEG_PER_H_TO_RAD_PER_S / s
     fit, ident = identify(
         A_rows,
-        y_rows / s,
+        y_rows if s == 1.0 else y_rows / s,  # no copy of the rows when s is 1
         names=COEFFICIENTS,
         units=ENGINEERING_UNIT,
         si_per_unit={n: k for n in COEFFICIENTS},
@@ -739,7 +846,6 @@ def _identify_runs(
         pivot_order=("DF", "DII", "DOO", "DSS", "DI", "DO", "DS", "DIO", "DOS", "DSI"),
         normalize_to="DF",
         explain=lambda f, a: explain_null_space(f, a, runs),
-        groups=labels,
         noise_model=noise_model,
     )
     x = fit.x * s
@@ -752,12 +858,14 @@ def _identify_runs(
 
 def _sample_rows(
     runs: RunMeans, A: NDArray[np.float64], y: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.str_]]:
-    """Rows for :func:`~inertest.estimation.identify.solve`: one per kept sample, runs as groups.
+) -> tuple[PositionDesign, NDArray[np.float64]]:
+    """Rows for :func:`~inertest.estimation.identify.solve`: one per kept sample, runs as units.
 
     Each run contributes ``n_kept`` rows in time order (runs ordered by their first data row),
-    all with the run's averaged regressors ``A[r]``, whose plain mean is the run's whole-cycle
-    mean ``y[r]`` and whose scatter about it is the run's samples about its run model
+    all with the run's averaged regressors ``A[r]`` (a
+    :class:`~inertest.estimation.units.PositionDesign`: the runs' rows and the run of each
+    sample, never the full design), whose plain mean is the run's whole-cycle mean ``y[r]``
+    and whose scatter about it is the run's samples about its run model
     (``within_residuals_rad_s``), scaled by ``sqrt((n - 1) / (n - 5))`` so that the pooled
     within-group variance that the solver takes (``n - 1`` degrees of freedom per group) is
     unbiased for the 5 parameters of the run model. So the solver sees the run means, their
@@ -766,16 +874,21 @@ def _sample_rows(
     """
     n = runs.n_samples
     order = np.argsort(runs.first_row, kind="stable")
-    run_of_row = np.repeat(order, n[order])
-    starts = np.r_[0, np.cumsum(n)[:-1]]
-    rows = np.concatenate([starts[r] + np.arange(n[r]) for r in order])
+    starts = np.cumsum(n) - n  # where each run's residuals begin (runs in their own order)
     dof = runs.within_dof
     scale = np.sqrt(np.where(dof > 0, (n - 1) / np.maximum(dof, 1), 0.0))
-    e = runs.within_residuals_rad_s[rows] * scale[run_of_row]
-    e_mean = np.bincount(run_of_row, e, minlength=n.size) / n
-    labels = np.array([f"run at position {int(p)}, omega {w:g} rad/s"
-                       for p, w in zip(runs.position, runs.omega, strict=True)])
-    return A[run_of_row], y[run_of_row] + e - e_mean[run_of_row], labels[run_of_row]
+    rows = np.empty(int(n.sum()))
+    i = 0
+    for r in order:  # run by run, in time order: slices, no gathers over the record
+        e = rows[i:i + n[r]]
+        np.multiply(runs.within_residuals_rad_s[starts[r]:starts[r] + n[r]], scale[r], out=e)
+        e -= np.mean(e) - y[r]
+        i += n[r]
+    labels = tuple(f"run at position {int(runs.position[r])}, omega {runs.omega[r]:g} rad/s"
+                   for r in order)
+    # Built directly: every run has rows, and its rows are one stretch in time order.
+    return PositionDesign(rows=A[order], index=np.repeat(np.arange(order.size), n[order]),
+                          labels=labels), rows
 
 
 def explain_null_space(
@@ -869,6 +982,10 @@ def _positions(position: NDArray) -> NDArray[np.int64]:
         raise DataError(
             'column "position" must hold the position numbers 1..9 of the nine-position method'
         ) from None
+    if p.size and 1 <= np.min(p) and np.max(p) <= 9:  # NaN fails these
+        q = p.astype(np.int64)
+        if np.array_equal(q, p):  # good data: no temporaries beyond these
+            return q
     bad = ~np.isfinite(p) | (p != np.round(p)) | (p < 1) | (p > 9)
     if np.any(bad):
         values = ", ".join(f"{v:g}" for v in np.unique(p[bad])[:5])

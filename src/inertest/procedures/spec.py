@@ -131,17 +131,22 @@ def check_sample_rate(
     t = np.asarray(columns[name])
     if t.dtype.kind not in "fiu" or t.size < 3:
         return
-    dt = np.diff(t.astype(float))
-    back = np.flatnonzero(dt < 0)
-    if back.size > np.count_nonzero(dt > 0):  # restarts of the clock are few; this is most
+    dt = np.diff(np.asarray(t, dtype=float))
+    forward = dt > 0  # NaN steps are neither
+    n_back = np.count_nonzero(dt < 0)
+    if n_back > np.count_nonzero(forward):  # restarts of the clock are few; this is most
+        back = np.flatnonzero(dt < 0)
         raise DataError(
-            f"{source}: the time column {name!r} runs backwards ({back.size} of {dt.size} steps "
+            f"{source}: the time column {name!r} runs backwards ({n_back} of {dt.size} steps "
             f"are negative, the first at data row {int(back[0]) + 2}); sort the rows by time, "
             "or fix the time column")
-    dt = dt[np.isfinite(dt) & (dt > 0)]
+    if not np.isfinite(np.max(dt, initial=0.0, where=forward)):
+        forward &= np.isfinite(dt)
+    if not forward.all():
+        dt = dt[forward]
     if dt.size < 2:
         return
-    step = float(np.median(dt))
+    step = float(np.median(dt, overwrite_input=True))  # dt is this function's own
     rate = 1.0 / step
     if abs(rate * (1.0 / sample_rate_hz) - 1.0) > tolerance:
         raise DataError(
