@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> None:
         assert got == ref, "stored serial differs"
         base = {False: t_ser, True: t_ser_db}
         print(f"  serial, BLAS 1 thread: {t_ser:.2f} s ({1e3 * t_ser / fits:.1f} ms a fit), "
-              f"stored {t_ser_db:.2f} s")
+              f"stored {t_ser_db:.2f} s", flush=True)
 
         rows: list[list[str]] = []
         ratios: dict[tuple[str, int, bool], float] = {}
@@ -183,6 +183,10 @@ def main(argv: list[str] | None = None) -> None:
                 assert got == ref, f"{kind} with {w} workers differs from serial"
                 ratios[kind, w, stored] = base[stored] / t
                 driver[kind, w, stored] = 1e3 * c / fits
+                # a line as each is measured: a run cut short still shows what it measured
+                print(f"  .. {kind}, {w} workers, {'stored' if stored else 'no store'}: "
+                      f"{t:.2f} s, {ratios[kind, w, stored]:.2f}x, driver "
+                      f"{driver[kind, w, stored]:.2f} ms a fit", flush=True)
 
         starts: dict[str, list[float]] = {"pool": [], "dask": []}
         kinds: list[tuple[str, Callable[[int], Any]]] = [("pool", local_pool)]
