@@ -74,12 +74,43 @@ def test_interval_coverage_monte_carlo():
 
 
 @pytest.mark.parametrize("alpha", [0, -1, -2])
-@pytest.mark.parametrize("m", [2, 10, 100, 400])
+@pytest.mark.parametrize("m", [12, 100, 400])
 def test_totdev_edf_matches_allantools(alpha, m):
     from inertest.noise.confidence import edf_totdev
 
     ref = allantools.edf_totdev(N=1001, m=m, alpha=alpha)  # SP 1065 Table 11 (Howe)
     assert edf_totdev(alpha, m, 1000) == pytest.approx(ref, rel=0.01)
+
+
+@pytest.mark.parametrize("n", [1000, 20000])
+def test_totdev_edf_at_one_and_two_is_the_exact_white_fm_one(n):
+    """At m = 1 TOTDEV is the overlapping ADEV; white FM's exact EDF there is 2 (N - 1) / 3.
+
+    At m = 2 it is 4 (N - 1) / 7 (N frequency points; the squared overlapping differences
+    of white noise at lag 1 and 2 correlate -1/2 and 0 at m = 1, and -1/4 ... at m = 2:
+    Var = sum of the squared autocorrelations). The table's 1.5 N / m, used as is by
+    Stable32 and allantools, is 2.25x and 1.31x too large (SP 1065 Table 11).
+    """
+    from inertest.noise.confidence import edf_totdev
+
+    y = np.arange(n)  # only the count matters
+    for m, exact in ((1, _exact_white_fm_oadev_edf(y.size, 1)),
+                     (2, _exact_white_fm_oadev_edf(y.size, 2))):
+        assert edf_totdev(0, m, n + 1) == pytest.approx(exact, rel=0.005)
+    assert _exact_white_fm_oadev_edf(20000, 1) == pytest.approx(2 * 19999 / 3, rel=1e-4)
+
+
+def _exact_white_fm_oadev_edf(n: int, m: int) -> float:
+    """EDF = 2 (sum of the terms' means)^2 / Var(sum) for the overlapping Allan terms of
+    white FM (n frequency points): each term is (mean of the next m - mean of these m)^2; the
+    terms are Gaussian squares, so Cov(z_i^2, z_j^2) = 2 Cov(z_i, z_j)^2."""
+    k = n - 2 * m + 1  # terms
+    # Cov(z_i, z_{i+l}) for the second difference of m-averages of unit white noise
+    w = np.r_[-np.ones(m), np.ones(m)] / m
+    ac = np.correlate(w, w, mode="full")[2 * m - 1:]  # lags 0 .. 2m-1
+    lags = np.arange(ac.size)
+    var_sum = k * ac[0] ** 2 + 2.0 * np.sum((k - lags[1:]) * ac[1:] ** 2)
+    return float(2.0 * (k * ac[0]) ** 2 / (2.0 * var_sum))
 
 
 def _white_pm_edf_closed_form(d, m, terms, overlapping):
