@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
+
 from postgres_reset import reset_postgres
 
 PG_ENV = "INERTEST_TEST_PG_URL"
