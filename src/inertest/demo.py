@@ -418,10 +418,10 @@ def run_acceptance(campaign: str | os.PathLike[str]) -> list[DemoAcceptance]:
                         warnings.simplefilter("ignore")
                         docs.append(fit(plan, data, sigma=t.sigma).to_dict())
             verified: dict[str, list[str]] = {}
-            for t in outcome.tests:
-                if t.outcome is not None:
-                    for cid in t.test.verifies:
-                        verified.setdefault(cid, []).append(t.outcome.result.kind)
+            for done in outcome.tests:
+                if done.outcome is not None:
+                    for cid in done.test.verifies:
+                        verified.setdefault(cid, []).append(done.outcome.result.kind)
             lot = lot_statistics(docs, c.spec, clause_procedures=verified)
         out.append(DemoAcceptance(str(e.get("title", c.title)), manifest, outcome, lot))
     return out

@@ -6,6 +6,7 @@ import dataclasses
 import math
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 import numpy as np
@@ -24,11 +25,14 @@ from inertest.cli._common import (
 )
 from inertest.errors import DataError, InputError
 from inertest.io.atomic import write_text
-from inertest.io.raw_samples import RAW_DTYPES, read_samples
+from inertest.io.raw_samples import RAW_DTYPES, SampleFile, read_samples
 from inertest.noise.confidence import NOISE_RULES
 from inertest.noise.deviations import STATISTICS, DeviationResult, deviations, min_samples
 from inertest.results import envelope
 from inertest.units import ACCEL_UNITS, ARCSEC_TO_RAD, DEG_TO_RAD, RATE_UNITS
+
+if TYPE_CHECKING:
+    from inertest.noise.identification import NoiseModel
 
 # Column unit -> (factor to SI, SI rate unit of the deviation, instrument kind).
 _UNITS: dict[str, tuple[float, str, str | None]] = {
@@ -76,6 +80,135 @@ def _tau_option(text: str) -> str | list[float]:
         ) from None
 
 
+def _column_unit(unit: str | None, data_type: str) -> tuple[str, float, str | None]:
+    """The column's unit (default rad/s, angle input rad), its factor to SI, the instrument."""
+    table = _ANGLE_UNITS if data_type == "angle" else _UNITS
+    unit = unit or ("rad" if data_type == "angle" else "rad/s")
+    if unit not in table:
+        raise InputError(f"unknown --unit {unit!r} for {data_type} input; use one of "
+                         f"{', '.join(table)}")
+    factor, _, instrument = table[unit]
+    return unit, factor, instrument
+
+
+def _check_rate(rate_hz: float) -> None:
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise InputError(f"--rate must be a positive sampling rate in Hz, got {rate_hz:g}")
+    if not 1e-9 <= rate_hz <= 1e12:
+        raise InputError(f"--rate {rate_hz:g} Hz is not a usable sample rate; give the rate in "
+                         "Hz, between 1e-9 and 1e12")
+
+
+def _statistics(stats: str) -> list[str]:
+    """The statistics of ``--stats``, each one of :data:`STATISTICS`."""
+    names = [s.strip() for s in stats.split(",") if s.strip()]
+    bad = [s for s in names if s not in STATISTICS]
+    if bad or not names:
+        raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
+                         f"from {', '.join(STATISTICS)}")
+    return names
+
+
+def _long_enough(names: list[str], n: int, data_type: str) -> tuple[list[str], list[str]]:
+    """The statistics a record of ``n`` samples allows, and a warning for each left out."""
+    short = [f"the record ({n} samples) is too short for {s}: it needs at least "
+             f"{min_samples(s, data_type)} {data_type} samples; left out"
+             for s in names if n < min_samples(s, data_type)]
+    names = [s for s in names if n >= min_samples(s, data_type)]
+    if not names:
+        raise DataError(short[0].removesuffix("; left out"))
+    return names, short
+
+
+def _deviations(samples: np.ndarray | SampleFile, rate_hz: float, want: list[str], taus: str,
+                data_type: str) -> dict[str, DeviationResult]:
+    """The deviations, with a progress bar on a terminal."""
+    from rich.console import Console  # ~0.1 s: only when the command runs
+    from rich.progress import (
+        BarColumn,
+        Progress,
+        TaskProgressColumn,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+
+    console = Console(stderr=True)
+    with Progress(TextColumn("allan"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
+                  console=console,
+                  transient=True, disable=not console.is_terminal) as bar:
+        task = bar.add_task("allan", total=None)
+        return deviations(samples, rate_hz, want, _tau_option(taus), data_type,
+                          progress=lambda d, t: bar.update(task, completed=d, total=t))
+
+
+def _noise_terms(res: dict[str, DeviationResult], samples: np.ndarray | SampleFile,
+                 factor: float, instrument: str | None, data: Path, unit: str
+                 ) -> tuple[NoiseModel, list[str]]:
+    """The IEEE 952 noise terms fitted to the overlapping Allan variance [SI], and the checks."""
+    from inertest.noise.identification import identify_noise
+
+    if not np.any(res["oadev"].var > 0):
+        raise DataError(f"{data.name} is constant (every sample is {float(samples[0]):g} "
+                        f"{unit}): there is no noise to analyse; check the recording and "
+                        "--column")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = identify_noise(res["oadev"], instrument=instrument,
+                               data=samples * factor if isinstance(samples, np.ndarray)
+                               and not isinstance(samples, np.memmap) else None)
+    checks = list(model.checks)
+    checks += [str(w.message) for w in caught if str(w.message) not in checks]
+    return model, checks
+
+
+def _json_result(shown: dict[str, DeviationResult], model: NoiseModel | None,
+                 checks: list[str], short: list[str], *, dev_unit: str, rate_hz: float,
+                 data_type: str, samples: int) -> None:
+    """Print the result envelope: every statistic on one tau grid, the noise terms."""
+    grid = sorted({float(t) for r in shown.values() for t in r.taus})
+    out: dict[str, object] = {"tau": grid, "unit": dev_unit, "rate_hz": rate_hz,
+                              "input": data_type, "samples": samples}
+    for k, r in shown.items():
+        pos = {float(t): i for i, t in enumerate(r.taus)}
+
+        def col(a: np.ndarray, pos: dict[float, int] = pos) -> list[float | int | None]:
+            return [a[pos[t]].item() if t in pos else None for t in grid]
+
+        out[k] = col(r.dev)
+        out[f"{k}_lo"] = col(r.dev_lo)
+        out[f"{k}_hi"] = col(r.dev_hi)
+        out[f"{k}_n"] = col(r.n)
+        out[f"{k}_edf"] = col(r.edf)
+        out[f"{k}_alpha"] = col(r.alpha)
+        rule = dict(zip(r.taus.tolist(), r.alpha_rule, strict=True))
+        out[f"{k}_alpha_rule"] = [rule.get(t) for t in grid]
+    out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
+    out["alpha_rules"] = NOISE_RULES
+    out["confidence"] = next(iter(shown.values())).confidence
+    out["noise_terms"] = model.to_dict() if model is not None else None
+    verdict = "ok" if model is None or not checks else "warning"
+    echo_json(envelope(
+        "allan", result=out, messages=short + checks,
+        checks=[] if model is None else [{"name": "five-term noise model", "verdict": verdict,
+                                          "findings": checks}]))
+
+
+def _print_tables(title: str, shown: dict[str, DeviationResult], model: NoiseModel | None,
+                  *, dev_unit: str, samples: int, rate_hz: float) -> None:
+    """The deviation table and the noise terms, for a terminal."""
+    from inertest.report.noise import deviation_rows, noise_rows
+
+    header, rows = deviation_rows(shown)
+    units = {k: _stat_unit(k, dev_unit) for k in shown}
+    print_table(f"{title}: deviations [{', '.join(f'{k} {u}' for k, u in units.items())}] "
+                f"({math.floor(samples):d} samples at {rate_hz:g} Hz)", header, rows)
+    if model is not None:
+        header, rows = noise_rows(model)
+        print_table("noise terms (IEEE Std 952-1997, fitted to the overlapping Allan variance)",
+                    header, rows)
+        click.echo(f"fit: {model.verdict}")
+
+
 @click.command()
 @click.argument("data", type=DATA_PATH)
 @recording_options
@@ -109,69 +242,25 @@ def allan(data: Path, topic: str | None, layout: Path | None, column: str | None
     random walk, rate ramp) to the overlapping Allan variance unless --no-noise-id.
     """
     # Here rather than at import: `inertest allan --help` should not load scipy.stats/matplotlib.
-    from inertest.noise.identification import identify_noise
     from inertest.report.html import Section, page, table_html
-    from inertest.report.noise import allan_figure, allan_sections, deviation_rows, noise_rows
+    from inertest.report.noise import allan_figure, allan_sections
 
-    table = _ANGLE_UNITS if data_type == "angle" else _UNITS
-    unit = unit or ("rad" if data_type == "angle" else "rad/s")
-    if unit not in table:
-        raise InputError(f"unknown --unit {unit!r} for {data_type} input; use one of "
-                         f"{', '.join(table)}")
-    factor, si_unit, instrument = table[unit]
+    unit, factor, instrument = _column_unit(unit, data_type)
     figure_format(plot)
     check_paths([plot, report], [data])
-    if not (math.isfinite(rate_hz) and rate_hz > 0):
-        raise InputError(f"--rate must be a positive sampling rate in Hz, got {rate_hz:g}")
-    if not 1e-9 <= rate_hz <= 1e12:
-        raise InputError(f"--rate {rate_hz:g} Hz is not a usable sample rate; give the rate in "
-                         "Hz, between 1e-9 and 1e12")
-    names = [s.strip() for s in stats.split(",") if s.strip()]
-    bad = [s for s in names if s not in STATISTICS]
-    if bad or not names:
-        raise InputError(f"unknown statistic {bad[0] if bad else stats!r} in --stats; choose "
-                         f"from {', '.join(STATISTICS)}")
+    _check_rate(rate_hz)
+    names = _statistics(stats)
     samples = read_samples(data, column, dtype=dtype, topic=topic, layout=layout)
-    short = [f"the record ({len(samples)} samples) is too short for {s}: it needs at least "
-             f"{min_samples(s, data_type)} {data_type} samples; left out"
-             for s in names if len(samples) < min_samples(s, data_type)]
-    names = [s for s in names if len(samples) >= min_samples(s, data_type)]
-    if not names:
-        raise DataError(short[0].removesuffix("; left out"))
+    names, short = _long_enough(names, len(samples), data_type)
     for text in short:
         click.echo(safe_line(f"warning: {text}"), err=True)
     want = list(dict.fromkeys(names + ([] if no_noise_id or "oadev" in names else ["oadev"])))
-    from rich.console import Console  # ~0.1 s: only when the command runs
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TaskProgressColumn,
-        TextColumn,
-        TimeRemainingColumn,
-    )
-
-    console = Console(stderr=True)
-    with Progress(TextColumn("allan"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
-                  console=console,
-                  transient=True, disable=not console.is_terminal) as bar:
-        task = bar.add_task("allan", total=None)
-        res = deviations(samples, rate_hz, want, _tau_option(taus), data_type,
-                         progress=lambda d, t: bar.update(task, completed=d, total=t))
+    res = _deviations(samples, rate_hz, want, taus, data_type)
     res = {k: _scaled(v, factor) for k, v in res.items()}  # SI for the noise fit
     model = None
     checks: list[str] = []
     if not no_noise_id:
-        if not np.any(res["oadev"].var > 0):
-            raise DataError(f"{data.name} is constant (every sample is {float(samples[0]):g} "
-                            f"{unit}): there is no noise to analyse; check the recording and "
-                            "--column")
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            model = identify_noise(res["oadev"], instrument=instrument,
-                                   data=samples * factor if isinstance(samples, np.ndarray)
-                                   and not isinstance(samples, np.memmap) else None)
-        checks = list(model.checks)
-        checks += [str(w.message) for w in caught if str(w.message) not in checks]
+        model, checks = _noise_terms(res, samples, factor, instrument, data, unit)
         for text in checks:
             click.echo(f"warning: {text}", err=True)
     dev_unit = _dev_unit(unit, data_type)
@@ -192,42 +281,11 @@ def allan(data: Path, topic: str | None, layout: Path | None, column: str | None
             subtitle="Allan-family deviations (NIST SP 1065) and IEEE Std 952-1997 noise terms",
             identity=input_identity([data])))
     if as_json:
-        grid = sorted({float(t) for r in shown.values() for t in r.taus})
-        out: dict[str, object] = {"tau": grid, "unit": dev_unit, "rate_hz": rate_hz,
-                                  "input": data_type, "samples": int(len(samples))}
-        for k, r in shown.items():
-            pos = {float(t): i for i, t in enumerate(r.taus)}
-
-            def col(a: np.ndarray, pos: dict[float, int] = pos) -> list[float | int | None]:
-                return [a[pos[t]].item() if t in pos else None for t in grid]
-
-            out[k] = col(r.dev)
-            out[f"{k}_lo"] = col(r.dev_lo)
-            out[f"{k}_hi"] = col(r.dev_hi)
-            out[f"{k}_n"] = col(r.n)
-            out[f"{k}_edf"] = col(r.edf)
-            out[f"{k}_alpha"] = col(r.alpha)
-            rule = dict(zip(r.taus.tolist(), r.alpha_rule, strict=True))
-            out[f"{k}_alpha_rule"] = [rule.get(t) for t in grid]
-        out["units"] = {k: _stat_unit(k, dev_unit) for k in shown}
-        out["alpha_rules"] = NOISE_RULES
-        out["confidence"] = next(iter(shown.values())).confidence
-        out["noise_terms"] = model.to_dict() if model is not None else None
-        verdict = "ok" if model is None or not checks else "warning"
-        echo_json(envelope(
-            "allan", result=out, messages=short + checks,
-            checks=[] if model is None else [{"name": "five-term noise model", "verdict": verdict,
-                                              "findings": checks}]))
+        _json_result(shown, model, checks, short, dev_unit=dev_unit, rate_hz=rate_hz,
+                     data_type=data_type, samples=int(len(samples)))
         return
-    header, rows = deviation_rows(shown)
-    units = {k: _stat_unit(k, dev_unit) for k in shown}
-    print_table(f"{data.name}: deviations [{', '.join(f'{k} {u}' for k, u in units.items())}] "
-                f"({math.floor(len(samples)):d} samples at {rate_hz:g} Hz)", header, rows)
-    if model is not None:
-        header, rows = noise_rows(model)
-        print_table("noise terms (IEEE Std 952-1997, fitted to the overlapping Allan variance)",
-                    header, rows)
-        click.echo(f"fit: {model.verdict}")
+    _print_tables(data.name, shown, model, dev_unit=dev_unit, samples=len(samples),
+                  rate_hz=rate_hz)
     if plot is not None:
         click.echo(safe_line(f"figure: {plot}"))
     if report is not None:

@@ -58,10 +58,10 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
         click.echo(f"\n{th.title} ({th.plan_path}; noise {th.noise:g} per reading, seed "
                    f"{th.seed}): {len(th.result.step_temperature_c)} steps; held-out run, "
                    "RMS error / drift before -> after [mg]:")
-        for a in "xyz":
-            (rb, db), (ra, da) = th.before_mg[a], th.after_mg[a]
-            click.echo(f"  output_{a}: {rb:.3f} / {db:.3f} -> {ra:.3f} / {da:.3f}")
-        flagged = [n for n, h in th.result.hysteresis.items() if h.significant]
+        for axis in "xyz":
+            (rb, db), (ra, da) = th.before_mg[axis], th.after_mg[axis]
+            click.echo(f"  output_{axis}: {rb:.3f} / {db:.3f} -> {ra:.3f} / {da:.3f}")
+        flagged = [name for name, h in th.result.hysteresis.items() if h.significant]
         click.echo("  hysteresis heating vs cooling: "
                    + (", ".join(flagged) if flagged else "none significant"))
     acceptance = run_acceptance(folder / "demo.toml")
@@ -74,10 +74,11 @@ def demo(examples_dir: Path | None, report_dir: Path) -> None:
                     clause_rows(a.outcome.to_dict()))
         click.echo(f"overall verdict: {a.outcome.overall}")
         if a.lot is not None:
-            from inertest.report.lot import SUMMARY_HEADER, summary_rows
+            from inertest.report.lot import SUMMARY_HEADER
+            from inertest.report.lot import summary_rows as lot_rows
 
             print_table(f"lot of {len(a.lot.serials)} simulated units", SUMMARY_HEADER,
-                        summary_rows(a.lot))
+                        lot_rows(a.lot))
     index = write_campaign_report(tests, report_dir, noise=noise, thermal=thermal,
                                   acceptance=acceptance, command=command_line())
     click.echo(f"\nreport: {index}")

@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
 from inertest.cli import safe_line
 from inertest.cli._common import REAL, FiniteFloatRange, echo_json, print_table
 from inertest.report.rounding import format_number, round_to_uncertainty
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from inertest.quality.lab import Equipment
+    from inertest.quality.plan_check import PlanCheck
 
 _FILE = click.Path(exists=True, dir_okay=False, path_type=Path)
 
@@ -96,22 +103,25 @@ def plan_check(plan: Path, spec_path: Path | None, noise_path: Path | None,
         raise click.UsageError(f"plan-check of a {p.kind} plan needs --spec (the limits)")
     spec = read_spec(spec_path)
     noise = read_noise(noise_path, p, sample_interval_s=sample_interval_s)
-    used = ()
+    used: tuple[Equipment, ...] = ()
     if equipment is not None and p.test is not None:
         used = select_equipment(read_equipment(equipment), p.test.equipment,
                                 plan_source=f"plan {plan}", lab_source=f"lab file {equipment}")
     tr = load_truth(truth) if truth is not None else None
-    kw = {"equipment": used, "tur": tur, "n_mc": n_mc, "rng": seed, "rel_error": rel_error}
+
+    def check(truth_values: Mapping[str, float] | None, nominal: str | None) -> PlanCheck:
+        return check_plan(p, spec, noise, truth=truth_values, nominal=nominal, equipment=used,
+                          tur=tur, n_mc=n_mc, rng=seed, rel_error=rel_error)
+
     try:
-        out = check_plan(p, spec, noise, truth=tr,
-                         nominal=None if truth is None else f"the truth file {truth}", **kw)
+        out = check(tr, None if truth is None else f"the truth file {truth}")
     except NominalTruthError:
         beside = plan.parent / "truth.toml"
         if truth is not None or not beside.is_file():
             raise
-        out = check_plan(p, spec, noise, truth=load_truth(beside),
-                         nominal=f"the truth file {beside} beside the plan (the procedure "
-                         "needs a scale factor; --truth FILE to give another)", **kw)
+        out = check(load_truth(beside),
+                    f"the truth file {beside} beside the plan (the procedure needs a scale "
+                    "factor; --truth FILE to give another)")
     if equipment is None and p.test is not None and p.test.equipment:
         click.echo(f"warning: {safe_line(unchecked_equipment_message(p.test.equipment))}",
                    err=True)
@@ -134,7 +144,12 @@ def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
     from inertest.io.plan_file import load_truth
     from inertest.models.strapdown_imu import StateSet
     from inertest.quality.lab import read_equipment, select_equipment
-    from inertest.quality.plan_check import judge_sequence, predict_sequence, read_imu_noise
+    from inertest.quality.plan_check import (
+        IMU_NOISE_KEYS,
+        judge_sequence,
+        predict_sequence,
+        read_imu_noise,
+    )
 
     noise = read_imu_noise(noise_path)
     tr = load_truth(truth) if truth is not None else None
@@ -144,13 +159,13 @@ def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
         if p.kind != "systematic":
             raise click.UsageError(f"{path} is a {p.kind} plan; --compare takes systematic "
                                    "plans")
-        used = ()
+        used: tuple[Equipment, ...] = ()
         if equipment is not None and p.test is not None:
             used = select_equipment(read_equipment(equipment), p.test.equipment,
                                     plan_source=f"plan {path}", lab_source=f"lab file {equipment}")
         preds.append(predict_sequence(p, noise, label=str(path), truth=tr, equipment=used))
-    names = StateSet(lever_arms="xyz", g_sensitivity=True, asymmetric_scale=True).names()
-    verdicts = ([judge_sequence(x, limits, names=names, tur=tur) for x in preds]
+    all_states = StateSet(lever_arms="xyz", g_sensitivity=True, asymmetric_scale=True).names()
+    verdicts = ([judge_sequence(x, limits, names=all_states, tur=tur) for x in preds]
                 if limits is not None else [])
     ok = all(c.status == "verifiable" for v in verdicts for c in v)
     if as_json:
@@ -161,8 +176,8 @@ def _systematic(plans: list[Path], noise_path: Path, equipment: Path | None,
         echo_json({"kind": "plan-check", "procedure": "systematic", "noise": noise.to_dict(),
                    "test_uncertainty_ratio": tur, "sequences": seqs})
         return ok
-    click.echo(safe_line("noise: " + ", ".join(f"{k} = {v:g} {u['unit']}" for k, v, u in (
-        (k, noise.levels[k], noise.to_dict()[k]) for k in noise.levels))))
+    click.echo(safe_line("noise: " + ", ".join(f"{k} = {v:g} {IMU_NOISE_KEYS[k]}"
+                                               for k, v in noise.levels.items())))
     click.echo("prediction: generalised least squares of the navigation-mode velocity errors "
                "with this noise (no data needed); Type B: site gravity (the table's angle, "
                "rate and tilt do not enter: the gyros measure the turns)")

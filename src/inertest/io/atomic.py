@@ -76,8 +76,10 @@ def _user_path_error(exc: OSError, tmp: Path | None, final: Path) -> OSError:
     temporaries beside ``final`` then stands for ``final``. A full disk that a writer reports
     without a file name (Arrow, HDF5) is named at ``final``.
     """
-    if exc.filename is None and exc.errno in (errno.ENOSPC, getattr(errno, "EDQUOT", -1)):
-        return type(exc)(exc.errno, exc.strerror or os.strerror(exc.errno), str(final))
+    code = exc.errno  # an int when it is one of the two (``in`` does not narrow for mypy)
+    if exc.filename is None and code is not None and code in (errno.ENOSPC,
+                                                              getattr(errno, "EDQUOT", -1)):
+        return type(exc)(code, exc.strerror or os.strerror(code), str(final))
 
     def user(name: object) -> object:
         if not isinstance(name, str | bytes):
@@ -137,7 +139,7 @@ def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
     """
     target = Path(final)
     pattern = re.compile(r"^\..+\.inertest-tmp-" + re.escape(_host()) + r"-(\d+)-")
-    removed = []
+    removed: list[Path] = []
     try:
         siblings = list(target.parent.iterdir())
     except OSError:

@@ -46,7 +46,8 @@ def load_calibration(path: str | os.PathLike[str], *, what: str = "calibration")
                            "PLAN DATA --json")
     if "kind" in doc or "schema_version" in doc:
         doc = read_envelope(doc, source=f"{what} file {Path(path)}")
-    body = doc.get("result") if isinstance(doc.get("result"), dict) else doc
+    result = doc.get("result")
+    body = result if isinstance(result, dict) else doc
     block = body.get("calibration", body)
     if not isinstance(block, dict):
         raise InputError(f'"calibration" in {Path(path)} must be an object')

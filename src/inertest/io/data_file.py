@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from collections.abc import Mapping
@@ -325,7 +326,7 @@ def file_sha256(path: str | os.PathLike[str]) -> str:
         if p.is_dir():
             h.update(f.relative_to(p).as_posix().encode("utf-8") + b"\0")
         with f.open("rb") as fh:
-            for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
+            for block in iter(functools.partial(fh.read, 1 << 20), b""):
                 h.update(block)
     return h.hexdigest()
 

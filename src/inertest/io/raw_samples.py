@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import DTypeLike, NDArray
 
 from inertest.errors import DataError, InputError
 from inertest.io.data_file import read_table
@@ -57,7 +57,7 @@ class SampleFile:
             raise IndexError(i)
         return self._read(i, i + 1)[0]
 
-    def __array__(self, dtype: object = None, copy: object = None) -> NDArray:
+    def __array__(self, dtype: DTypeLike | None = None, copy: object = None) -> NDArray:
         a = self._read(0, len(self))
         return a if dtype is None else a.astype(dtype)
 
@@ -69,8 +69,8 @@ RAW_DTYPES = ("float32", "float64", "int16", "int32", "int64")
 def read_samples(
     path: str | os.PathLike[str], column: str | None = None, *, dtype: str | None = None,
     topic: str | None = None, layout: str | os.PathLike[str] | None = None,
-) -> NDArray:
-    """Samples of one column, as an array or a read-only memory map.
+) -> NDArray | SampleFile:
+    """Samples of one column, as an array, or a :class:`SampleFile` for a long record.
 
     Parameters
     ----------

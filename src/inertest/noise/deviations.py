@@ -31,6 +31,7 @@ import math
 import mmap
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -146,6 +147,15 @@ class DeviationResult:
 
 
 # --------------------------------------------------------------------------- phase sources
+
+
+@runtime_checkable
+class _Record(Protocol):
+    """A 1-D record read by index and by slice: an array, a memory map, a ``SampleFile``."""
+
+    def __len__(self) -> int: ...
+
+    def __getitem__(self, key: int | slice, /) -> Any: ...
 
 
 class _Phase:
@@ -369,19 +379,19 @@ class _RatePhase(_Phase):
 class _AnglePhase(_Phase):
     """Phase given directly (angle input), minus the straight line through its end points."""
 
-    def __init__(self, x: ArrayLike, tau0: float) -> None:
+    def __init__(self, x: _Record, tau0: float) -> None:
         self.xr = x
-        self.size = len(x)  # type: ignore[arg-type]
+        self.size = len(x)
         self.tau0 = tau0
         self.chunk = CHUNK
-        self.first = float(x[0])  # type: ignore[index]
-        last = float(x[self.size - 1])  # type: ignore[index]
+        self.first = float(x[0])
+        last = float(x[self.size - 1])
         self.slope = (last - self.first) / (self.size - 1) if self.size > 1 else 0.0
 
     def read(self, start: int, stop: int) -> NDArray:
         start = max(0, start)
         stop = min(self.size, stop)
-        raw = np.asarray(self.xr[start:stop], dtype=np.float64)  # type: ignore[index]
+        raw = np.asarray(self.xr[start:stop], dtype=np.float64)
         k = np.arange(start, stop, dtype=np.float64)
         return _minus_line(raw, self.first, self.slope, k)
 
@@ -403,8 +413,8 @@ def _minus_line(raw: NDArray, first: float, slope: float, k: NDArray) -> NDArray
     c = _SPLIT * slope  # Dekker: slope * k = p + ep exactly
     sh = c - (c - slope)
     sl = slope - sh
-    c = _SPLIT * k
-    kh = c - (c - k)
+    ck = _SPLIT * k
+    kh = ck - (ck - k)
     kl = k - kh
     ep = ((sh * kh - p) + sh * kl + sl * kh) + sl * kl
     s = first + p  # Knuth: first + p = s + es exactly
@@ -499,6 +509,9 @@ def phase_source(
             mp.hdev.update({1: h1, 2: h2})
         return mp
     _check_finite_angle(data)
+    # An array, or an array-like with shape and __getitem__ (converted above otherwise) that
+    # len() took: a record read by index and slice.
+    assert isinstance(data, _Record)
     src = _AnglePhase(data, tau0)
     if stream:
         return src
@@ -780,7 +793,7 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
     windows = {r: 0.0 for r in requests if r[0] in ("mdev", "tdev")}  # s_j of modified Allan
     states = {m: np.zeros((k, kernels.LAG1_FIELDS)) for m, k in orders.items()}
     counts = {m: (nx - 1) // m for m in set(orders) | set(points)}
-    pts: dict[int, list[NDArray]] = {m: [] for m in points}
+    pieces: dict[int, list[NDArray]] = {m: [] for m in points}
     for p0 in range(0, nx, chunk):
         p1 = min(nx, p0 + chunk)
         main.next(p1 - p0, buf[chunk:])
@@ -838,8 +851,8 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
             if b > a:
                 if m in states:
                     kernels.lag1_extend(x[a - p0 : b - p0 : m], states[m])  # strided: no copy
-                if m in pts:
-                    pts[m].append(x[a - p0 : b - p0 : m].copy())
+                if m in pieces:
+                    pieces[m].append(x[a - p0 : b - p0 : m].copy())
         buf[:chunk] = buf[chunk : 2 * chunk]
         tick(work * p1 // nx - work * p0 // nx)
     if short.size:  # the terms starting in the last chunk, now at buf[0]
@@ -850,7 +863,7 @@ def _stream_pass(src: _Phase, requests: Sequence[tuple[str, int]], orders: dict[
                                                                  strict=True)})
     for r in windows:  # the last term of the modified Allan sum
         sums[r] += windows[r] * windows[r]
-    return sums, states, {m: np.concatenate(v) for m, v in pts.items()}
+    return sums, states, {m: np.concatenate(v) for m, v in pieces.items()}
 
 
 def _family(statistic: str) -> str:
@@ -885,9 +898,8 @@ def _noise_type(src: _Phase, m: int, family: str,
 
     count = (src.size - 1) // m
     dmax, alpha_min = (3, -4) if family == "hadamard" else (2, -2)
-    mem = isinstance(src, _MemoryPhase)
     if count >= MIN_ACF_AVERAGES:
-        if mem:
+        if isinstance(src, _MemoryPhase):
             # orders 0 and 1 first: for most noise types the decision falls there
             rows = kernels.lag1_first_two(src.x, m, count) if state is None else state
             r1 = [r1_of_state(row, _DETREND - d) for d, row in enumerate(rows[:2])]
@@ -908,7 +920,8 @@ def _noise_type(src: _Phase, m: int, family: str,
                                alpha_min=alpha_min), "lag1"
     if count < 3:
         return None, "min-edf"
-    if mem:
+    alpha: int | None
+    if isinstance(src, _MemoryPhase):
         var, avar = kernels.b1_stats(src.x, m, count)
         alpha = b1_decide(var, avar, count, alpha_min=alpha_min)
     else:
@@ -1319,11 +1332,11 @@ def deviations(
 
                 # x[::4] from the phase build (when no HDEV sums still need it) starts the
                 # decimations; it is scratch, used once
-                fresh = src.quarter is None or bool(src.hdev)
+                quarter = None if src.hdev else src.quarter  # None: start afresh
                 rows = kernels.lag1_rows_many(src.x, new,
-                                              np.empty(0) if fresh else src.quarter,
-                                              0 if fresh else 4)
-                if not fresh:
+                                              np.empty(0) if quarter is None else quarter,
+                                              0 if quarter is None else 4)
+                if quarter is not None:
                     src.quarter = None
                 states.update({int(m): rows[k] for k, m in enumerate(new)})
         if isinstance(src, _MemoryPhase):  # lag-1 decisions at orders 0-1: all taus at once

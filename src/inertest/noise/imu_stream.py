@@ -447,8 +447,8 @@ def analyse_imu_noise_stream(
         for a, v in _blocks(c, s0, s1):
             bad = np.flatnonzero(~np.isfinite(v))
             if bad.size:
-                hit = (a + int(bad[0]), j)
-                first_bad = hit if first_bad is None else min(first_bad, hit)
+                at = (a + int(bad[0]), j)
+                first_bad = at if first_bad is None else min(first_bad, at)
                 break
             lows[j], highs[j] = min(lows[j], float(v.min())), max(highs[j], float(v.max()))
     if first_bad is not None:
@@ -487,8 +487,13 @@ def analyse_imu_noise_stream(
                 yield y - med
 
         center = exact_median(residuals, m)
-        sigma = MAD_TO_SIGMA * exact_median(
-            lambda c=center, r=residuals: (np.abs(v - c) for v in r()), m)
+
+        def deviations_from_center(
+            c: float = center, r: Callable[[], Iterator[NDArray]] = residuals,
+        ) -> Iterator[NDArray]:
+            return (np.abs(v - c) for v in r())
+
+        sigma = MAD_TO_SIGMA * exact_median(deviations_from_center, m)
         if sigma == 0.0:
             total = sum(float(np.sum(np.abs(v))) for v in residuals())
             sigma = math.sqrt(math.pi / 2.0) * total / m

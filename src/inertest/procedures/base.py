@@ -35,7 +35,7 @@ import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from types import ModuleType
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,6 +49,14 @@ ResultT = TypeVar("ResultT")
 
 #: What a plan's Type-B errors look like inside the library: ``{source name: error [SI]}``.
 TypeBErrors = Mapping[str, float]
+
+
+class SpecClass(Protocol):
+    """What :attr:`Procedure.spec` is: a class built from a plan's ``[procedure]`` table."""
+
+    def from_mapping(self, params: Mapping[str, object], /) -> Any:
+        """The procedure's parameters, each field read by :func:`inertest.plan.read_fields`."""
+        ...
 
 
 class Procedure(ABC, Generic[SpecT, ObsT, ResultT]):
@@ -82,7 +90,7 @@ class Procedure(ABC, Generic[SpecT, ObsT, ResultT]):
 
     kind: ClassVar[str]
     title: ClassVar[str]
-    spec: ClassVar[type]
+    spec: ClassVar[SpecClass]
     model: ClassVar[str]
     method: ClassVar[str]
     machines: ClassVar[tuple[ModuleType, ...]] = ()

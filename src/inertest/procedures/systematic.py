@@ -545,6 +545,122 @@ def _turn_rates(w: NDArray[np.float64], threshold: float, margin: int) -> NDArra
     return out
 
 
+#: One parameter's inputs to a triad: ``(index of a motion series, direction (3,))`` pairs.
+_Terms = list[tuple[int, NDArray[np.float64]]]
+
+
+@dataclass
+class _ParameterInputs:
+    """How each SI parameter enters the gyro and accelerometer error rates.
+
+    ``gyro_series`` and ``acc_series``: scalar series of the motion, (n,) each; parameter p
+    adds ``series[k] * d`` to the rate error of the triad for each ``(k, d)`` of
+    ``gyro_terms[p]`` and ``acc_terms[p]``.
+    """
+
+    gyro_series: list[NDArray[np.float64]]
+    acc_series: list[NDArray[np.float64]]
+    gyro_terms: list[_Terms] = field(default_factory=list)
+    acc_terms: list[_Terms] = field(default_factory=list)
+
+    def add(self, gyro: _Terms, acc: _Terms) -> None:
+        """One parameter, in terms of the series already there."""
+        self.gyro_terms.append(gyro)
+        self.acc_terms.append(acc)
+
+    def acc_param(self, series: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]]
+                  ) -> None:
+        """An accelerometer parameter entering through new series ``(series, direction)``."""
+        terms = []
+        for s, d in series:
+            self.acc_series.append(s)
+            terms.append((len(self.acc_series) - 1, d))
+        self.add([], terms)
+
+    def gyro_param(self, series: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]]
+                   ) -> None:
+        """A gyro parameter entering through new series ``(series, direction)``."""
+        terms = []
+        for s, d in series:
+            self.gyro_series.append(s)
+            terms.append((len(self.gyro_series) - 1, d))
+        self.add(terms, [])
+
+
+def _structural_motion(nv: nav.Navigation, w: NDArray[np.float64], threshold: float
+                       ) -> tuple[nav.Navigation, NDArray[np.float64], NDArray[np.float64]]:
+    """The navigation, rates and lever matrices of the turns alone (see :func:`_jacobian`)."""
+    w = _turn_rates(w - np.einsum("nji,j->ni", nv.C_nb, nv.w_ie), threshold,
+                    int(round(1.0 / nv.dt_s)))
+    W = sim.lever_matrix(w, sim.angular_acceleration(w, nv.dt_s))
+    # the local frame fixed in inertial space: the body's attitude is its local one
+    nv = dataclasses.replace(nv, E=np.broadcast_to(np.eye(3), nv.E.shape).copy(),
+                             C_ib=nv.C_nb)
+    return nv, w, W
+
+
+def _base_parameters(inputs: _ParameterInputs, model: sim.StrapdownImu) -> None:
+    """The gyro scale and misalignment, gyro biases, accelerometer ``S_a`` terms and biases."""
+    Sgi = np.asarray(np.linalg.inv(model.S_g), dtype=np.float64)
+    Sai = np.asarray(np.linalg.inv(model.S_a), dtype=np.float64)
+    for a in range(3):
+        for b in range(3):
+            inputs.add([(b, -Sgi[:, a])], [])
+    for a in range(3):
+        inputs.add([(3, -Sgi[:, a])], [])
+    for i, j in sim.ACC_FREE:
+        inputs.add([], [(j, -Sai[:, i])])
+    for a in range(3):
+        inputs.add([], [(3, -Sai[:, a])])
+
+
+def _optional_parameters(inputs: _ParameterInputs, states: sim.StateSet, corr: sim.Corrected,
+                         n: int, w: NDArray[np.float64], w1: NDArray[np.float64],
+                         W: NDArray[np.float64]) -> None:
+    """The states of ``states`` beyond the base ones, in the order of ``states.names()``."""
+    v, f1, f = corr.v[:n], corr.f1[:n], corr.force[:n]
+    eye = np.eye(3)
+    if states.second_order:
+        for i in range(3):
+            inputs.acc_param([(v[:, i] ** 2, -eye[i])])
+    for i in states.lever_rows:
+        for c in range(3):
+            inputs.acc_param([(W[:, i, c], -eye[i])])
+    if states.time_asynchrony:
+        wf = np.cross(w1, f1)
+        inputs.acc_param([(wf[:, i], -eye[i]) for i in range(3)])
+    if states.g_sensitivity:
+        for a in range(3):
+            for b in range(3):
+                inputs.gyro_param([(f[:, b], -eye[a])])
+    if states.asymmetric_scale:
+        for a in range(3):
+            inputs.gyro_param([(np.abs(w[:, a]), -eye[a])])
+        for i in range(3):
+            inputs.acc_param([(np.abs(v[:, i]), -eye[i])])
+
+
+def _error_inputs(nv: nav.Navigation, inputs: _ParameterInputs) -> nav.ErrorInputs:
+    """Each parameter's block moments of the gyro and accelerometer errors, (blocks, 3, P)."""
+    G = np.column_stack(inputs.gyro_series)
+    A = np.column_stack(inputs.acc_series)
+    Mg = nav.block_moments(nv, G, weighted=False)
+    Mgw = nav.block_moments(nv, G, weighted=True)
+    Ma = nav.block_moments(nv, A, weighted=False)
+    P = len(inputs.gyro_terms)
+    nb = nv.n_blocks
+    gs = np.zeros((nb, 3, P))
+    gw = np.zeros((nb, 3, P))
+    ac = np.zeros((nb, 3, P))
+    for p in range(P):
+        for k, d in inputs.gyro_terms[p]:
+            gs[:, :, p] += Mg[:, k] @ d
+            gw[:, :, p] += Mgw[:, k] @ d
+        for k, d in inputs.acc_terms[p]:
+            ac[:, :, p] += Ma[:, k] @ d
+    return nav.ErrorInputs(gs, gw, ac)
+
+
 def _jacobian(nv: nav.Navigation, corr: sim.Corrected, model: sim.StrapdownImu,
               states: sim.StateSet, blocks: NDArray[np.intp], *,
               structural: float | None = None) -> NDArray[np.float64]:
@@ -558,87 +674,16 @@ def _jacobian(nv: nav.Navigation, corr: sim.Corrected, model: sim.StrapdownImu,
     w = corr.w0[:n]
     w1, W = corr.w1[:n], corr.W[:n]
     if structural is not None:
-        w = _turn_rates(w - np.einsum("nji,j->ni", nv.C_nb, nv.w_ie), structural,
-                        int(round(1.0 / nv.dt_s)))
+        nv, w, W = _structural_motion(nv, w, structural)
         w1 = w
-        W = sim.lever_matrix(w, sim.angular_acceleration(w, nv.dt_s))
-        # the local frame fixed in inertial space: the body's attitude is its local one
-        nv = dataclasses.replace(nv, E=np.broadcast_to(np.eye(3), nv.E.shape).copy(),
-                                 C_ib=nv.C_nb)
-    v, f1, f = corr.v[:n], corr.f1[:n], corr.force[:n]
+    v = corr.v[:n]
     one = np.ones(n)
-    gyro_series: list[NDArray[np.float64]] = [w[:, 0], w[:, 1], w[:, 2], one]
-    acc_series: list[NDArray[np.float64]] = [v[:, 0], v[:, 1], v[:, 2], one]
-    gyro_terms: list[list[tuple[int, NDArray[np.float64]]]] = []
-    acc_terms: list[list[tuple[int, NDArray[np.float64]]]] = []
-    Sgi = np.asarray(np.linalg.inv(model.S_g), dtype=np.float64)
-    Sai = np.asarray(np.linalg.inv(model.S_a), dtype=np.float64)
-    eye = np.eye(3)
-    for a in range(3):
-        for b in range(3):
-            gyro_terms.append([(b, -Sgi[:, a])])
-            acc_terms.append([])
-    for a in range(3):
-        gyro_terms.append([(3, -Sgi[:, a])])
-        acc_terms.append([])
-    for i, j in sim.ACC_FREE:
-        gyro_terms.append([])
-        acc_terms.append([(j, -Sai[:, i])])
-    for a in range(3):
-        gyro_terms.append([])
-        acc_terms.append([(3, -Sai[:, a])])
-
-    def acc_param(series: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]]) -> None:
-        terms = []
-        for s, d in series:
-            acc_series.append(s)
-            terms.append((len(acc_series) - 1, d))
-        gyro_terms.append([])
-        acc_terms.append(terms)
-
-    def gyro_param(series: Sequence[tuple[NDArray[np.float64], NDArray[np.float64]]]) -> None:
-        terms = []
-        for s, d in series:
-            gyro_series.append(s)
-            terms.append((len(gyro_series) - 1, d))
-        gyro_terms.append(terms)
-        acc_terms.append([])
-
-    if states.second_order:
-        for i in range(3):
-            acc_param([(v[:, i] ** 2, -eye[i])])
-    for i in states.lever_rows:
-        for c in range(3):
-            acc_param([(W[:, i, c], -eye[i])])
-    if states.time_asynchrony:
-        wf = np.cross(w1, f1)
-        acc_param([(wf[:, i], -eye[i]) for i in range(3)])
-    if states.g_sensitivity:
-        for a in range(3):
-            for b in range(3):
-                gyro_param([(f[:, b], -eye[a])])
-    if states.asymmetric_scale:
-        for a in range(3):
-            gyro_param([(np.abs(w[:, a]), -eye[a])])
-        for i in range(3):
-            acc_param([(np.abs(v[:, i]), -eye[i])])
-    G = np.column_stack(gyro_series)
-    A = np.column_stack(acc_series)
-    Mg = nav.block_moments(nv, G, weighted=False)
-    Mgw = nav.block_moments(nv, G, weighted=True)
-    Ma = nav.block_moments(nv, A, weighted=False)
-    P = len(gyro_terms)
-    nb = nv.n_blocks
-    gs = np.zeros((nb, 3, P))
-    gw = np.zeros((nb, 3, P))
-    ac = np.zeros((nb, 3, P))
-    for p in range(P):
-        for k, d in gyro_terms[p]:
-            gs[:, :, p] += Mg[:, k] @ d
-            gw[:, :, p] += Mgw[:, k] @ d
-        for k, d in acc_terms[p]:
-            ac[:, :, p] += Ma[:, k] @ d
-    resp = nav.propagate(nv, nav.ErrorInputs(gs, gw, ac))[blocks]  # (k, 3 (axis), P)
+    inputs = _ParameterInputs([w[:, 0], w[:, 1], w[:, 2], one],
+                              [v[:, 0], v[:, 1], v[:, 2], one])
+    _base_parameters(inputs, model)
+    _optional_parameters(inputs, states, corr, n, w, w1, W)
+    P = len(inputs.gyro_terms)
+    resp = nav.propagate(nv, _error_inputs(nv, inputs))[blocks]  # (k, 3 (axis), P)
     att = nav.attitude_sensitivity(nv)[blocks].transpose(0, 2, 1)  # (k, 3 (axis), 3 (j))
     J = np.concatenate([resp, att], axis=2)
     return np.asarray(J.reshape(3 * blocks.size, P + 3))

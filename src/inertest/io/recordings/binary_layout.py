@@ -25,6 +25,7 @@ their three bytes, two's complement for ``int24``.
 from __future__ import annotations
 
 import math
+import os
 import tomllib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -80,7 +81,7 @@ def _bad(source: str, text: str) -> InputError:
     return InputError(f"layout {source}: {text}")
 
 
-def read_layout(path: str | Path) -> Layout:
+def read_layout(path: str | os.PathLike[str]) -> Layout:
     """Read and check a TOML record layout."""
     p = Path(path)
     try:

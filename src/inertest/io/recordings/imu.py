@@ -26,6 +26,7 @@ import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypedDict, Unpack
 
 import numpy as np
 from numpy.typing import NDArray
@@ -94,6 +95,17 @@ def _scales(rec: Recording, cols: list[str], known: bool, option: str,
                             f"{what} unit ({', '.join(table)}); give --{what}-unit")
         out.append(table[unit])
     return tuple(out)
+
+
+class ImuOptions(TypedDict, total=False):
+    """The column and unit options of :func:`plan`, passed on by the readers below."""
+
+    time_column: str | None
+    time_unit: str
+    gyro_columns: str | None
+    accel_columns: str | None
+    gyro_unit: str
+    accel_unit: str
 
 
 def plan(rec: Recording, *, time_column: str | None = None, time_unit: str = "auto",
@@ -244,9 +256,9 @@ def _mixed(meds: list[float], starts: list[float], rec: Recording) -> None:
                     f"{rec.listing}; record or cut one rate")
 
 
-def read_imu(rec: Recording, **options: str | None) -> ImuRecording:
+def read_imu(rec: Recording, **options: Unpack[ImuOptions]) -> ImuRecording:
     """The IMU channels of ``rec`` in memory, SI (module docstring); ``options`` as :func:`plan`."""
-    p = plan(rec, **options)  # type: ignore[arg-type]
+    p = plan(rec, **options)
     clock = _Clock(p, rec)
     ts, gs, acs = [], [], []
     for b in rec.batches([*p.gyro, *p.accel, *p.time, "bag_time_ns"]):
@@ -262,7 +274,8 @@ def read_imu(rec: Recording, **options: str | None) -> ImuRecording:
     t_all = np.concatenate(ts) if ts else None
     if t_all is not None:
         check_rate(t_all, rec)
-    notes = [*p.notes, *([clock.note()] if clock.note() else [])]
+    note = clock.note()
+    notes = [*p.notes, *([note] if note else [])]
     return ImuRecording(t_all, np.concatenate(gs), np.concatenate(acs), p.gyro, p.accel,
                         rec.rate_hz, rec.fmt, tuple(notes))
 
@@ -298,13 +311,13 @@ class SpilledImu:
 
 
 def spill_imu(rec: Recording, *, progress: Progress | None = None,
-              folder: str | None = None, **options: str | None) -> SpilledImu:
+              folder: str | None = None, **options: Unpack[ImuOptions]) -> SpilledImu:
     """Read ``rec`` once, block by block, into float64 files in a temporary folder.
 
     ``progress(samples_done, total_or_None)`` is called after each block. Memory: one block.
     The per-part rate check of :func:`check_rate` runs on per-block medians.
     """
-    p = plan(rec, **options)  # type: ignore[arg-type]
+    p = plan(rec, **options)
     clock = _Clock(p, rec)
     tmp = Path(tempfile.mkdtemp(prefix="inertest-stream-", dir=folder))
     names = [*p.gyro, *p.accel]
@@ -344,7 +357,8 @@ def spill_imu(rec: Recording, *, progress: Progress | None = None,
         if len(meds) >= 2:
             _mixed(meds, starts, rec)
         f8 = np.dtype("<f8")
-        notes = [*p.notes, *([clock.note()] if clock.note() else []),
+        note = clock.note()
+        notes = [*p.notes, *([note] if note else []),
                  f"streamed: {n} samples decoded once into temporary float64 files, analysed "
                  "in blocks"]
         return SpilledImu(n, SampleFile(tmp / "t.f64", f8, 0, n) if p.time else None,
@@ -373,7 +387,7 @@ def recording_of(path: Path, *, fmt: str = "auto", topic: str | None = None,
 
 def open_imu(path: str | os.PathLike[str], *, fmt: str = "auto", topic: str | None = None,
              layout: str | os.PathLike[str] | None = None, stream_from: int | None = None,
-             progress: Progress | None = None, **options: str | None
+             progress: Progress | None = None, **options: Unpack[ImuOptions]
              ) -> ImuRecording | SpilledImu:
     """An IMU recording in memory, or spilled for streaming from ``stream_from`` samples on.
 
@@ -388,8 +402,7 @@ def open_imu(path: str | os.PathLike[str], *, fmt: str = "auto", topic: str | No
     rec = recording_of(p, fmt=fmt, topic=topic, layout=layout, columns_given=given) \
         if p.exists() else None
     if rec is None:
-        return read_imu_recording(p, fmt=fmt, topic=topic, layout=layout,  # type: ignore[arg-type]
-                                  **options)
+        return read_imu_recording(p, fmt=fmt, topic=topic, layout=layout, **options)
     if rec.count is not None and rec.count >= (STREAM_SAMPLES if stream_from is None
                                                else stream_from):
         return spill_imu(rec, progress=progress, **options)

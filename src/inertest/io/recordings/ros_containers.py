@@ -380,9 +380,9 @@ def _decompress(compression: str, payload: bytes, size: int) -> bytes:
 
         return lz4.frame.decompress(payload)
     try:
-        from compression import zstd  # type: ignore[import-not-found]  # Python 3.14
+        from compression import zstd  # Python 3.14 (mypy checks 3.11: a missing import)
     except ImportError:
-        from backports import zstd  # type: ignore[no-redef]  # rosbags' dependency
+        from backports import zstd  # rosbags' dependency
     return zstd.decompress(payload)
 
 
@@ -403,6 +403,7 @@ def _connect(path: Path) -> object:
 
 def sqlite_batches(files: Sequence[Path], topic: str) -> Iterator[RawBatch]:
     """Raw messages of ``topic`` from ROS 2 SQLite3 files, in blocks, ordered as rosbags does."""
+    db_errors: tuple[type[BaseException], ...] = (sqlite3.DatabaseError, *_apsw_errors())
     for path in files:
         con: Any = _connect(path)
         try:
@@ -418,7 +419,7 @@ def sqlite_batches(files: Sequence[Path], topic: str) -> Iterator[RawBatch]:
                 f"SELECT timestamp, data FROM messages WHERE topic_id IN "
                 f"({','.join('?' * len(ids))}) ORDER BY {'timestamp' if back else 'id'}", ids)
             yield from rebatch((d, t) for t, d in cur)
-        except (sqlite3.DatabaseError, *_apsw_errors()) as exc:
+        except db_errors as exc:
             raise DataError(f"{path} cannot be read as a ROS 2 SQLite3 bag: {exc}; it may be "
                             "truncated or still being written") from None
         finally:
