@@ -82,7 +82,7 @@ def test_position_design_from_codes_orders_positions_in_time_and_checks_its_inpu
         idf.solve(units.PositionDesign.from_codes(np.eye(3), [0, 1, 2], "abc"), np.ones(3))
 
 
-@pytest.mark.parametrize("n", [1, 10, 1000, 70_000])
+@pytest.mark.parametrize("n", [1, 10, 1000, 70_000, 140_000])
 def test_flicker_second_antidifference_is_the_whole_record_bit_for_bit(n):
     c = nm.flicker_row_covariance(n)
     step = c[0] / 2 + np.concatenate(([0.0], np.cumsum(c[1:])))
@@ -95,6 +95,17 @@ def test_flicker_second_antidifference_is_the_whole_record_bit_for_bit(n):
     np.testing.assert_array_equal(nm.flicker_phi(n, lags[: n // 2])[1], phi[: n // 2])
     with pytest.raises(InputError, match="beyond the record"):
         nm.flicker_phi(n, np.array([n + 2]))
+
+
+@pytest.mark.parametrize("n", [3, 5000])
+def test_flicker_short_records_by_scipy_agree_with_the_compiled_loop(n, monkeypatch):
+    # short records skip numba (its import costs a small fit more than the fit)
+    lags = np.arange(n + 2)
+    c_py, phi_py = nm.flicker_row_covariance(n), nm.flicker_phi(n, lags)[1]
+    monkeypatch.setattr(nm, "COMPILED_FROM", 0)
+    c_nb, phi_nb = nm.flicker_row_covariance(n), nm.flicker_phi(n, lags)[1]
+    np.testing.assert_allclose(c_py, c_nb, rtol=0, atol=2e-16 * c_py[0])
+    np.testing.assert_allclose(phi_py, phi_nb, rtol=4e-15, atol=0)
 
 
 @pytest.mark.parametrize("scale", [1.0, 2.0, 30.0])
