@@ -275,6 +275,8 @@ def test_plan_check_std_is_the_fits_std_on_noisy_data():
     res = proc.fit(plan, data)
     for n, (s, _) in pred.std_a.items():
         assert res.coefficients[n].std == pytest.approx(s, rel=0.1), n
+    # the white levels were measured on the run, not given (a review found "given" here)
+    assert res.to_dict()["identification"]["noise"]["source"] == "residuals"
 
 
 def test_fit_prints_every_parameter_and_apply_uses_the_coupling(examples_dir, tmp_path,

@@ -1159,7 +1159,10 @@ class Systematic(Procedure[SystematicSpec, SystematicObservations, SystematicRes
         ident = Identification(
             coefficients=coefficients, combinations=tuple(combos), not_separable=not_sep,
             covariance=cov_x, names=names, noise_sigma=float("nan"), noise_unit="",
-            sigma_from_residuals=levels.slow_source == "fitted", dof=int(r.size - rank - 3),
+            # "residuals" (from the data) unless the plan gives every level: the white noise
+            # is measured on the dwells, a slow process fitted by REML
+            sigma_from_residuals=(not all(obs.white_given) or levels.slow_source == "fitted"),
+            dof=int(r.size - rank - 3),
             rank=rank, residuals=r, noise_model=levels.model,
             noise_components=levels.components(obs.dt_s), checks=checks,
             noise_model_weights=dict(levels.weights))
