@@ -217,3 +217,23 @@ def test_psins_recording_bag_and_mcap_bit_exact_and_noise_to_the_last_digit(
             a.pop("name"), b.pop("name")
             a["messages"] = [m.replace(ros_name, psins_name) for m in a["messages"]]
             assert a == b, (kind, ros_name)  # every number, every digit
+
+
+def test_unit_options_apply_to_imu_messages_and_say_so(tmp_path):
+    """A driver publishing deg/s against REP 145: --gyro-unit deg/s is applied, and noted.
+
+    (It was silently ignored: densities 57.3x too large, found by an independent review.)
+    """
+    from inertest.io.recordings.imu import open_imu
+
+    rng = np.random.default_rng(3)
+    n = 200
+    ns = T0_NS + np.arange(n, dtype=np.int64) * 5_000_000
+    gyr, acc = rng.normal(0, 1, (n, 3)), rng.normal(0, 0.1, (n, 3)) + [0, 0, 1]
+    bag = write_imu_bag(tmp_path / "imu.bag", "ros1", ns, gyr, acc)
+    si = open_imu(bag, topic="/imu")
+    assert np.array_equal(si.gyro, gyr) and "message type's units" in " ".join(si.notes)
+    other = open_imu(bag, topic="/imu", gyro_unit="deg/s", accel_unit="g")
+    np.testing.assert_allclose(other.gyro, gyr * np.pi / 180, rtol=1e-15)
+    np.testing.assert_allclose(other.accel, acc * 9.80665, rtol=1e-15)
+    assert "REP 145" in " ".join(other.notes)

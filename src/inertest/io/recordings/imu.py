@@ -86,10 +86,10 @@ def _scales(rec: Recording, cols: list[str], known: bool, option: str,
             table: dict[str, float], what: str) -> tuple[float, ...]:
     out = []
     for c in cols:
-        if known:
-            out.append(1.0)  # the type states SI
-            continue
-        unit = rec.units.get(c) or option
+        # A message type states SI (REP 145); a unit option other than SI overrides it, for a
+        # driver that publishes deg/s against the standard (the notes say so). It was ignored
+        # silently: a 57.3x error in every density (found by an independent review).
+        unit = option if known else (rec.units.get(c) or option)
         if unit not in table:
             raise UnitError(f"column {c!r} of {_where(rec)} is in {unit!r}, which is not a "
                             f"{what} unit ({', '.join(table)}); give --{what}-unit")
@@ -140,11 +140,16 @@ def plan(rec: Recording, *, time_column: str | None = None, time_unit: str = "au
                             f"{', '.join(names)}: fix --time-column")
     if spec is not None and len(spec) > 2:
         raise InputError("--time-column takes one column, or two (seconds, nanoseconds)")
-    units_note = ("rad/s and m/s^2 (the message type's units)"
-                  if (rec.gyro or rec.accel) and g_given is None and a_given is None else
-                  "units " + ", ".join(f"{c}: {rec.units.get(c) or u}" for c, u in
-                                       [*((c, gyro_unit) for c in gyro),
-                                        *((c, accel_unit) for c in accel)]))
+    typed = (rec.gyro or rec.accel) and g_given is None and a_given is None
+    if typed and gs == (1.0,) * len(gs) and acs == (1.0,) * len(acs):
+        units_note = "rad/s and m/s^2 (the message type's units)"
+    elif typed:
+        units_note = (f"read in {gyro_unit} and {accel_unit} as the unit options say, not in "
+                      "the message type's rad/s and m/s^2 (REP 145)")
+    else:
+        units_note = "units " + ", ".join(f"{c}: {rec.units.get(c) or u}" for c, u in
+                                          [*((c, gyro_unit) for c in gyro),
+                                           *((c, accel_unit) for c in accel)])
     notes = [*rec.notes, f"gyro columns {', '.join(gyro) or '(none)'}; accelerometer columns "
              f"{', '.join(accel) or '(none)'}; {units_note}"]
     if spec:
