@@ -103,3 +103,25 @@ def test_bad_spec_file_stops_the_batch_before_anything_is_stored(manifest, tmp_p
     err = capsys.readouterr().err
     assert "bad_spec.toml" in err and err.count("\n") == 1
     assert not db.exists()
+
+
+def test_json_runs_are_the_fit_envelope_with_messages_and_warnings_go_to_stderr(
+        manifest, tmp_path, capsys):
+    """Each run of --json is what `fit --json` prints (test block, messages); the warnings
+    (here: equipment named without a lab file) reach stderr once, with their count. The
+    batch's JSON dropped them (found by an independent review)."""
+    bare = tmp_path / "bare.toml"
+    plan = tomllib.loads(manifest.read_text())["run"][0]["plan"]
+    bare.write_text(f'[[run]]\nplan = "{plan}"\ndata = "good.csv"\n\n'
+                    f'[[run]]\nplan = "{plan}"\ndata = "plain.csv"\n')
+    assert main(["batch", str(bare), "--no-store", "--json"]) == 0
+    out = capsys.readouterr()
+    runs = json.loads(out.out)["runs"]
+    assert main(["fit", plan, str(tmp_path / "good.csv"), "--no-store", "--json"]) == 0
+    single = json.loads(capsys.readouterr().out)
+    assert runs[0]["result"]["messages"] == single["messages"]
+    assert any("no lab equipment file" in m for m in single["messages"])
+    assert runs[0]["result"]["test"]["data_sha256"] == single["test"]["data_sha256"]
+    assert all(any("no lab equipment file" in w for w in r["warnings"]) for r in runs)
+    lines = [x for x in out.err.splitlines() if "no lab equipment file" in x]
+    assert len(lines) == 1 and "(2 of 2 runs)" in lines[0]

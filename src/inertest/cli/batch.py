@@ -71,6 +71,7 @@ def batch(manifest: Path, workers: int, scheduler: str | None, worker_wait: floa
                           allow_duplicate=allow_duplicate, progress=advance, timeout=timeout,
                           worker_wait=worker_wait, ship_data=ship_data)
     failed = [i for i in items if i.error is not None]
+    _warn_once(items)
     if as_json:
         echo_json({"kind": "batch", "runs": [_run_json(i) for i in items]})
     else:
@@ -97,6 +98,16 @@ def batch(manifest: Path, workers: int, scheduler: str | None, worker_wait: floa
         raise SystemExit(1)
 
 
+def _warn_once(items: list[BatchItem]) -> None:
+    """Each distinct warning of the runs on stderr once, with how many runs gave it."""
+    seen: dict[str, int] = {}
+    for i in items:
+        for w in () if i.outcome is None else i.outcome.warnings:
+            seen[w] = seen.get(w, 0) + 1
+    for w, n in seen.items():
+        click.echo(safe_line(f"warning ({n} of {len(items)} runs): {w}"), err=True)
+
+
 def _conformance(o: RunOutcome) -> dict[str, object] | None:
     return None if o.conformance is None else o.conformance.to_dict()
 
@@ -111,7 +122,9 @@ def _run_json(i: BatchItem) -> dict[str, object]:
     return {"plan": str(i.task.plan), "data": str(i.task.data),
             "spec": None if i.task.spec is None else str(i.task.spec),
             "equipment": None if i.task.equipment is None else str(i.task.equipment),
-            "result": None if o is None else o.result.to_dict(),
+            # the envelope as `fit --json` prints it: its test block and messages included
+            "result": None if o is None else o.to_dict(),
+            "warnings": [] if o is None else list(o.warnings),
             "uncertainty_budget": None if o is None or o.budget is None else o.budget.to_dict(),
             "conformance": None if o is None else _conformance(o),
             "stored_run": None if o is None else o.stored_run, "error": i.error}
