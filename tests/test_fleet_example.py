@@ -44,3 +44,5 @@ def test_a_lot_of_60_units_gives_the_true_spread_and_finds_the_far_out_units(tmp
         far = {t["serial"] for t in truth if abs(float(t[f"B_{axis}"])) > 40}
         assert {s["serial"] for s in got[f"B_{axis}"]["stand_out"]} == far, axis
     assert any(abs(float(t[f"B_{a}"])) > 40 for t in truth for a in "xyz")
+    # each unit's value carries its test date (the runs' plans name no test identity)
+    assert all(v["tested_at"] for v in got["B_x"]["values"])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -71,7 +72,7 @@ def lot(db: str | None, procedure: str | None, unit_type: str | None, spec: Path
             serials = [s for s in serials if s in typed]
         docs = []
         for s in serials:
-            docs += [r.result for r in store.runs(s) if procedure in (None, r.procedure)]
+            docs += [_dated(r) for r in store.runs(s) if procedure in (None, r.procedure)]
     finally:
         store.close()
     if not docs:
@@ -110,3 +111,18 @@ def lot(db: str | None, procedure: str | None, unit_type: str | None, spec: Path
                "removed (random effects)")
     if report is not None:
         click.echo(safe_line(f"report: {report}"))
+
+
+def _dated(run: Any) -> dict[str, Any]:
+    """The stored envelope with the run's test date in its test block.
+
+    A run whose plan names no test identity has no test block: its date is the store's
+    ``tested_at`` column (the lot's values printed ``tested_at: null``; an independent
+    review found it).
+    """
+    doc = dict(run.result)
+    test = doc.get("test")
+    if not isinstance(test, dict) or not test.get("tested_at"):
+        doc["test"] = {**(test if isinstance(test, dict) else {}),
+                       "tested_at": run.tested_at.isoformat(timespec="seconds")}
+    return doc
