@@ -34,6 +34,28 @@ def test_the_registry_finds_every_procedure_module_and_only_those():
         assert helper not in REGISTRY
 
 
+#: Modules of procedures/ that are not procedures: the type, the spec reader, shared pieces.
+HELPERS = {"__init__", "base", "spec", "sdf_drift", "static_record"}
+
+
+def test_the_no_procedure_imports_another_contract_lists_every_procedure_module():
+    """pyproject's import-linter contract names each procedure module: a new one left off it
+    would escape the rule silently (found by an independent review of the architecture page)."""
+    import tomllib
+    from pathlib import Path
+
+    import inertest.procedures as package
+
+    root = Path(package.__file__).parent
+    doc = tomllib.loads((root.parents[2] / "pyproject.toml").read_text(encoding="utf-8"))
+    contract = next(c for c in doc["tool"]["importlinter"]["contracts"]
+                    if c["type"] == "independence")
+    listed = {m.removeprefix("inertest.procedures.") for m in contract["modules"]}
+    on_disk = {p.stem for p in root.glob("*.py")} - HELPERS
+    assert listed == on_disk
+    assert {k.replace("-", "_") for k in REGISTRY} <= on_disk
+
+
 def _example(kind, examples_dir):
     folder, truth, noise = EXAMPLES[kind]
     plan = inertest.load_plan(examples_dir / folder / "plan.toml")
