@@ -47,6 +47,10 @@ def test_lot_numbers_against_hand_computed_ones():
     assert cap.cpk_interval == pytest.approx((cap.cpk - half, cap.cpk + half), rel=1e-5)
     assert cap.cp_interval[0] == pytest.approx(cap.cp * np.sqrt(stats.chi2.ppf(0.025, 5) / 5))
     assert cap.cpk_process == pytest.approx((1.0 - x.mean()) / (3 * q.unit_to_unit))
+    # its lower bound: at the upper end of the unit-to-unit std's interval
+    assert cap.cpk_process_lower == pytest.approx(
+        (1.0 - x.mean()) / (3 * q.unit_to_unit_interval[1]))
+    assert cap.cpk_process_lower < cap.cpk_process
     assert cap.outside == 0 and not q.stand_out
     assert lot.to_dict()["quantities"][0]["capability"][0]["clause"] == "bias"
 

@@ -76,6 +76,10 @@ class Capability:
     cpk_process : float or None
         ``Cpk`` with the unit-to-unit spread ``tau`` (measurement removed); None when ``tau`` is
         0.
+    cpk_process_lower : float or None
+        Its lower confidence bound: ``Cpk`` at the upper end of ``tau``'s interval (the mean
+        taken as known). A ``tau`` whose interval reaches 0 makes ``cpk_process`` unbounded
+        above, so the point value alone overstates what the lot shows.
     outside : int
         Units whose value lies outside the limit.
     """
@@ -91,6 +95,7 @@ class Capability:
     cpk_interval: tuple[float, float] | None
     cpk_process: float | None
     outside: int
+    cpk_process_lower: float | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON form."""
@@ -100,7 +105,8 @@ class Capability:
                 "cpk": self.cpk,
                 "cpk_interval_95": None if self.cpk_interval is None
                 else list(self.cpk_interval),
-                "cpk_process": self.cpk_process, "units_outside": self.outside}
+                "cpk_process": self.cpk_process,
+                "cpk_process_lower": self.cpk_process_lower, "units_outside": self.outside}
 
 
 @dataclass(frozen=True)
@@ -323,7 +329,8 @@ def _quantity(kind: str, name: str, unit: str, vals: list[UnitValue],
             tau = math.sqrt(re.tau2)
             tau_int = (math.sqrt(re.tau2_interval[0]), math.sqrt(re.tau2_interval[1]))
             p = re.p_value
-    caps = tuple(_capability(lim, unit, x, s, tau, confidence) for lim in limits)
+    caps = tuple(_capability(lim, unit, x, s, tau, confidence,
+                             None if tau_int is None else tau_int[1]) for lim in limits)
     out: list[StandOut] = []
     bound = None
     if n >= 4:
@@ -345,7 +352,7 @@ def _quantity(kind: str, name: str, unit: str, vals: list[UnitValue],
 
 
 def _capability(lim: Limit, unit: str, x: np.ndarray, s: float | None, tau: float | None,
-                confidence: float) -> Capability:
+                confidence: float, tau_hi: float | None = None) -> Capability:
     try:
         f = convert(1.0, lim.unit, unit)
     except UnitError:
@@ -381,6 +388,7 @@ def _capability(lim: Limit, unit: str, x: np.ndarray, s: float | None, tau: floa
         cpk_int = (cpk - half, cpk + half)
         if tau is not None and tau > 0:
             cpk_p = cpk_of(tau)
+    cpk_p_lo = cpk_of(tau_hi) if cpk_p is not None and tau_hi is not None and tau_hi > 0 else None
     return Capability(clause_id=lim.clause_id, limit=lim.text(), clause=lim.clause, lower=lo,
                       upper=hi, cp=cp, cp_interval=cp_int, cpk=cpk, cpk_interval=cpk_int,
-                      cpk_process=cpk_p, outside=outside)
+                      cpk_process=cpk_p, outside=outside, cpk_process_lower=cpk_p_lo)

@@ -41,7 +41,7 @@ def summary_rows(stats: Any) -> list[list[str]]:
 SUMMARY_HEADER = ["procedure", "quantity", "unit", "units", "mean", "observed std",
                   "measurement std (RMS)", "unit-to-unit std (95 %)", "stand out"]
 CAPABILITY_HEADER = ["quantity", "clause", "limit", "Cp (95 %)", "Cpk (95 %)",
-                     "Cpk, measurement removed", "units outside"]
+                     "Cpk, measurement removed (lower 95 % bound)", "units outside"]
 
 
 def capability_rows(stats: Any) -> list[list[str]]:
@@ -51,7 +51,9 @@ def capability_rows(stats: Any) -> list[list[str]]:
         for c in q.capability:
             rows.append([f"{q.procedure}: {q.quantity}", c.clause_id, c.limit,
                          f"{_num(c.cp)} ({_pair(c.cp_interval)})",
-                         f"{_num(c.cpk)} ({_pair(c.cpk_interval)})", _num(c.cpk_process),
+                         f"{_num(c.cpk)} ({_pair(c.cpk_interval)})",
+                         f"{_num(c.cpk_process)} (>= {_num(c.cpk_process_lower)})"
+                         if c.cpk_process is not None else _num(None),
                          f"{c.outside} of {q.n}"])
     return rows
 
