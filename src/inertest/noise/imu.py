@@ -57,6 +57,7 @@ import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -290,6 +291,27 @@ class ImuNoiseResult:
 # ------------------------------------------------------------------------------ time stamps
 
 
+
+def refuse_gaps(non_inc: Sequence[Gap], gap_list: Sequence[Gap], interval: float) -> NoReturn:
+    """Stop on the first non-increasing stamp, else the first gap, naming the fix.
+
+    The in-memory and the streamed analysis give the same message.
+    """
+    if non_inc:
+        g = non_inc[0]
+        what = "duplicated" if g.length_s == 0 else "non-increasing"
+        raise DataError(
+            f"{len(non_inc)} {what} time stamp(s), the first at t = {g.time_s:.6g} s "
+            f"(sample {g.index}, interval {g.length_s:.3g} s); remove duplicated rows, or "
+            "give --gaps longest to analyse the longest clean segment")
+    g = gap_list[0]
+    raise DataError(
+        f"{len(gap_list)} gap(s) in the time stamps, the first at t = {g.time_s:.6g} s: "
+        f"{g.length_s:.6g} s instead of {interval:.6g} s (sample {g.index}, {g.missing} "
+        "sample(s) missing); the Allan "
+        "deviation needs equal spacing: give --gaps longest to analyse the longest gap-free "
+        "segment")
+
 def check_time_stamps(
     t: ArrayLike | None, *, n: int | None = None, rate_hz: float | None = None,
     gaps: str = "refuse",
@@ -345,20 +367,7 @@ def check_time_stamps(
     cuts = np.union1d(bad, big) + 1
     edges = np.r_[0, cuts, ts.size]
     if cuts.size and gaps == "refuse":
-        if non_inc:
-            g = non_inc[0]
-            what = "duplicated" if g.length_s == 0 else "non-increasing"
-            raise DataError(
-                f"{len(non_inc)} {what} time stamp(s), the first at t = {g.time_s:.6g} s "
-                f"(sample {g.index}, interval {g.length_s:.3g} s); remove duplicated rows, or "
-                "give --gaps longest to analyse the longest clean segment")
-        g = gap_list[0]
-        raise DataError(
-            f"{len(gap_list)} gap(s) in the time stamps, the first at t = {g.time_s:.6g} s: "
-            f"{g.length_s:.6g} s instead of {interval:.6g} s (sample {g.index}, {g.missing} "
-            "sample(s) missing); the Allan "
-            "deviation needs equal spacing: give --gaps longest to analyse the longest gap-free "
-            "segment")
+        refuse_gaps(non_inc, gap_list, interval)
     k = int(np.argmax(np.diff(edges)))
     seg = (int(edges[k]), int(edges[k + 1]))
     inside = dt[seg[0]:seg[1] - 1]

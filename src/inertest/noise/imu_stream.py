@@ -56,6 +56,7 @@ from inertest.noise.imu import (
     _kalibr_term,
     missing_samples,
     rate_plausibility,
+    refuse_gaps,
 )
 
 #: Samples per block.
@@ -212,20 +213,7 @@ def stream_time_stamps(t: ArrayLike | None, *, n: int, rate_hz: float | None = N
             elif miss[k] > 0:
                 gap_list.append(Gap(lo + k + 1, float(ts[k] - t0), float(dt[k]), int(miss[k])))
     if (non_inc or gap_list) and gaps == "refuse":
-        if non_inc:
-            g = non_inc[0]
-            what = "duplicated" if g.length_s == 0 else "non-increasing"
-            raise DataError(
-                f"{len(non_inc)} {what} time stamp(s), the first at t = {g.time_s:.6g} s "
-                f"(sample {g.index}, interval {g.length_s:.3g} s); remove duplicated rows, or "
-                "give --gaps longest to analyse the longest clean segment")
-        g = gap_list[0]
-        raise DataError(
-            f"{len(gap_list)} gap(s) in the time stamps, the first at t = {g.time_s:.6g} s: "
-            f"{g.length_s:.6g} s instead of {interval:.6g} s (sample {g.index}, {g.missing} "
-            "sample(s) missing); the Allan "
-            "deviation needs equal spacing: give --gaps longest to analyse the longest gap-free "
-            "segment")
+        refuse_gaps(non_inc, gap_list, interval)
     cuts = np.union1d([g.index for g in non_inc], [g.index for g in gap_list]).astype(np.int64)
     edges = np.r_[0, cuts, size]
     k = int(np.argmax(np.diff(edges)))
