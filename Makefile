@@ -32,14 +32,19 @@ demo: $(CORE)
 	$(BIN)/inertest demo
 
 lint: $(FULL)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks examples
 	$(BIN)/lint-imports
 	$(BIN)/mypy
 
+# Test processes (pytest-xdist): two, one a core of the CI machine; `make test TEST_WORKERS=8`
+# on a bigger one. The PostgreSQL tests share one database and run on one worker.
+TEST_WORKERS ?= 2
+
 test: lint
-	# One BLAS thread: the tests' matrices are small, and threads fight over the two cores.
+	# One BLAS thread: the tests' matrices are small, and threads fight over the cores.
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
-	PYTHONWARNINGS=error MPLBACKEND=Agg $(BIN)/python -m pytest -q
+	PYTHONWARNINGS=error MPLBACKEND=Agg $(BIN)/python -m pytest -q \
+	  -n $(TEST_WORKERS) --dist loadgroup
 
 bench: $(FULL)
 	$(BIN)/python benchmarks/run.py

@@ -24,5 +24,38 @@ def realdata_dir() -> Path:
 
 @pytest.fixture(autouse=True)
 def _private_history_db(tmp_path, monkeypatch):
-    """Every test stores into its own database, never into the user's home."""
+    """Every test stores into its own database, never into the user's home; and sees no
+    terminal size (pytest-xdist's workers set COLUMNS=80: the tables then stacked)."""
     monkeypatch.setenv("INERTEST_DB", str(tmp_path / "history.db"))
+    monkeypatch.delenv("COLUMNS", raising=False)
+    monkeypatch.delenv("LINES", raising=False)
+
+
+#: Modules whose tests share an expensive module- or session-scoped fixture: under
+#: pytest-xdist each runs on one worker (else every worker builds the fixture again: the report
+#: kinds for the browser tests took 200 s).
+SHARED_FIXTURE_GROUPS = {
+    "tests/report/": "reports",
+    "tests/test_bad_inputs.py": "postgresql",  # also holds PostgreSQL cases
+    "tests/procedures/test_orientation_free.py": "orientation-free",
+    "tests/procedures/test_systematic.py": "systematic",
+    "tests/procedures/test_ferraris.py": "ferraris",
+    "tests/io/recordings/test_rosbag.py": "rosbag",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under pytest-xdist (``make test`` runs two workers), the tests of the one PostgreSQL
+    test database run on one worker, one after another (each empties that database first), so
+    do the tests that start Dask clusters (each of several processes), and the tests of a
+    module with a shared expensive fixture (:data:`SHARED_FIXTURE_GROUPS`)."""
+    for item in items:
+        path = item.nodeid.split("::", 1)[0]
+        group = next((g for prefix, g in SHARED_FIXTURE_GROUPS.items()
+                      if path.startswith(prefix)), None)
+        if "postgresql" in item.nodeid:
+            group = "postgresql"
+        elif "dask" in path:
+            group = "dask"
+        if group is not None:
+            item.add_marker(pytest.mark.xdist_group(group))

@@ -48,7 +48,8 @@ def scheduler(tmp_path_factory):
     folder = tmp_path_factory.mktemp("dask")
     sfile = folder / "scheduler.json"
     proc = _start(["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                   "--scheduler-file", str(sfile)], folder / "scheduler.log")
+                   "--dashboard-address", "127.0.0.1:0", "--scheduler-file", str(sfile)],
+                  folder / "scheduler.log")
     for _ in range(600):
         if sfile.exists() and sfile.stat().st_size:
             break
@@ -69,7 +70,8 @@ def _worker(address: str, folder: Path, name: str) -> subprocess.Popen:
     home = folder / f"{name}-cwd"
     home.mkdir(exist_ok=True)
     return _start(["worker", address, "--nworkers", "1", "--nthreads", "1", "--no-dashboard",
-                   "--name", name], folder / f"{name}.log", cwd=home)
+                   "--dashboard-address", "127.0.0.1:0", "--name", name],
+                  folder / f"{name}.log", cwd=home)
 
 
 @pytest.fixture(scope="module")
