@@ -19,7 +19,9 @@ its ``[test]`` table (:class:`inertest.plan.TestConditions`)::
 Type-B keys carry their unit in a suffix (:data:`TYPE_B_UNITS`); each record keeps the values as
 written and offers them in SI, named without the suffix (``rate`` [1], ``tilt`` [rad]).
 The records are what ISO/IEC 17025 7.8.2 asks a report to identify: the equipment used, and
-whether its calibration was valid on the test date.
+whether its calibration was valid on the test date. The file's optional ``[laboratory]``
+(name, address, accreditation: :func:`laboratory_from_mapping`) and ``[signatories]``
+(:func:`signatories_from_mapping`) name the laboratory and who reviews and approves its reports.
 """
 
 from __future__ import annotations
