@@ -41,7 +41,13 @@ from inertest.io.plan_file import read_toml
 from inertest.models.sdf_gyro import COEFFICIENTS
 from inertest.procedures import procedure
 from inertest.quality.conformance import read_spec
-from inertest.quality.lab import identity_block, read_equipment, select_equipment, test_time
+from inertest.quality.lab import (
+    identity_block,
+    read_equipment,
+    read_laboratory,
+    select_equipment,
+    test_time,
+)
 from inertest.report.conformance import conformance_sections
 from inertest.report.html import Section, page, paragraph, software_version
 from inertest.report.identity import identity_section
@@ -183,6 +189,7 @@ def run_campaign(campaign: str | os.PathLike[str], *,
         raise PlanError(f"campaign {cpath} lists no [[test]] entries")
     lab_file = doc.get("equipment")
     lab = read_equipment(cpath.parent / str(lab_file)) if lab_file is not None else None
+    laboratory = read_laboratory(cpath.parent / str(lab_file)) if lab_file is not None else None
     version = software_version()
     out = []
     for k, t in enumerate(tests, start=1):
@@ -199,7 +206,7 @@ def run_campaign(campaign: str | os.PathLike[str], *,
         block = identity_block(
             plan.test, lab=lab, tested=test_time(plan.test), software_version=version,
             data_sha256=columns_sha256(data), plan_source=f"plan {plan_path}",
-            lab_source=f"lab file {cpath.parent / str(lab_file)}")
+            lab_source=f"lab file {cpath.parent / str(lab_file)}", laboratory=laboratory)
         spec = read_spec(cpath.parent / str(t["spec"])) if t.get("spec") else None
         budget = conformance = None
         if lab is not None or spec is not None:

@@ -300,6 +300,113 @@ def finite_number(
     return x
 
 
+#: Where the data of a test come from (``data_origin``): a real unit, or a simulation.
+DATA_ORIGINS = ("measured", "simulated")
+
+
+@dataclass(frozen=True)
+class TestItem:
+    """The job and the item tested, as a test report states them (ISO/IEC 17025:2017 7.8.2.1).
+
+    Read from a plan's ``[test]`` table or a campaign manifest's ``[campaign]`` table
+    (:func:`read_test_item`)::
+
+        customer = "Example Avionics GmbH"          # e: the customer
+        customer_contact = "J. Buyer, +49 ..."       # e: and how to reach them
+        receipt_date = 2026-11-16                   # f: date of receipt of the item
+        condition_on_receipt = "sealed, no damage"  # h: condition of the item on receipt
+        deviations = ["thermal: 5 steps, not 7"]    # 7.8.3.1 a: [] states that there are none
+        data_origin = "simulated"                   # or "measured"
+
+    Attributes
+    ----------
+    customer, customer_contact, condition_on_receipt : str
+        Empty when not stated.
+    receipt_date : datetime.date or None
+        When the item was received; None when not stated.
+    deviations : tuple of str or None
+        Deviations from, additions to or exclusions from the test method; ``()`` states that
+        there are none, None that nothing is stated.
+    data_origin : str
+        ``"measured"``, ``"simulated"`` (:data:`DATA_ORIGINS`) or empty (not stated).
+    """
+
+    __test__ = False                     # not a pytest class despite its name
+
+    customer: str = ""
+    customer_contact: str = ""
+    receipt_date: _dt.date | None = None
+    condition_on_receipt: str = ""
+    deviations: tuple[str, ...] | None = None
+    data_origin: str = ""
+
+    def over(self, other: TestItem) -> TestItem:
+        """The statements of this item, and ``other``'s where this one states nothing."""
+        return TestItem(
+            customer=self.customer or other.customer,
+            customer_contact=self.customer_contact or other.customer_contact,
+            receipt_date=self.receipt_date or other.receipt_date,
+            condition_on_receipt=self.condition_on_receipt or other.condition_on_receipt,
+            deviations=self.deviations if self.deviations is not None else other.deviations,
+            data_origin=self.data_origin or other.data_origin)
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON form (the envelope's ``test`` block): None where not stated."""
+        return {"customer": self.customer or None,
+                "customer_contact": self.customer_contact or None,
+                "receipt_date": None if self.receipt_date is None
+                else self.receipt_date.isoformat(),
+                "condition_on_receipt": self.condition_on_receipt or None,
+                "deviations": None if self.deviations is None else list(self.deviations),
+                "data_origin": self.data_origin or None}
+
+
+TEST_ITEM_FIELDS = (
+    Field("customer", "text", default="", doc="who ordered the test"),
+    Field("customer_contact", "text", default="", doc="the customer's address or contact"),
+    Field("condition_on_receipt", "text", default="",
+          doc="the item's condition when received"),
+    Field("data_origin", "text", default="", choices=DATA_ORIGINS,
+          doc="whether the data are measured or simulated"),
+)
+#: Every key of :class:`TestItem` (``receipt_date`` and ``deviations`` are read on their own).
+TEST_ITEM_KEYS = (*(f.name for f in TEST_ITEM_FIELDS), "receipt_date", "deviations")
+
+
+def read_test_item(table: Mapping[str, Any], where: str, *,
+                   error: type[InertestError] = PlanError) -> TestItem:
+    """The :class:`TestItem` keys of ``table`` (other keys are the caller's to check).
+
+    Raises
+    ------
+    error
+        A key of the wrong type, a ``data_origin`` not in :data:`DATA_ORIGINS`, a
+        ``receipt_date`` that is not a date, ``deviations`` that are not text or a list of text.
+    """
+    v = read_fields({k: table[k] for k in (f.name for f in TEST_ITEM_FIELDS) if k in table},
+                    TEST_ITEM_FIELDS, where, error=error)
+    d = table.get("receipt_date")
+    if isinstance(d, str):
+        try:
+            d = _dt.date.fromisoformat(d)
+        except ValueError:
+            pass
+    if isinstance(d, _dt.datetime):
+        d = d.date()
+    if d is not None and not isinstance(d, _dt.date):
+        raise error(f"{where}: receipt_date must be a date such as receipt_date = 2026-11-16, "
+                    f"got {d!r}")
+    dev = table.get("deviations")
+    if isinstance(dev, str):
+        dev = [dev]
+    if dev is not None and (not isinstance(dev, list)
+                            or not all(isinstance(x, str) and x for x in dev)):
+        raise error(f"{where}: deviations must be a list of text, e.g. deviations = "
+                    '["thermal: 5 steps, not 7"], or [] when there are none; got '
+                    f"{dev!r}")
+    return TestItem(receipt_date=d, deviations=None if dev is None else tuple(dev), **v)
+
+
 @dataclass(frozen=True)
 class TestConditions:
     """Who ran the test, with what, and in which conditions: a plan's optional ``[test]`` table.
@@ -319,6 +426,8 @@ class TestConditions:
         review_date = 2026-11-23
         approved_by = "C. Quality-Manager"
         approval_date = 2026-11-24
+        customer = "Example Avionics GmbH"   # the job and the item: TestItem
+        receipt_date = 2026-11-16
 
     Attributes
     ----------
@@ -344,6 +453,8 @@ class TestConditions:
     reviewed_by, approved_by : str
         Who reviews and who approves the report (blank lines to sign when absent).
     review_date, approval_date : datetime.date or None
+    item : TestItem
+        Customer, receipt date, condition on receipt, deviations, data origin.
     """
 
     __test__ = False                     # not a pytest class despite its name
@@ -361,6 +472,7 @@ class TestConditions:
     review_date: _dt.date | None = None
     approved_by: str = ""
     approval_date: _dt.date | None = None
+    item: TestItem = TestItem()
 
     def environment(self) -> dict[str, dict[str, object]]:
         """``{name: {"value", "unit"}}`` of the conditions given (JSON and report rows)."""
@@ -393,7 +505,7 @@ def read_test_table(table: Mapping[str, Any], where: str) -> TestConditions:
     """
     if not isinstance(table, Mapping):
         raise PlanError(f"{where} must be a table")
-    v = read_fields(table, TEST_FIELDS, where, ignore=TEST_DATE_KEYS)
+    v = read_fields(table, TEST_FIELDS, where, ignore=(*TEST_DATE_KEYS, *TEST_ITEM_KEYS))
     dates: dict[str, _dt.date | None] = {}
     time_utc = None
     for key in TEST_DATE_KEYS:
@@ -416,7 +528,8 @@ def read_test_table(table: Mapping[str, Any], where: str) -> TestConditions:
         dates[key] = d
     return TestConditions(date=dates["date"], time_utc=time_utc,
                           review_date=dates["review_date"],
-                          approval_date=dates["approval_date"], **v)
+                          approval_date=dates["approval_date"],
+                          item=read_test_item(table, where), **v)
 
 
 def check_finite_document(

@@ -9,6 +9,7 @@ GUM G.1.3), and the verdict by ILAC-G8 guarded acceptance (w = U) done here by h
 from __future__ import annotations
 
 import json
+import re
 import sqlite3
 from pathlib import Path
 
@@ -169,6 +170,12 @@ def test_the_series_is_filed_as_one_campaign_and_a_failure_withdraws_it(tmp_path
     assert cert["clauses"][0]["verdict"] == "pass"
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "Conformance of the series" in html and "page \" counter(page)" in html
+    # the manifest and no lab file state no laboratory, customer or item: said so
+    assert "not stated (give customer in the manifest&#x27;s [campaign])" in html
+    assert "not stated (give name in the lab file&#x27;s [laboratory])" in html
+    assert "The results relate only to the item tested." in html
+    assert cert["campaign"]["customer"] is None and cert["campaign"]["deviations"] is None
+    assert cert["laboratory"]["name"] is None
     # the same data again: refused before anything is stored
     with pytest.raises(CampaignError, match="already filed"):
         run_campaign(manifest, store=str(db))
@@ -181,6 +188,61 @@ def test_the_series_is_filed_as_one_campaign_and_a_failure_withdraws_it(tmp_path
     with pytest.raises(Exception, match="busy"):
         run_campaign(manifest, store=str(db2), report_dir=tmp_path / "busy")
     assert not db2.exists()
+
+
+def test_the_manifest_and_lab_file_state_the_job_item_and_laboratory(tmp_path):
+    """[campaign] customer, receipt, condition, deviations, data origin and the lab file's
+    [laboratory] (ISO/IEC 17025:2017 7.8.2.1 b, e, f, h; 7.8.3.1 a): on the certificate, in its
+    JSON and in each test's own test block (stored with its run)."""
+    manifest = write_unit(tmp_path / "u", serial="U-8", slope=0.004, limit=0.1)
+    (tmp_path / "u" / "lab.toml").write_text("""
+[laboratory]
+name = "Example Lab"
+address = "1 Example Street"
+accreditation = "EX-0000"
+[[equipment]]
+id = "TC-01"
+name = "Thermal chamber"
+""")
+    manifest.write_text(manifest.read_text().replace('spec = "spec.toml"\n', '''spec = "spec.toml"
+equipment = "lab.toml"
+customer = "Example Avionics Ltd"
+customer_contact = "J. Buyer"
+receipt_date = 2026-11-16
+condition_on_receipt = "sealed, no damage"
+deviations = ["thermal: five steps, not six"]
+data_origin = "simulated"
+'''))
+    db = tmp_path / "h.db"
+    out = run_campaign(manifest, store=str(db), report_dir=tmp_path / "rep")
+    html = (tmp_path / "rep" / "index.html").read_text()
+    for text in ("Example Lab", "1 Example Street", "EX-0000", "Example Avionics Ltd",
+                 "J. Buyer", "2026-11-16", "sealed, no damage", "thermal: five steps, not six",
+                 "simulated, not measured on a real unit", "The data of this report are "
+                 "simulated", "The results relate only to the item tested."):
+        assert text in html, text
+    assert "not stated" not in html.split("Conformance of the series")[0]
+    cert = json.loads((tmp_path / "rep" / "certificate.json").read_text())
+    assert cert["laboratory"] == {"name": "Example Lab", "address": "1 Example Street",
+                                  "accreditation": "EX-0000"}
+    assert cert["statement"] == "The results relate only to the item tested."
+    item = {"customer": "Example Avionics Ltd", "customer_contact": "J. Buyer",
+            "receipt_date": "2026-11-16", "condition_on_receipt": "sealed, no damage",
+            "deviations": ["thermal: five steps, not six"], "data_origin": "simulated"}
+    assert {k: cert["campaign"][k] for k in item} == item
+    (test,) = cert["tests"]
+    assert {k: test["certificate"]["test"][k] for k in item} == item
+    assert test["certificate"]["laboratory"] == cert["laboratory"]
+    store = HistoryStore(str(db))
+    stored = store.runs("U-8")[0].result["test"]
+    assert stored["customer"] == "Example Avionics Ltd"
+    assert stored["laboratory"]["name"] == "Example Lab"
+    store.close()
+    assert out.to_dict()["result"]["campaign"]["data_origin"] == "simulated"
+    # a wrong value is refused before any fit
+    manifest.write_text(manifest.read_text().replace('"simulated"', '"simulation"'))
+    with pytest.raises(CampaignError, match="data_origin"):
+        run_campaign(manifest)
 
 
 def test_a_database_of_the_previous_schema_is_migrated_and_its_runs_read(tmp_path):
@@ -229,6 +291,23 @@ def test_the_example_fog_campaign_runs_from_the_cli(tmp_path, examples_dir, caps
     cert = json.loads((report / "certificate.json").read_text())
     assert [t["name"] for t in cert["tests"]] == ["turn-on", "warm-up", "in-run",
                                                   "scale-factor", "thermal"]
+    # the decision rule under the clause table: k per clause, not the first test's for all
+    ks = sorted({f"{c['coverage_factor']:.2f}" for c in cert["clauses"]})
+    assert len(ks) > 1
+    rule = cert["specification"]["rule"]
+    assert "k per clause as in its row: " + ", ".join(ks[:-1]) + f" and {ks[-1]}" in rule
+    html = (report / "index.html").read_text()
+    first = next(line for line in html.split("<p") if "Decision rule" in line)
+    assert "k per clause" in first
+    # the warm-up time in the limit's unit (min) beside its seconds; the JSON keeps seconds
+    warm = next(c for c in cert["clauses"] if c["clause"] == "warm-up-time")
+    assert warm["unit"] == "s" and warm["limit_unit"] == "min"
+    assert re.search(r"\d+\.\d+\s±\s\d\.\d+\smin\s=\s\d+\s±\s\d+\ss\s\(k\s=\s\d\.\d\d\)", html)
+    # the example: an example laboratory and customer, and its data simulated
+    assert cert["campaign"]["data_origin"] == "simulated"
+    assert cert["laboratory"]["name"].startswith("Example")
+    assert cert["campaign"]["customer"].startswith("Example")
+    assert "Simulated data, not a test of a real unit." in html
 
 
 def test_plan_check_of_a_campaign_predicts_each_clause_before_testing(tmp_path, capsys):

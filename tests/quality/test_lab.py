@@ -94,3 +94,34 @@ def test_test_table_reads_and_rejects_misspelt_keys():
         read_test_table({"temperature_c": 22.5}, "plan: [test]")
     with pytest.raises(PlanError, match="humidity_pct"):
         read_test_table({"humidity_pct": 140}, "plan: [test]")
+
+
+def test_laboratory_and_test_item_read_and_reject_what_is_wrong():
+    """[laboratory] of a lab file, the job and the item of a plan's [test] (ISO/IEC 17025:2017
+    7.8.2.1 b, e, f, h; 7.8.3.1 a): empty when absent, named errors when wrong."""
+    from inertest.quality.lab import laboratory_from_mapping, read_laboratory
+
+    assert read_laboratory(EXAMPLE)["name"].startswith("Example Inertial Test Laboratory")
+    assert laboratory_from_mapping(_doc()) == {}
+    lab = laboratory_from_mapping({**_doc(), "laboratory": {"name": "L", "accreditation": ""}})
+    assert lab == {"name": "L"}
+    equipment_from_mapping({**_doc(), "laboratory": {"name": "L"}})  # a known table
+    with pytest.raises(LabFileError, match='did you mean "address"'):
+        laboratory_from_mapping({"laboratory": {"adress": "x"}}, source="lab.toml")
+    t = read_test_table({"customer": "C Ltd", "customer_contact": "c@example.org",
+                         "receipt_date": dt.date(2026, 11, 16),
+                         "condition_on_receipt": "sealed", "deviations": [],
+                         "data_origin": "measured"}, "plan: [test]")
+    assert t.item.to_dict() == {"customer": "C Ltd", "customer_contact": "c@example.org",
+                                "receipt_date": "2026-11-16", "condition_on_receipt": "sealed",
+                                "deviations": [], "data_origin": "measured"}
+    # not stated: None, and deviations None (not stated) differs from [] (none)
+    assert set(read_test_table({}, "[test]").item.to_dict().values()) == {None}
+    assert read_test_table({"deviations": "one step left out"}, "[test]").item.deviations == (
+        "one step left out",)
+    for bad, word in (({"data_origin": "simulation"}, "measured, simulated"),
+                      ({"receipt_date": "16.11.2026"}, "receipt_date"),
+                      ({"deviations": [3]}, "deviations"),
+                      ({"custommer": "C"}, 'did you mean "customer"')):
+        with pytest.raises(PlanError, match=word):
+            read_test_table(bad, "plan: [test]")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import hashlib
+import html
 import json
 import tomllib
 from pathlib import Path
@@ -15,7 +16,12 @@ from pathlib import Path
 import pytest
 
 from inertest.cli import main
-from inertest.report.certificate import CERTIFICATE_VERSION, SCHEMA_PATH, load_schema
+from inertest.report.certificate import (
+    CERTIFICATE_VERSION,
+    RESULTS_STATEMENT,
+    SCHEMA_PATH,
+    load_schema,
+)
 
 jsonschema = pytest.importorskip("jsonschema", reason="jsonschema is a test dependency")
 
@@ -82,6 +88,28 @@ def test_certificate_of_a_run_is_valid_and_complete(certified):
     assert cert["report"]["id"] in (folder / "index.html").read_text()
 
 
+def test_a_fit_certificate_states_laboratory_statement_and_what_is_not_stated(certified):
+    """The lab file's [laboratory] and the fixed statement (ISO/IEC 17025:2017 7.8.2.1 b, k);
+    the plan's [test] gives no customer, receipt, condition or deviations: null in the JSON,
+    "not stated" in the report."""
+    folder, _ = certified
+    cert = json.loads((folder / "certificate.json").read_text())
+    assert cert["laboratory"]["name"].startswith("Example Inertial Test Laboratory")
+    assert cert["laboratory"]["accreditation"].startswith("EXAMPLE-ACC-0000")
+    assert cert["statement"] == RESULTS_STATEMENT
+    assert {k: cert["test"][k] for k in ("customer", "customer_contact", "receipt_date",
+                                         "condition_on_receipt", "deviations",
+                                         "data_origin")} == dict.fromkeys(
+        ("customer", "customer_contact", "receipt_date", "condition_on_receipt", "deviations",
+         "data_origin"))
+    assert all(v["limit_unit"] == "deg/h/g" for v in cert["conformance"]["verdicts"])
+    page = html.unescape((folder / "index.html").read_text())
+    assert "Example Inertial Test Laboratory" in page
+    assert "not stated (give customer in the plan's [test])" in page
+    assert "not stated (give deviations in the plan's [test])" in page
+    assert page.count(RESULTS_STATEMENT) == 1
+
+
 def test_the_schema_rejects_what_is_not_a_certificate(certified):
     folder, _ = certified
     cert = json.loads((folder / "certificate.json").read_text())
@@ -94,6 +122,11 @@ def test_the_schema_rejects_what_is_not_a_certificate(certified):
         lambda c: c.__setitem__("certificate_version", 2),
         lambda c: c["equipment"][0].__setitem__("status_on_test_date", "fine"),
         lambda c: c.__setitem__("extra", 1),
+        lambda c: c.__setitem__("statement", "Results apply to the lot."),
+        lambda c: c["laboratory"].__setitem__("phone", "0"),
+        lambda c: c["test"].__setitem__("data_origin", "guessed"),
+        lambda c: c["test"].__setitem__("deviations", "none"),
+        lambda c: c["test"].__setitem__("receipt_date", "16.11.2026"),
     ):
         bad = copy.deepcopy(cert)
         change(bad)
@@ -113,3 +146,8 @@ def test_a_run_without_budget_says_u_and_k_are_not_given(examples_dir, tmp_path)
     assert cert["uncertainty"]["basis"].startswith("Type A only")
     assert cert["test"]["filed_at"] is None and cert["conformance"] is None
     assert cert["report"]["id"].startswith("R-")
+    # no lab file: the laboratory is not stated, and the report says so
+    assert cert["laboratory"] == {"name": None, "address": None, "accreditation": None}
+    page = html.unescape((tmp_path / "r" / "index.html").read_text())
+    assert "not stated (give name in the lab file's [laboratory])" in page
+    assert RESULTS_STATEMENT in page

@@ -9,8 +9,15 @@ and which of the specification's clauses each test verifies::
     serial = "FOG-Z-0231"              # every plan must name this unit
     unit_type = "FOG-Z tactical IFOG"  # the lot it belongs to (inertest lot)
     spec = "../specs/fog_acceptance.toml"
-    equipment = "../lab/equipment.toml"    # optional: Type B of the plans' equipment
+    equipment = "../lab/equipment.toml"    # optional: Type B of the plans' equipment, and
+                                           # the laboratory ([laboratory] of the lab file)
     certificate = "ATP-2026-0231"          # optional: the certificate's number
+    customer = "Example Avionics GmbH"     # optional: the job and the item (TestItem) ...
+    customer_contact = "J. Buyer, Example Street 1, Example Town"
+    receipt_date = 2026-11-16              # ... when the unit was received,
+    condition_on_receipt = "sealed, no visible damage"   # in which condition,
+    deviations = []                        # deviations from the method ([]: none),
+    data_origin = "measured"               # "measured" or "simulated"
 
     [[test]]
     name = "turn-on"
@@ -28,7 +35,11 @@ Paths are relative to the manifest. ``runs`` entries are files (the run's label 
 name without suffix) or tables ``{data = "...", label = "..."}``; they are joined into one table
 with a ``run`` column for the procedure. A test without ``data`` or ``runs`` is *planned* (its
 clauses are "not tested"); ``sigma`` (known noise per reading) and ``truth`` (the nominal
-instrument, for ``plan-check``) are optional.
+instrument, for ``plan-check``) are optional. The job and the item (customer and contact,
+receipt date, condition on receipt, deviations from the method, data origin:
+:class:`inertest.plan.TestItem`) are stated for the series and go into every test's ``test``
+block, over what its plan's ``[test]`` states; the certificate prints "not stated" for each
+one no file gives, as for the laboratory (the lab file's ``[laboratory]``).
 
 :func:`run_campaign` checks everything it can before any fit (the manifest's keys, every file,
 the spec, each clause id, each plan's serial), then fits every test through the batch machinery
@@ -69,9 +80,17 @@ from inertest.app.run import (
 from inertest.errors import InertestError, PlanError
 from inertest.io.data_file import file_sha256, write_table
 from inertest.io.plan_file import read_toml
-from inertest.plan import Plan, check_known_keys, did_you_mean
-from inertest.quality.conformance import VERDICTS, Spec, Verdict, read_spec
-from inertest.quality.lab import Equipment, read_signatories
+from inertest.plan import (
+    TEST_ITEM_KEYS,
+    Plan,
+    TestConditions,
+    TestItem,
+    check_known_keys,
+    did_you_mean,
+    read_test_item,
+)
+from inertest.quality.conformance import VERDICTS, Spec, Verdict, read_spec, rule_text
+from inertest.quality.lab import LABORATORY_KEYS, Equipment, read_laboratory, read_signatories
 from inertest.results import envelope
 
 if TYPE_CHECKING:
@@ -87,7 +106,8 @@ _RANK = {v: i for i, v in enumerate(SERIES_VERDICTS)}
 _RANK[NOT_TESTED] = _RANK[NOT_VERIFIED] = _RANK["not determined"]
 assert set(VERDICTS) <= set(SERIES_VERDICTS)
 
-_CAMPAIGN_KEYS = {"title", "serial", "unit_type", "spec", "equipment", "certificate"}
+_CAMPAIGN_KEYS = {"title", "serial", "unit_type", "spec", "equipment", "certificate",
+                  *TEST_ITEM_KEYS}
 _TEST_KEYS = {"name", "title", "plan", "data", "runs", "verifies", "sigma", "truth", "noise"}
 
 
@@ -140,7 +160,11 @@ class CampaignTest:
 
 @dataclass(frozen=True)
 class Campaign:
-    """A campaign manifest read and checked (:func:`read_campaign`)."""
+    """A campaign manifest read and checked (:func:`read_campaign`).
+
+    ``item`` is the job and the item its ``[campaign]`` states (customer, receipt, condition,
+    deviations, data origin).
+    """
 
     path: Path
     title: str
@@ -151,6 +175,7 @@ class Campaign:
     equipment: Path | None
     certificate: str
     tests: tuple[CampaignTest, ...]
+    item: TestItem = TestItem()
 
     def sub_spec(self, test: CampaignTest) -> Spec:
         """The spec's limits this test verifies (its clauses), same rule and name."""
@@ -193,6 +218,7 @@ def read_campaign(path: PathLike) -> Campaign:
                                 "the manifest)")
         return p
 
+    item = read_test_item(head, f"{where}: [campaign]", error=CampaignError)
     spec_path = file(head["spec"], "[campaign] spec")
     spec = read_spec(spec_path)
     equipment = file(head["equipment"], "[campaign] equipment") if "equipment" in head else None
@@ -264,7 +290,8 @@ def read_campaign(path: PathLike) -> Campaign:
     return Campaign(path=mpath, title=str(head.get("title") or f"Acceptance test of {serial}"),
                     serial=serial, unit_type=str(head.get("unit_type") or ""),
                     spec_path=spec_path, spec=spec, equipment=equipment,
-                    certificate=str(head.get("certificate") or ""), tests=tuple(tests))
+                    certificate=str(head.get("certificate") or ""), tests=tuple(tests),
+                    item=item)
 
 
 @dataclass(frozen=True)
@@ -282,13 +309,15 @@ class ClauseVerdict:
     coverage_factor: float | None = None
     unit: str = ""
     note: str = ""
+    limit_unit: str = ""
 
     def to_dict(self) -> dict[str, object]:
-        """JSON form."""
+        """JSON form: value and U in the result's ``unit``, the limit in ``limit_unit``."""
         return {"clause": self.clause_id, "requirement": self.requirement,
                 "reference": self.reference, "quantity": self.quantity, "test": self.test,
                 "value": self.value, "expanded_uncertainty": self.expanded,
                 "coverage_factor": self.coverage_factor, "unit": self.unit,
+                "limit_unit": self.limit_unit or self.unit,
                 "verdict": self.verdict, "note": self.note}
 
 
@@ -320,6 +349,9 @@ class AcceptanceOutcome:
     report : Path or None
         The certificate's ``index.html``.
     report_id : str
+    filed_at : datetime or None
+    laboratory : mapping or None
+        The lab file's ``[laboratory]`` (name, address, accreditation).
     """
 
     campaign: Campaign
@@ -330,6 +362,7 @@ class AcceptanceOutcome:
     database: str | None = None
     report: Path | None = None
     filed_at: datetime | None = None
+    laboratory: Mapping[str, str] | None = None
 
     @property
     def messages(self) -> list[str]:
@@ -375,9 +408,15 @@ class AcceptanceOutcome:
                              "tested_from": lo.isoformat(timespec="seconds"),
                              "tested_to": hi.isoformat(timespec="seconds"),
                              "filed_at": None if self.filed_at is None
-                             else self.filed_at.isoformat(timespec="seconds")},
+                             else self.filed_at.isoformat(timespec="seconds"),
+                             **c.item.to_dict()},
+                "laboratory": {k: (self.laboratory or {}).get(k) or None
+                               for k in LABORATORY_KEYS},
                 "specification": {"name": c.spec.name, "file": str(c.spec_path),
-                                  "decision_rule": c.spec.decision_rule},
+                                  "decision_rule": c.spec.decision_rule,
+                                  "rule": rule_text(c.spec.decision_rule,
+                                                    (v.coverage_factor for v in self.clauses),
+                                                    per="clause")},
                 "overall": self.overall, "complete": self.complete,
                 "clauses": [v.to_dict() for v in self.clauses],
                 "tests": tests},
@@ -431,6 +470,7 @@ def run_campaign(
         check_outputs([report_dir], inputs)
     lab, lab_source = lab_of(c.equipment)
     signatories = read_signatories(c.equipment) if c.equipment is not None else None
+    laboratory = read_laboratory(c.equipment) if c.equipment is not None else None
     performed = [t for t in c.tests if t.performed]
     with tempfile.TemporaryDirectory(prefix="inertest-campaign-") as tmp:
         tasks = [BatchTask(plan=t.plan, data=_data_of(t, Path(tmp)), sigma=t.sigma,
@@ -452,7 +492,7 @@ def run_campaign(
         clauses = _clauses(c, tests)
         report_id = c.certificate or _report_id(c, tests)
         outcome = AcceptanceOutcome(campaign=c, tests=tests, clauses=clauses,
-                                    report_id=report_id)
+                                    report_id=report_id, laboratory=laboratory)
         return _file(outcome, tasks, store=store, report_dir=report_dir,
                      allow_duplicate=allow_duplicate, tested_at=tested_at, lab=lab,
                      lab_source=lab_source, signatories=signatories, inputs=inputs,
@@ -515,7 +555,7 @@ def _clauses(c: Campaign, tests: Sequence[TestOutcome]) -> tuple[ClauseVerdict, 
         by = [t for t in tests if cid in t.test.verifies]
         base: dict[str, Any] = {"clause_id": cid, "requirement": lim.text(),
                                 "reference": lim.clause, "quantity": lim.quantity,
-                                "unit": lim.unit}
+                                "unit": lim.unit, "limit_unit": lim.unit}
         if not by:
             rows.append(ClauseVerdict(**base, test=None, verdict=NOT_VERIFIED,
                                       note="no test of the campaign verifies this clause: add "
@@ -604,14 +644,16 @@ def _file(outcome: AcceptanceOutcome, tasks: Sequence[BatchTask], *,
                 assert o is not None and o.plan is not None
                 d = load_data(task.data) if db is not None else {}
                 s = file_run(
-                    o.result, o.plan, plan_text=t.test.plan.read_text(encoding="utf-8"),
+                    o.result, _with_item(o.plan, outcome.campaign.item),
+                    plan_text=t.test.plan.read_text(encoding="utf-8"),
                     data_sha256=o.data_sha256, data_summary=data_summary(task.data, d,
                                                                          o.data_sha256),
                     tested_at=tested_at, store=db if db is not None else False,
                     allow_duplicate=True, warnings_=o.warnings, inputs=list(t.test.inputs),
                     lab=lab, lab_source=lab_source,
                     plan_source=source_name("plan", t.test.plan), budget=o.budget,
-                    conformance=o.conformance, signatories=signatories)
+                    conformance=o.conformance, signatories=signatories,
+                    laboratory=outcome.laboratory)
                 if s.stored_run is not None:
                     filed.append(s.stored_run)
                 stored[t.test.name] = s
@@ -653,6 +695,14 @@ def _file(outcome: AcceptanceOutcome, tasks: Sequence[BatchTask], *,
     finally:
         if db is not None and own:
             db.close()
+
+
+def _with_item(plan: Plan, item: TestItem) -> Plan:
+    """``plan`` with the campaign's job and item over what its ``[test]`` states."""
+    if item == TestItem():
+        return plan
+    cond = plan.test if plan.test is not None else TestConditions()
+    return replace(plan, test=replace(cond, item=item.over(cond.item)))
 
 
 def _with_stored(outcome: AcceptanceOutcome, stored: Mapping[str, RunOutcome],

@@ -38,7 +38,12 @@ from inertest.io.atomic import check_outputs
 from inertest.io.data_file import file_sha256
 from inertest.io.plan_file import read_toml
 from inertest.plan import did_you_mean
-from inertest.quality.lab import Equipment, read_signatories, select_equipment
+from inertest.quality.lab import (
+    Equipment,
+    read_laboratory,
+    read_signatories,
+    select_equipment,
+)
 
 if TYPE_CHECKING:
     from inertest.store import HistoryStore
@@ -253,6 +258,9 @@ def _compute(task: BatchTask, named: BatchTask, options: BatchOptions) -> Prepar
     signatories = None if task.equipment is None else _cached(
         _LABS, ("signatories", *_file_key(task.equipment)),
         lambda: read_signatories(task.equipment))  # type: ignore[arg-type]
+    laboratory = None if task.equipment is None else _cached(
+        _LABS, ("laboratory", *_file_key(task.equipment)),
+        lambda: read_laboratory(task.equipment))  # type: ignore[arg-type]
     used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", named.plan),
@@ -271,7 +279,7 @@ def _compute(task: BatchTask, named: BatchTask, options: BatchOptions) -> Prepar
         data_summary=data_summary(named.data, d, digest), tested_at=options.tested_at,
         for_store=options.store, warnings_=tuple(str(w.message) for w in caught), lab=lab,
         lab_source=lab_source, plan_source=source_name("plan", named.plan), budget=budget,
-        conformance=conformance, signatories=signatories)
+        conformance=conformance, signatories=signatories, laboratory=laboratory)
     if task.report_dir is not None or options.full_results:
         return prepared
     return prepared.compact()

@@ -40,6 +40,7 @@ from inertest.quality.lab import (
     identity_block,
     overdue_messages,
     read_equipment,
+    read_laboratory,
     read_signatories,
     select_equipment,
     test_time,
@@ -232,8 +233,8 @@ def run(
         raise PlanError("a PDF is part of the report: give report_dir as well")
     p = plan if isinstance(plan, Plan) else load_plan(plan)
     lab, lab_source = lab_of(equipment)
-    signatories = (read_signatories(equipment) if isinstance(equipment, str | os.PathLike)
-                   else None)
+    signatories, laboratory = ((read_signatories(equipment), read_laboratory(equipment))
+                               if isinstance(equipment, str | os.PathLike) else (None, None))
     used: tuple[Equipment, ...] = ()
     if lab is not None and p.test is not None:  # an unknown id fails before any work
         used = select_equipment(lab, p.test.equipment, plan_source=source_name("plan", plan_path),
@@ -255,7 +256,7 @@ def run(
         allow_duplicate=allow_duplicate, warnings_=messages,
         inputs=sources, lab=lab, command=command,
         lab_source=lab_source, plan_source=source_name("plan", plan_path), budget=budget,
-        conformance=conformance, signatories=signatories, spec=spec_doc)
+        conformance=conformance, signatories=signatories, laboratory=laboratory, spec=spec_doc)
 
 
 def judge(plan: Plan, result: Any, equipment: Sequence[Equipment], spec: Spec | None
@@ -334,6 +335,7 @@ def file_run(
     signatories: Mapping[str, str] | None = None,
     spec: Spec | None = None,
     command: str | None = None,
+    laboratory: Mapping[str, str] | None = None,
 ) -> RunOutcome:
     """Report and store an already computed result, as one transaction (see :func:`run`).
 
@@ -357,7 +359,7 @@ def file_run(
         result, plan, plan_text=plan_text, data_sha256=data_sha256, data_summary=data_summary,
         tested_at=tested_at, for_store=to_store, warnings_=warnings_, lab=lab,
         lab_source=lab_source, plan_source=plan_source, budget=budget, conformance=conformance,
-        instrument=instrument, signatories=signatories)
+        instrument=instrument, signatories=signatories, laboratory=laboratory)
     return file_prepared(prepared, store=store, report_dir=report_dir, pdf=pdf,
                          allow_duplicate=allow_duplicate, inputs=inputs, report_html=report_html,
                          outputs=outputs, spec=spec, command=command)
@@ -390,7 +392,7 @@ class PreparedRun:
         The stored envelope without ``filed_at``; None when shipped without the full result.
     record : RunRecord or None
         The run to store (its envelope already JSON text); None when not storing.
-    budget, conformance, lab, lab_source, plan_source, signatories
+    budget, conformance, lab, lab_source, plan_source, signatories, laboratory
         As given to :func:`file_run`.
     """
 
@@ -413,6 +415,7 @@ class PreparedRun:
     lab_source: str = "the lab file"
     plan_source: str = "the plan"
     signatories: Mapping[str, str] | None = None
+    laboratory: Mapping[str, str] | None = None
 
     def compact(self) -> PreparedRun:
         """The same run with its result as the envelope alone (no per-sample arrays).
@@ -452,6 +455,7 @@ def prepare_run(
     conformance: Conformance | None = None,
     instrument: Instrument | None = None,
     signatories: Mapping[str, str] | None = None,
+    laboratory: Mapping[str, str] | None = None,
 ) -> PreparedRun:
     """The run's test block, envelope and (``for_store``) record: no database, no files."""
     if plan is None and instrument is None:
@@ -463,7 +467,8 @@ def prepare_run(
     tested = test_time(test_table, tested_at)
     test = identity_block(test_table, lab=lab, tested=tested, software_version=version,
                           data_sha256=data_sha256, plan_source=plan_source,
-                          lab_source=lab_source, signatories=signatories)
+                          lab_source=lab_source, signatories=signatories,
+                          laboratory=laboratory)
     used = [lab[i] for i in test_table.equipment] if lab is not None and test_table else []
     notices = overdue_messages(used, tested.date)
     override = tested.override_message()
@@ -488,7 +493,7 @@ def prepare_run(
         data_summary=data_summary, tested=tested, version=version, test=test,
         notices=tuple(notices), warnings=(*warnings_, *notices), envelope=envelope_doc,
         record=record, budget=budget, conformance=conformance, lab=lab, lab_source=lab_source,
-        plan_source=plan_source, signatories=signatories)
+        plan_source=plan_source, signatories=signatories, laboratory=laboratory)
 
 
 def file_prepared(

@@ -102,6 +102,7 @@ def fit(data: Path, topic: str | None, layout: Path | None, quantity: str,
     --store, the run (both models in its result) goes to the history database. Outputs and
     the stored run are one transaction: when any step fails, nothing is kept.
     """
+    from inertest.report.certificate import RESULTS_STATEMENT
     from inertest.report.html import page  # plotting loads only when the command runs
     from inertest.report.thermal import summary_rows, thermal_figure, thermal_sections
 
@@ -141,7 +142,8 @@ def fit(data: Path, topic: str | None, layout: Path | None, quantity: str,
             f"Temperature compensation: {quantity}",
             thermal_sections(result, title=f"{quantity} compensation"),
             subtitle=f"data: {data}", report_id=report_id,
-            identity=input_identity([data], serial=serial, test=test)))
+            identity=input_identity([data], serial=serial, test=test),
+            statement=RESULTS_STATEMENT))
     stored = outcome.stored_run
     if as_json:
         echo_json(outcome.to_dict())

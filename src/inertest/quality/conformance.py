@@ -158,6 +158,8 @@ class Verdict:
     quantity, unit : str
     value : float or None
         Estimate [unit] (the result's unit); None when not determined.
+    limit_unit : str
+        The unit the limit is written in (a report shows the value in it too).
     expanded : float or None
         Expanded uncertainty U [unit]; None when not determined.
     coverage_factor : float
@@ -185,6 +187,7 @@ class Verdict:
     verdict: str
     coverage_factor: float | None = 2.0
     note: str = ""
+    limit_unit: str = ""
 
     def to_dict(self) -> dict[str, object]:
         """JSON form."""
@@ -192,7 +195,8 @@ class Verdict:
             "quantity": self.quantity, "value": self.value, "unit": self.unit,
             "expanded_uncertainty": self.expanded, "coverage_factor": self.coverage_factor,
             "uncertainty_source": self.u_source,
-            "limit": self.limit, "clause": self.clause, "verdict": self.verdict}
+            "limit": self.limit, "limit_unit": self.limit_unit or self.unit,
+            "clause": self.clause, "verdict": self.verdict}
         if self.note:
             out["note"] = self.note
         return out
@@ -357,11 +361,15 @@ def not_determined_note(result: Any, name: str) -> str:
     return out
 
 
-def rule_text(rule: str, coverage_factors: Iterable[float | None] = ()) -> str:
+def rule_text(rule: str, coverage_factors: Iterable[float | None] = (), *,
+              per: str | None = None) -> str:
     """The decision rule in words, with the coverage factor(s) actually used.
 
     ``k = 2.01`` when every verdict used one k (to two decimals), ``k = 2.00 to 2.01, each
-    quantity's from its effective degrees of freedom`` otherwise, ``k = 2`` with none.
+    quantity's from its effective degrees of freedom`` otherwise, ``k = 2`` with none. With
+    ``per`` (``"clause"``: a series of tests), several k are listed as each row's own: ``k per
+    clause as in its row: 2.01, 2.08 and 4.53, each from its test's effective degrees of
+    freedom``.
     """
     ks = sorted({round(float(k), 2) for k in coverage_factors
                  if k is not None and math.isfinite(k)})
@@ -369,6 +377,10 @@ def rule_text(rule: str, coverage_factors: Iterable[float | None] = ()) -> str:
         k = "k = 2"
     elif len(ks) == 1:
         k = f"k = {ks[0]:.2f}"
+    elif per is not None:
+        listed = ", ".join(f"{x:.2f}" for x in ks[:-1]) + f" and {ks[-1]:.2f}"
+        k = (f"k per {per} as in its row: {listed}, each from its test's effective degrees "
+             "of freedom")
     else:
         k = (f"k = {ks[0]:.2f} to {ks[-1]:.2f}, each quantity's from its effective degrees of "
              "freedom")
@@ -401,7 +413,8 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
             out.append(Verdict(quantity=lim.quantity, value=None, unit=lim.unit, expanded=None,
                                u_source="-", limit=lim.text(), clause=lim.clause,
                                verdict=NOT_DETERMINED, coverage_factor=None,
-                               note=not_determined_note(result, lim.quantity)))
+                               note=not_determined_note(result, lim.quantity),
+                               limit_unit=lim.unit))
             continue
         value, std, unit = q[lim.quantity]
         if budget is not None and lim.quantity in budget.quantities:
@@ -424,7 +437,7 @@ def verdicts(result: Any, spec: Spec, budget: UncertaintyBudget | None = None) -
                              rule=spec.decision_rule)
         out.append(Verdict(quantity=lim.quantity, value=value, unit=unit, expanded=U,
                            u_source=src, limit=lim.text(), clause=lim.clause, verdict=verdict,
-                           coverage_factor=k))
+                           coverage_factor=k, limit_unit=lim.unit))
     return Conformance(spec_name=spec.name, decision_rule=spec.decision_rule,
                        rule=rule_text(spec.decision_rule, (v.coverage_factor for v in out)),
                        verdicts=tuple(out))

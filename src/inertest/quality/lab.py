@@ -19,7 +19,9 @@ its ``[test]`` table (:class:`inertest.plan.TestConditions`)::
 Type-B keys carry their unit in a suffix (:data:`TYPE_B_UNITS`); each record keeps the values as
 written and offers them in SI, named without the suffix (``rate`` [1], ``tilt`` [rad]).
 The records are what ISO/IEC 17025 7.8.2 asks a report to identify: the equipment used, and
-whether its calibration was valid on the test date.
+whether its calibration was valid on the test date. The file's optional ``[laboratory]``
+(name, address, accreditation: :func:`laboratory_from_mapping`) and ``[signatories]``
+(:func:`signatories_from_mapping`) name the laboratory and who reviews and approves its reports.
 """
 
 from __future__ import annotations
@@ -186,7 +188,8 @@ def equipment_from_mapping(
         that is not a date, a due date before the calibration date, or a Type-B key without a
         unit suffix.
     """
-    check_known_keys(doc, {"equipment", "signatories"}, source, error=LabFileError)
+    check_known_keys(doc, {"equipment", "signatories", "laboratory"}, source,
+                     error=LabFileError)
     items = doc.get("equipment")
     if not isinstance(items, list) or not items:
         raise LabFileError(f"{source} has no [[equipment]] entries; see "
@@ -260,6 +263,45 @@ def read_signatories(path: str | os.PathLike[str]) -> dict[str, str]:
     doc = read_toml_file(path, source=source, error=LabFileError,
                          missing="give --equipment the lab's equipment file")
     return signatories_from_mapping(doc, source=source)
+
+
+_LABORATORY_FIELDS = (
+    Field("name", "text", default="", doc="the laboratory's name as on its reports"),
+    Field("address", "text", default="", doc="where the tests are performed"),
+    Field("accreditation", "text", default="",
+          doc='accreditation body and number, e.g. "DAkkS D-PL-12345-01-00"'),
+)
+#: The keys of a lab file's ``[laboratory]``, in the order a report states them.
+LABORATORY_KEYS = tuple(f.name for f in _LABORATORY_FIELDS)
+
+
+def laboratory_from_mapping(doc: Mapping[str, Any], *, source: str = "lab file"
+                            ) -> dict[str, str]:
+    """A lab file's ``[laboratory]`` (``name``, ``address``, ``accreditation``), empty if absent.
+
+    ::
+
+        [laboratory]
+        name = "Inertial Test Laboratory"
+        address = "1 Test Street, 12345 Town, Country"
+        accreditation = "DAkkS D-PL-12345-01-00"
+
+    Every report and certificate states them (ISO/IEC 17025:2017 7.8.2.1 b), "not stated"
+    where the lab file gives none.
+    """
+    t = doc.get("laboratory", {})
+    if not isinstance(t, Mapping):
+        raise LabFileError(f"{source}: [laboratory] must be a table")
+    v = read_fields(t, _LABORATORY_FIELDS, f"{source}: [laboratory]", error=LabFileError)
+    return {k: x for k, x in v.items() if x}
+
+
+def read_laboratory(path: str | os.PathLike[str]) -> dict[str, str]:
+    """The ``[laboratory]`` of the lab file ``path`` (:func:`laboratory_from_mapping`)."""
+    source = f"lab file {os.fspath(path)}"
+    doc = read_toml_file(path, source=source, error=LabFileError,
+                         missing="give --equipment the lab's equipment file")
+    return laboratory_from_mapping(doc, source=source)
 
 
 def read_toml_file(path: str | os.PathLike[str], *, source: str, error: type[PlanError],
@@ -416,8 +458,9 @@ def identity_block(
     plan_source: str = "the plan",
     lab_source: str = "the lab file",
     signatories: Mapping[str, str] | None = None,
+    laboratory: Mapping[str, str] | None = None,
 ) -> dict[str, object]:
-    """The envelope's ``test`` block: who, when, with what, in which conditions.
+    """The envelope's ``test`` block: who, for whom, when, with what, in which conditions.
 
     Parameters
     ----------
@@ -432,6 +475,8 @@ def identity_block(
     signatories : mapping, optional
         The lab file's ``[signatories]`` (``reviewed_by``, ``approved_by``); the plan's
         ``[test]`` names win.
+    laboratory : mapping, optional
+        The lab file's ``[laboratory]`` (:func:`laboratory_from_mapping`).
 
     Returns
     -------
@@ -440,8 +485,11 @@ def identity_block(
         "equipment": [{"id", "name", "model", "serial", "certificate", "calibrated",
         "calibration_due", "calibration_overdue", "type_b"}], "environment": {name: {"value",
         "unit"}}, "notes", "certificate", "approval": {"performed_by", "performed_on",
-        "reviewed_by", "reviewed_on", "approved_by", "approved_on"}}``; ``"filed_at"`` is added
-        when the run is stored (:func:`inertest.app.run.file_run`).
+        "reviewed_by", "reviewed_on", "approved_by", "approved_on"}, "laboratory": {"name",
+        "address", "accreditation"}, "customer", "customer_contact", "receipt_date",
+        "condition_on_receipt", "deviations", "data_origin"}`` (None where not stated; the
+        plan's :class:`~inertest.plan.TestItem`); ``"filed_at"`` is added when the run is
+        stored (:func:`inertest.app.run.file_run`).
     """
     c = conditions if conditions is not None else TestConditions()
     date = tested.date
@@ -465,4 +513,6 @@ def identity_block(
             "approved_by": c.approved_by or sig.get("approved_by") or None,
             "approved_on": None if c.approval_date is None else c.approval_date.isoformat(),
         },
+        "laboratory": {k: (laboratory or {}).get(k) or None for k in LABORATORY_KEYS},
+        **c.item.to_dict(),
     }

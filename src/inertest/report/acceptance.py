@@ -4,20 +4,28 @@ Built from the campaign's envelope (:meth:`inertest.app.acceptance.AcceptanceOut
 kind ``acceptance``) in the layout of every inertest certificate (:func:`inertest.report.html.
 page`: report id and serial on every page, page x of y, the approval block and the end line):
 
-1. *Identity of the series*: the unit and its type, the specification, the campaign manifest,
-   the test dates, the command, every input file with its SHA-256;
+1. *Identity of the series*: the laboratory (the lab file's ``[laboratory]``), the customer,
+   the unit and its type, its receipt and condition, the deviations from the method (each
+   "not stated" where the files give none; a warning when the data are simulated), the
+   specification, the campaign manifest, the test dates, the command, every input file with its
+   SHA-256;
 2. *Conformance of the series*: one row per clause of the specification: its id, the
    requirement and the clause of the standard it comes from, the test that verifies it, the
-   measured value with its expanded uncertainty U and coverage factor k, and the verdict
-   (ILAC-G8:09/2019 decision rule of the spec; *not tested* and *not verified* for a clause
-   whose test has no data or that no test verifies); the overall verdict;
+   measured value with its expanded uncertainty U and its own coverage factor k (in the
+   limit's unit too where the result has another), and the verdict (ILAC-G8:09/2019 decision
+   rule of the spec, k per clause; *not tested* and *not verified* for a clause whose test has
+   no data or that no test verifies); the overall verdict;
 3. per test: its identity (operator, dates, equipment and calibration status, environment),
-   its result, its verdicts and uncertainty budget.
+   its result, its verdicts and uncertainty budget;
+4. the statement that the results relate only to the item tested, the signatures, the end.
 
 ``certificate.json`` (:func:`certificate_of`, layout ``inertest-acceptance-certificate`` version
-1) holds the same: the report's id and the SHA-256 of ``index.html``, the unit, the
-specification and decision rule, the overall verdict, the clause table at full precision, and
-each test's own certificate (:func:`inertest.report.certificate.certificate`).
+1) holds the same: the report's id and the SHA-256 of ``index.html``, the laboratory, the
+statement, the unit, the campaign (with the customer, receipt, condition, deviations and data
+origin, null where not stated), the specification and decision rule, the overall verdict, the
+clause table at full precision (value and U in the result's ``unit``, the limit's
+``limit_unit`` beside), and each test's own certificate
+(:func:`inertest.report.certificate.certificate`).
 """
 
 from __future__ import annotations
@@ -28,11 +36,33 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from inertest.report.certificate import _json_safe, certificate, file_sha256
-from inertest.report.conformance import conformance_sections
-from inertest.report.html import Approval, Section, page, paragraph, software_version, table_html
-from inertest.report.identity import approval_of, identity_section
-from inertest.report.rounding import round_to_uncertainty
+from inertest.quality.conformance import DECISION_RULES, rule_text
+from inertest.report.certificate import (
+    RESULTS_STATEMENT,
+    _json_safe,
+    certificate,
+    file_sha256,
+    item_of,
+    laboratory_of,
+)
+from inertest.report.conformance import conformance_sections, value_pm
+from inertest.report.html import (
+    Approval,
+    Section,
+    page,
+    paragraph,
+    software_version,
+    table_html,
+    warning,
+)
+from inertest.report.identity import (
+    SIMULATED_NOTE,
+    approval_of,
+    identity_section,
+    item_rows,
+    laboratory_rows,
+    simulated,
+)
 from inertest.report.sections import envelope_sections, result_sections
 
 #: Layout of the series certificate and its version.
@@ -43,16 +73,16 @@ CLAUSE_HEADER = ["clause", "requirement", "reference", "test", "measured ± U (k
 
 
 def clause_rows(doc: Mapping[str, Any]) -> list[list[str]]:
-    """The clause table's rows (:data:`CLAUSE_HEADER`) of an acceptance envelope."""
+    """The clause table's rows (:data:`CLAUSE_HEADER`) of an acceptance envelope.
+
+    Each measured value with its U and its own k, in the limit's unit too where the result
+    gives another (:func:`inertest.report.conformance.value_pm`).
+    """
     rows = []
     for c in (doc.get("result") or {}).get("clauses") or []:
-        value, big_u, k = c.get("value"), c.get("expanded_uncertainty"), c.get("coverage_factor")
-        if value is None:
-            measured = "-"
-        else:
-            v, u = round_to_uncertainty(float(value), None if big_u is None else float(big_u))
-            kk = "" if k is None else f" (k = {float(k):.2f})"
-            measured = f"{v} ± {u} {c['unit']}{kk}" if u and u != "0" else f"{v} {c['unit']}"
+        measured = value_pm(c.get("value"), c.get("expanded_uncertainty"), str(c["unit"]),
+                            c.get("coverage_factor"), limit_unit=str(c.get("limit_unit") or ""),
+                            k_without_u=False)
         rows.append([str(c["clause"]), str(c["requirement"]), str(c["reference"]),
                      str(c.get("test") or "-"), measured, str(c["verdict"])])
     return rows
@@ -77,8 +107,10 @@ def acceptance_page(doc: Mapping[str, Any], results: Mapping[str, Any], *,
     inst = doc.get("instrument") or {}
     serial = str(inst.get("serial") or "")
     tests = res.get("tests") or []
-    identity: list[list[object]] = [
+    identity: list[Sequence[object]] = [
+        *laboratory_rows(res.get("laboratory")),
         ["serial", serial], ["unit type", str(inst.get("unit_type") or "not stated")],
+        *item_rows(camp, where="the manifest's [campaign]"),
         ["campaign", str(camp.get("title") or "-")],
         ["campaign manifest", str(camp.get("manifest") or "-")],
         ["specification", f"{spec.get('name')} ({spec.get('file')})"],
@@ -108,8 +140,10 @@ def acceptance_page(doc: Mapping[str, Any], results: Mapping[str, Any], *,
                 subtitle=f"{camp.get('title')}. Overall verdict against {spec.get('name')}: "
                          f"{res.get('overall')}"
                          + ("" if res.get("complete") else " (the series is incomplete)")
-                         + ".",
-                report_id=str(camp.get("report_id") or ""), serial=serial, approval=approval)
+                         + "." + (" Simulated data, not a test of a real unit."
+                                  if simulated(camp) else ""),
+                report_id=str(camp.get("report_id") or ""), serial=serial, approval=approval,
+                statement=RESULTS_STATEMENT)
 
 
 def _clause_section(doc: Mapping[str, Any]) -> Section:
@@ -118,12 +152,12 @@ def _clause_section(doc: Mapping[str, Any]) -> Section:
     sec = Section("Conformance of the series, clause by clause", [table_html(
         CLAUSE_HEADER, clause_rows(doc), left_columns=4,
         caption=f"Every clause of {spec.get('name')} (overall: {res.get('overall')})")])
+    if simulated(res.get("campaign")):
+        sec.parts.insert(0, warning(SIMULATED_NOTE))
     for c in res.get("clauses") or []:
         if c.get("note"):
             sec.parts.append(paragraph(f"{c['clause']}: {c['verdict']}: {c['note']}", note=True))
-    rule = next((((t.get("result") or {}).get("conformance") or {}).get("rule")
-                 for t in res.get("tests") or [] if (t.get("result") or {}).get("conformance")),
-                None)
+    rule = series_rule(doc)
     if rule:
         sec.parts.append(paragraph(f"Decision rule: {rule}.", note=True))
     sec.parts.append(paragraph(
@@ -137,6 +171,24 @@ def _clause_section(doc: Mapping[str, Any]) -> Section:
     return sec
 
 
+def series_rule(doc: Mapping[str, Any]) -> str | None:
+    """The series' decision rule in words, each clause with its own k (None without a rule).
+
+    The clauses' k differ with each test's effective degrees of freedom: the sentence lists
+    them as the rows' own (:func:`inertest.quality.conformance.rule_text`, ``per="clause"``),
+    never one test's k for all.
+    """
+    res = doc.get("result") or {}
+    spec = res.get("specification") or {}
+    if spec.get("rule"):
+        return str(spec["rule"])
+    if spec.get("decision_rule") not in DECISION_RULES:
+        return None
+    return rule_text(str(spec["decision_rule"]),
+                     (c.get("coverage_factor") for c in res.get("clauses") or []),
+                     per="clause")
+
+
 def _test_sections(t: Mapping[str, Any], result: Any) -> list[Section]:
     title = f"Test '{t['name']}': {t.get('title') or t['name']}"
     doc = t.get("result")
@@ -146,7 +198,8 @@ def _test_sections(t: Mapping[str, Any], result: Any) -> list[Section]:
             f"its clauses ({', '.join(t.get('verifies') or []) or 'none'}) are not tested.",
             note=True)])]
     ident = identity_section(f"{title}: identity", doc, extra_rows=[
-        ["plan", str(t["plan"])], ["stored run", str(t.get("stored_run") or "not stored")]])
+        ["plan", str(t["plan"])], ["stored run", str(t.get("stored_run") or "not stored")]],
+        with_item=False)
     body = (result_sections(result, None, title=f"{title}: result") if result is not None
             else envelope_sections(doc, title=f"{title}: result"))
     return [ident, *body, *conformance_sections(
@@ -167,9 +220,11 @@ def certificate_of(doc: Mapping[str, Any], *, report_id: str,
                                               for n, h in (report_files or {}).items()]},
         "issued": {"software": f"inertest {software_version()}",
                    "at": when.astimezone(UTC).isoformat(timespec="seconds")},
+        "laboratory": laboratory_of(res.get("laboratory")),
+        "statement": RESULTS_STATEMENT,
         "unit": dict(doc.get("instrument") or {}),
-        "campaign": dict(camp),
-        "specification": dict(res.get("specification") or {}),
+        "campaign": {**camp, **item_of(camp)},
+        "specification": {**(res.get("specification") or {}), "rule": series_rule(doc)},
         "overall": res.get("overall"),
         "complete": res.get("complete"),
         "clauses": list(res.get("clauses") or []),

@@ -15,6 +15,7 @@ from typing import Any
 from inertest.estimation.trend import QuantityHistory
 from inertest.quality.conformance import Spec
 from inertest.quality.lab import TestTime
+from inertest.report.certificate import RESULTS_STATEMENT
 from inertest.report.conformance import conformance_sections
 from inertest.report.history import history_sections, spec_limits
 from inertest.report.html import (
@@ -106,7 +107,7 @@ def campaign_page(
                 subtitle=f"Tested {tested.text}; report {report_id}, generated "
                          f"{datetime.now(UTC):%Y-%m-%d %H:%M} UTC by inertest "
                          f"{software_version}.", report_id=report_id or None, serial=serial,
-                approval=approval_of(doc))
+                approval=approval_of(doc), statement=RESULTS_STATEMENT)
 
 
 def _result_notes(result: Any, doc: Mapping[str, Any], first: Section) -> list[str]:

@@ -10,15 +10,21 @@ certificate, not an analysis dump. :func:`certificate` turns a result envelope (
 - ``report``: the report id (certificate number or run id) and the SHA-256 of every report file
   (``index.html``, ``report.pdf``), so the certificate names the exact report it belongs to;
 - ``issued``: software and time of issue;
+- ``laboratory``: the lab file's ``[laboratory]`` (name, address, accreditation; null where not
+  stated) and ``statement``, "The results relate only to the item tested." (ISO/IEC
+  17025:2017 7.8.2.1 b, k);
 - ``instrument``, ``site``, ``test`` (procedure, test date and where it comes from, filing time
-  when stored, operator, environment, the data's SHA-256), ``approval``;
+  when stored, operator, environment, the data's SHA-256; customer and contact, receipt date,
+  condition on receipt, deviations from the method, data origin: null where not stated, the
+  deviations ``[]`` when stated as none), ``approval``;
 - ``equipment``: each item with its calibration certificate, dates and status on the test date
   (the traceability, ISO/IEC 17025:2017 6.5, 7.8.2.1);
 - ``results``: per quantity its value, standard uncertainty, and, with a budget, the expanded
   uncertainty U, the coverage factor k, the coverage probability and the effective degrees of
   freedom (JCGM 100:2008, GUM 6.2, G.4.1), all at full precision (rounding is for display
   only, :mod:`inertest.report.rounding`); what the test cannot determine;
-- ``conformance``: the verdicts with the decision rule (ILAC-G8:09/2019), or null.
+- ``conformance``: the verdicts with the decision rule (ILAC-G8:09/2019), or null; each
+  verdict's value in the result's ``unit`` and its ``limit_unit``, the unit of the limit.
 
 The layout is fixed by the JSON Schema :data:`SCHEMA_PATH` (draft 2020-12), shipped with the
 package; docs/certificate.md describes every field.
@@ -30,9 +36,13 @@ import hashlib
 import json
 import math
 from collections.abc import Mapping, Sequence
+from dataclasses import fields
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
+
+from inertest.plan import TestItem
+from inertest.quality.lab import LABORATORY_KEYS
 
 #: Name of the layout and its version (bumped on any change of layout).
 CERTIFICATE_SCHEMA = "inertest-certificate"
@@ -43,6 +53,10 @@ SCHEMA_PATH = Path(__file__).resolve().parent / "schemas" / "certificate-1.schem
 CERTIFICATE_FILE = "certificate.json"
 #: Report files whose SHA-256 the certificate records, when present.
 REPORT_FILES = ("index.html", "report.pdf")
+#: The statement every certificate makes (ISO/IEC 17025:2017 7.8.2.1 k).
+RESULTS_STATEMENT = "The results relate only to the item tested."
+#: The keys of the job and the item in the ``test`` block (:class:`inertest.plan.TestItem`).
+ITEM_KEYS = tuple(f.name for f in fields(TestItem))
 
 
 def certificate(doc: Mapping[str, Any], *, report_id: str,
@@ -73,6 +87,8 @@ def certificate(doc: Mapping[str, Any], *, report_id: str,
             {"name": n, "sha256": h} for n, h in (report_files or {}).items()]},
         "issued": {"software": f"inertest {test.get('software_version') or 'unknown'}",
                    "at": when.astimezone(UTC).isoformat(timespec="seconds")},
+        "laboratory": laboratory_of(test.get("laboratory")),
+        "statement": RESULTS_STATEMENT,
         "instrument": {"kind": str(inst.get("kind") or ""),
                        "serial": str(inst.get("serial") or "")},
         "site": _site(doc.get("site") or {}),
@@ -87,6 +103,7 @@ def certificate(doc: Mapping[str, Any], *, report_id: str,
             "notes": test.get("notes") or None,
             "data_sha256": test.get("data_sha256"),
             "certificate": test.get("certificate"),
+            **item_of(test),
         },
         "approval": _approval(test.get("approval") or {}),
         "equipment": [_equipment(e) for e in test.get("equipment") or []],
@@ -110,6 +127,22 @@ def certificate(doc: Mapping[str, Any], *, report_id: str,
         },
         "messages": [str(m) for m in doc.get("messages") or []],
     }
+
+
+def laboratory_of(lab: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``{"name", "address", "accreditation"}``, null where not stated."""
+    return {k: (lab or {}).get(k) or None for k in LABORATORY_KEYS}
+
+
+def item_of(block: Mapping[str, Any]) -> dict[str, Any]:
+    """The job and the item of a ``test`` or ``campaign`` block, null where not stated.
+
+    ``deviations`` stays ``[]`` when stated as none (null: not stated).
+    """
+    out = {k: block.get(k) or None for k in ITEM_KEYS}
+    dev = block.get("deviations")
+    out["deviations"] = None if dev is None else [str(d) for d in dev]
+    return out
 
 
 def _site(site: Mapping[str, Any]) -> dict[str, Any]:
@@ -157,6 +190,7 @@ def _verdict(v: Mapping[str, Any]) -> dict[str, Any]:
     return {"quantity": v.get("quantity"), "value": v.get("value"), "unit": v.get("unit"),
             "expanded_uncertainty": v.get("expanded_uncertainty"),
             "coverage_factor": v.get("coverage_factor"), "limit": v.get("limit"),
+            "limit_unit": v.get("limit_unit") or v.get("unit"),
             "clause": v.get("clause"), "verdict": v.get("verdict"), "note": v.get("note")}
 
 

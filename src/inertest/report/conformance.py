@@ -13,8 +13,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from inertest.errors import UnitError
 from inertest.report.html import Section, paragraph, table_html
 from inertest.report.rounding import format_number, round_to_uncertainty
+from inertest.units import convert
 
 #: A Type-B contribution below this fraction of the combined standard uncertainty is printed
 #: as ``< (fraction x u_c)``: it changes u_c by less than fraction^2 / 2 (0.005 %), which the
@@ -25,21 +27,61 @@ NEGLIGIBLE_FRACTION = 0.01
 VERDICT_HEADER = ["quantity", "value ± U (k)", "limit", "clause", "verdict"]
 
 
-def _value_pm(value: float | None, expanded: float | None, unit: str, k: float | None) -> str:
+def _pm(value: float, expanded: float | None, unit: str) -> tuple[str, bool]:
+    """``"v ± U unit"`` rounded (GUM 7.2.6), ``"v unit"`` without U; and whether U is shown."""
+    v, u = round_to_uncertainty(value, expanded)
+    return (f"{v} ± {u} {unit}", True) if u and u != "0" else (f"{v} {unit}", False)
+
+
+def value_pm(value: float | None, expanded: float | None, unit: str, k: float | None, *,
+             limit_unit: str = "", k_without_u: bool = True) -> str:
+    """A measured value as printed: ``value ± U unit (k = ...)``, in the limit's unit too.
+
+    When the limit is written in another unit than the result (a warm-up time in s against
+    ``<= 20 min``), the value and U are shown in the limit's unit first, then as the result
+    gives them: ``17.17 ± 0.90 min = 1030 ± 54 s (k = 2.01)``. The JSON keeps the result's
+    value and unit.
+
+    Parameters
+    ----------
+    value, expanded : float or None
+        Value and expanded uncertainty U in ``unit``; ``value`` None: not determined (``-``).
+    unit : str
+        The result's unit.
+    k : float or None
+        The coverage factor of U.
+    limit_unit : str
+        The unit of the limit ("" or ``unit``: shown in ``unit`` alone).
+    k_without_u : bool
+        Whether k is printed when U rounds to nothing.
+    """
     if value is None:   # not determined by the test
         return "-"
-    v, u = round_to_uncertainty(float(value), None if expanded is None else float(expanded))
-    kk = "" if k is None else f" (k = {float(k):.2f})"
-    return f"{v} ± {u} {unit}{kk}" if u and u != "0" else f"{v} {unit}{kk}"
+    big_u = None if expanded is None else float(expanded)
+    text, with_u = _pm(float(value), big_u, unit)
+    if limit_unit and limit_unit != unit:
+        try:
+            in_limit, _ = _pm(convert(float(value), unit, limit_unit),
+                              None if big_u is None else convert(big_u, unit, limit_unit),
+                              limit_unit)
+        except UnitError:   # a limit that cannot express the result is refused earlier
+            pass
+        else:
+            text = f"{in_limit} = {text}"
+    kk = "" if k is None or not (with_u or k_without_u) else f" (k = {float(k):.2f})"
+    return text + kk
 
 
 def verdict_rows(conformance: Mapping[str, Any]) -> list[list[str]]:
-    """``[quantity, value ± U (k), limit, clause, verdict]`` per limited quantity."""
+    """``[quantity, value ± U (k), limit, clause, verdict]`` per limited quantity.
+
+    The value is shown in the limit's unit too where the two differ (:func:`value_pm`).
+    """
     rows = []
     for v in conformance.get("verdicts") or []:
         rows.append([str(v["quantity"]),
-                     _value_pm(v["value"], v["expanded_uncertainty"], str(v["unit"]),
-                               v.get("coverage_factor")),
+                     value_pm(v["value"], v["expanded_uncertainty"], str(v["unit"]),
+                              v.get("coverage_factor"), limit_unit=str(v.get("limit_unit") or "")),
                      str(v["limit"]), str(v["clause"]), str(v["verdict"])])
     return rows
 
@@ -157,4 +199,5 @@ def conformance_sections(
 
 
 __all__ = ["NEGLIGIBLE_FRACTION", "VERDICT_HEADER", "budget_notes", "budget_table",
-           "conformance_sections", "contribution_text", "verdict_notes", "verdict_rows"]
+           "conformance_sections", "contribution_text", "value_pm", "verdict_notes",
+           "verdict_rows"]

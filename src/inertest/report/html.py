@@ -290,7 +290,8 @@ def report_id_of(*parts: object) -> str:
 
 def page(title: str, sections: Sequence[Section], *, subtitle: str = "",
          identity: Sequence[Sequence[object]] | None = (), report_id: str | None = None,
-         serial: str | None = None, approval: Approval | None = None) -> str:
+         serial: str | None = None, approval: Approval | None = None,
+         statement: str = "") -> str:
     """A complete HTML document with the given sections, laid out as a certificate.
 
     Every printed page carries the report id, the serial and "page x of y" (CSS page margin
@@ -312,6 +313,9 @@ def page(title: str, sections: Sequence[Section], *, subtitle: str = "",
         The instrument's serial (default: the identity's ``serial`` row).
     approval : Approval, optional
         The signature block (default: performed by the identity's operator, the rest blank).
+    statement : str, optional
+        A sentence printed above the signatures (a certificate's "The results relate only to
+        the item tested.", ISO/IEC 17025:2017 7.8.2.1 k).
     """
     sub = f"<p>{html.escape(subtitle)}</p>" if subtitle else ""
     given = {str(r[0]): str(r[1]) for r in identity or ()}
@@ -337,6 +341,7 @@ def page(title: str, sections: Sequence[Section], *, subtitle: str = "",
     sign = approval_section(approval)
     # the signatures and the end of the report are printed together, on the last page
     body += (f'<section class="closing"><h2>{sign.title}</h2>{"".join(sign.parts)}'
+             f'{paragraph(statement) if statement else ""}'
              f'<p class="end">End of report {html.escape(report_id)}'
              f"{' (serial ' + html.escape(serial) + ')' if serial else ''}: nothing follows."
              "</p></section>")
