@@ -37,14 +37,14 @@ lint: $(FULL)
 	$(BIN)/mypy
 
 # Test processes (pytest-xdist): two, one a core of the CI machine; `make test TEST_WORKERS=8`
-# on a bigger one. The PostgreSQL tests share one database and run on one worker.
+# on a bigger one. tests/conftest.py keeps the tests that share a resource on one worker.
 TEST_WORKERS ?= 2
 
 test: lint
 	# One BLAS thread: the tests' matrices are small, and threads fight over the cores.
 	OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	PYTHONWARNINGS=error MPLBACKEND=Agg $(BIN)/python -m pytest -q \
-	  -n $(TEST_WORKERS) --dist loadgroup
+	  -n $(TEST_WORKERS)
 
 bench: $(FULL)
 	$(BIN)/python benchmarks/run.py

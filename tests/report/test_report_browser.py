@@ -166,7 +166,7 @@ def _report_id(html: str) -> str:
     return re.search(r'<p class="end">End of report (\S+?)[ :]', html).group(1)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # once a worker, whatever runs in between
 def rendered(reports, tmp_path_factory):
     """Each report kind measured once: at 1200 px, on a phone, in A4 print, and as an A4 PDF."""
     try:
