@@ -1288,7 +1288,8 @@ def test_an_unwritable_output_names_the_users_path(command, assets, tmp_path, mo
     err = capsys.readouterr().err
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert status == 2 and len(lines) == 1, err
-    assert lines[0] == f"error: cannot use file {work / shown}: Permission denied"
+    assert lines[0] == (f"error: cannot write in or read {work / shown}: permission denied; "
+                        "choose another output folder or fix its permissions")
     assert _digest(work) == before
 
 

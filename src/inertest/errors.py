@@ -8,6 +8,7 @@ fix it; the command line prints the message and exits non-zero without a traceba
 from __future__ import annotations
 
 import errno
+import os
 
 
 class InertestError(Exception):
@@ -54,9 +55,21 @@ def os_error_message(exc: OSError) -> tuple[str, bool]:
         what = "disk full" if exc.errno == errno.ENOSPC else "disk quota exceeded"
         return (f"{what} at {where or 'the output'}: nothing was written; free space or choose "
                 "another output folder", True)
-    if isinstance(exc, FileNotFoundError | IsADirectoryError | NotADirectoryError
-                  | PermissionError | FileExistsError):
-        return f"cannot use file {where!s}: {exc.strerror or exc}", False
+    if ".inertest-tmp-" in str(where):  # our temporary beside an output: name its folder
+        where = os.path.dirname(str(where)) or "."
+    if isinstance(exc, PermissionError):
+        return (f"cannot write in or read {where!s}: permission denied; choose another "
+                "output folder or fix its permissions", False)
+    if isinstance(exc, IsADirectoryError):
+        return f"{where!s} is a folder; give a file path", False
+    if isinstance(exc, NotADirectoryError):
+        return (f"cannot use {where!s}: a part of that path is a file, not a folder (or a "
+                "link to nothing); give a path whose folders exist", False)
+    if isinstance(exc, FileExistsError):
+        return (f"cannot use {where!s}: a file of that name is in the way of a folder; give "
+                "another path", False)
+    if isinstance(exc, FileNotFoundError):
+        return f"{where!s} does not exist; check the path", False
     if exc.errno == errno.EROFS:
         return f"cannot write {where}: read-only file system; choose another output folder", True
     reason = exc.strerror or str(exc) or type(exc).__name__

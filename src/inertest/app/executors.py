@@ -43,9 +43,16 @@ def local_pool(workers: int) -> Any:
 
 
 def _single_threaded_blas() -> None:
-    """Pool-worker initialiser: one BLAS/OpenMP thread (threadpoolctl)."""
+    """Pool-worker initialiser: one BLAS/OpenMP thread (threadpoolctl); Ctrl-C left to the driver.
+
+    The terminal sends SIGINT to the whole process group: each worker printed a
+    KeyboardInterrupt traceback; the driver stops the pool itself.
+    """
+    import signal
+
     from threadpoolctl import threadpool_limits
 
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     threadpool_limits(1)
 
 

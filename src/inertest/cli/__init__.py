@@ -199,7 +199,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except click.exceptions.Exit as exc:
         return int(exc.exit_code)
     except (click.Abort, KeyboardInterrupt):
-        click.echo("aborted; nothing was written", err=True)
+        click.echo("aborted; nothing half-written is left (a batch keeps the runs it had "
+                   "filed, each whole)", err=True)
         return 130
     except click.ClickException as exc:
         click.echo(f"error: {safe_line(exc.format_message())}" if not isinstance(

@@ -150,8 +150,8 @@ def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None,
     if cal.coupling is not None and use_acc and use_gyr:
         # a systematic calibration: both triads and the terms that couple them, at once
         dt = _sample_interval(table, data, time_column)
-        acc_raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
-        gyr_raw = np.column_stack([np.asarray(table[c], dtype=float) for c in gyr_cols])
+        acc_raw = _raw(table, acc_cols, data)
+        gyr_raw = _raw(table, gyr_cols, data)
         a_si, w_si = cal.correct(acc_raw, gyr_raw, dt)
         put(acc_cols, accel_from_si(a_si, acc_unit), acc_unit)
         put(gyr_cols, rate_from_si(w_si, gyr_unit), gyr_unit)
@@ -160,7 +160,7 @@ def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None,
         use_acc = use_gyr = False
     if use_acc:
         assert cal.accelerometer is not None
-        raw = np.column_stack([np.asarray(table[c], dtype=float) for c in acc_cols])
+        raw = _raw(table, acc_cols, data)
         a_si = cal.accelerometer.apply(raw)
         put(acc_cols, accel_from_si(a_si, acc_unit), acc_unit)
         done.append(f"accelerometer -> {acc_unit}")
@@ -169,7 +169,7 @@ def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None,
         if cal.gyroscope.g_sensitivity is not None and a_si is None:
             raise DataError("this gyroscope calibration corrects g-sensitivity and needs the "
                             "accelerometer columns and calibration (--acc-columns)")
-        raw = np.column_stack([np.asarray(table[c], dtype=float) for c in gyr_cols])
+        raw = _raw(table, gyr_cols, data)
         w_si = cal.gyroscope.apply(raw, a_si)
         put(gyr_cols, rate_from_si(w_si, gyr_unit), gyr_unit)
         done.append(f"gyroscope -> {gyr_unit}")
@@ -180,6 +180,15 @@ def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None,
     write_table(output, out, units)
     n = len(next(iter(out.values())))
     click.echo(f"wrote {n} calibrated rows ({', '.join(done)}) to {output}")
+
+
+def _raw(table: dict, cols: list[str], data: Path) -> np.ndarray:
+    """The raw columns as one float array; a column of text is refused with its name."""
+    for c in cols:
+        if np.asarray(table[c]).dtype.kind not in "iuf":
+            raise DataError(f"column {c!r} of {data} is not numeric (it holds text); give the "
+                            "raw sensor columns")
+    return np.column_stack([np.asarray(table[c], dtype=float) for c in cols])
 
 
 def _sample_interval(table: dict, data: Path, time_column: str) -> float:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -83,7 +84,7 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
     per channel, the IEEE Std 952-1997 terms with uncertainties, and the Kalibr continuous-time
     noise density and random walk (--kalibr writes imu.yaml; --compare reads one back).
     """
-    from inertest.io.atomic import check_outputs, check_report_directory, target_directory
+    from inertest.io.atomic import check_outputs, check_report_directory
     from inertest.io.kalibr import KEYS, read_kalibr_yaml, write_kalibr_yaml
     from inertest.io.recordings.imu import SpilledImu, open_imu
     from inertest.noise.imu import compare_kalibr
@@ -120,6 +121,7 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
                             "Record longer or more quietly, or give --unresolved bound to write "
                             "upper bounds")
     messages = [*rec.notes, *result.messages]
+    html = None
     if report_dir is not None:
         from inertest.report.html import page
         from inertest.report.imu_noise import imu_noise_sections
@@ -128,11 +130,13 @@ def noise(data: Path, fmt: str, topic: str | None, layout: Path | None,
                     subtitle="Overlapping Allan deviation (NIST SP 1065), PSD, IEEE Std "
                              "952-1997 Annex C terms, Kalibr parameters",
                     identity=input_identity([data, compare_yaml]))
-        with target_directory(report_dir, inputs=[p for p in (data, compare_yaml) if p]) as tmp:
-            (tmp / "index.html").write_text(html, encoding="utf-8")
-    if kalibr_out is not None:
+
+    def kalibr() -> None:
+        assert kalibr_out is not None
         write_kalibr_yaml(kalibr_out, result, source=data.name,
                           rostopic=topic if topic and topic.startswith("/") else "/imu0")
+
+    _write_both(report_dir, html, [p for p in (data, compare_yaml) if p], kalibr_out, kalibr)
     if as_json:
         out = result.to_dict()
         out["kalibr"] = {kind: ({k: v.to_dict() for k, v in terms.items()} if terms else None)
@@ -190,3 +194,29 @@ def _analyse(data: Path, rec: ImuRecording | SpilledImu, rate_hz: float | None, 
                              accel_names=rec.accel_names, rate_hz=rate, gaps=gaps,
                              outliers=outliers, outlier_threshold=outlier_threshold,
                              detrend=detrend, time_unit=rec.time_unit)
+
+
+def _write_both(report_dir: Path | None, html: str | None, inputs: list[Path],
+                kalibr_out: Path | None, kalibr: Callable[[], None]) -> None:
+    """The report folder and the Kalibr yaml: both or neither.
+
+    The yaml is written before the report folder moves into place and withdrawn if that
+    fails (a failed yaml left the report behind).
+    """
+    from inertest.io.atomic import target_directory
+
+    if report_dir is None:
+        if kalibr_out is not None:
+            kalibr()
+        return
+    wrote = False
+    try:
+        with target_directory(report_dir, inputs=inputs) as tmp:
+            (tmp / "index.html").write_text(html or "", encoding="utf-8")
+            if kalibr_out is not None:
+                kalibr()
+                wrote = True
+    except BaseException:
+        if wrote and kalibr_out is not None:
+            kalibr_out.unlink(missing_ok=True)
+        raise

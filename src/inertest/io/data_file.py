@@ -84,6 +84,7 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         else:  # one file: ParquetFile (pq.read_table's dataset layer imports pandas)
             with pq.ParquetFile(p) as pf:
                 table = pf.read()
+        names = list(table.column_names)  # decoded here: Arrow checks the values, not these
     except (pa.ArrowInvalid, pa.ArrowTypeError, pa.ArrowNotImplementedError) as exc:
         raise DataError(f"data file {p} cannot be read: {_first_line(exc)}") from None
     except OSError as exc:
@@ -92,7 +93,7 @@ def read_table(path: str | os.PathLike[str]) -> dict[str, NDArray]:
         raise DataError(f"data file {p} cannot be read: {_first_line(exc)}") from None
     except UnicodeDecodeError:
         raise DataError(f"data file {p} is not UTF-8 text; save it as UTF-8 CSV") from None
-    dup = sorted({n for n in table.column_names if table.column_names.count(n) > 1})
+    dup = sorted({n for n in names if names.count(n) > 1})
     if dup:
         raise DataError(f"data file {p} has the column {dup[0]!r} more than once; give each "
                         "column its own name")

@@ -103,4 +103,7 @@ def load_truth(path: str | os.PathLike[str]) -> dict[str, float]:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise PlanError(f"truth file {path}: {k} must be a number, got {v!r}")
         out[str(k)] = float(v)
+    if not out:  # every coefficient zero by accident (an empty or mistyped file)
+        raise PlanError(f"truth file {path} gives no coefficient; write NAME = value pairs "
+                        "(give 0 explicitly for a coefficient that is zero)")
     return out

@@ -202,8 +202,17 @@ def read_runs(data: Mapping[str, object], *, procedure: str, sensor: Sensor, at_
                 "rows by run, then time")
         seen[str(name)] = k
     ends = np.append(starts[1:], y.size)
+    t = np.asarray(data["time_s"], dtype=float) if "time_s" in data else None
     values, begin = [], []
     for s, e, name in zip(starts, ends, names, strict=True):
+        if t is not None:  # within a run the clock runs forward (a run may restart it)
+            bad = np.flatnonzero(~(np.diff(t[s:e]) > 0))
+            if bad.size:
+                i = int(s + bad[0] + 1)
+                raise DataError(
+                    f'{procedure} data: in run "{name}" the time_s column does not increase at '
+                    f"data row {i + 1} ({t[i - 1]:.9g} s, then {t[i]:.9g} s; {bad.size} such "
+                    "step(s)): remove duplicated rows and sort each run by time")
         v = y[s + settle_readings:e]
         if v.size < 16:
             raise DataError(

@@ -320,6 +320,8 @@ def read_toml_file(path: str | os.PathLike[str], *, source: str, error: type[Pla
         raise error(f"{source} cannot be read: {exc.strerror}") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{source} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise error(f"{source} is not UTF-8 text; save it as UTF-8") from None
     check_finite_document(doc, source, fix="give a finite number", error=error)
     return doc
 
