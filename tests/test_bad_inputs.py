@@ -393,6 +393,54 @@ def _(d):
     return _sim(d, "-o", str(d / "data.csv" / "out.csv"))
 
 
+@case("simulate-truth-empty")
+def _(d):  # every coefficient zero by accident (an independent review: exit 0, data written)
+    (d / "t0.toml").write_text("")
+    return ["simulate", str(d / "plan.toml"), "--truth", str(d / "t0.toml"), "-o",
+            str(d / "new.csv")]
+
+
+# --- data files that are not UTF-8 (an independent review: internal errors) --------------------
+def _latin1_header(d: Path, src: str, name: str) -> Path:
+    lines = (d / src).read_bytes().split(b"\n", 1)
+    (d / name).write_bytes(lines[0].replace(b"_", b"\xe9", 1) + b"\n" + lines[1])
+    return d / name
+
+
+@case("fit-data-header-not-utf8")
+def _(d):
+    return _fit(d, "plan.toml", _latin1_header(d, "data.csv", "latin1.csv").name)
+
+
+@case("allan-data-header-not-utf8")
+def _(d):
+    return _allan(d, _latin1_header(d, "data.csv", "latin1.csv").name, "--column", "t_s",
+                  "--rate", "1")
+
+
+@case("thermal-fit-data-header-not-utf8")
+def _(d):
+    return ["thermal", "fit", str(_latin1_header(d, "chamber.csv", "latin1.csv")),
+            "--quantity", "bias"]
+
+
+@case("fit-spec-not-utf8")
+def _(d):
+    (d / "spec.toml").write_bytes(b'[[limit]]\nquantity = "D\xffI"\n')
+    return _fit(d, "plan.toml", "data.csv", "--spec", str(d / "spec.toml"), "--no-store")
+
+
+@case("apply-data-text-column")
+def _(d):
+    text = (d / "ferraris.csv").read_text().splitlines()
+    head = text[0].split(",")
+    k = head.index("acc_z") if "acc_z" in head else len(head) - 1
+    rows = [",".join("abc" if i == k else v for i, v in enumerate(r.split(",")))
+            for r in text[1:]]
+    (d / "text.csv").write_text("\n".join([text[0], *rows]) + "\n")
+    return ["apply", str(d / "cal.json"), str(d / "text.csv"), "-o", str(d / "o.csv")]
+
+
 # --- allan --------------------------------------------------------------------------------------
 def _allan(d: Path, data: str, *extra: str) -> list[str]:
     return ["allan", str(d / data), *extra]
@@ -1174,6 +1222,12 @@ EXPECT = {
     "fit-ferraris-time-running-backwards": "time column 't_s' runs backwards",
     "noise-compare-yaml-alias-bomb": "larger than 100000 values once its aliases",
     "noise-compare-yaml-too-large": "larger than 1024 KiB",
+    "simulate-truth-empty": "gives no coefficient",
+    "fit-data-header-not-utf8": "is not UTF-8 text",
+    "allan-data-header-not-utf8": "is not UTF-8 text",
+    "thermal-fit-data-header-not-utf8": "is not UTF-8 text",
+    "fit-spec-not-utf8": "is not UTF-8 text",
+    "apply-data-text-column": "is not numeric",
 }
 
 
