@@ -226,7 +226,10 @@ def read_kalibr_yaml(path: str | os.PathLike[str], *, notes: list[str] | None = 
     if p.stat().st_size > MAX_YAML_BYTES:
         raise DataError(f"{p} is larger than {MAX_YAML_BYTES // 1024} KiB; a Kalibr imu.yaml "
                         "holds a few lines: give the IMU's yaml, not another file")
-    text = p.read_text(encoding="utf-8")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise DataError(f"{p} is not UTF-8 text; give the IMU's Kalibr yaml") from None
     stated = _unit_comments(text)
     lines = text.splitlines()
     if lines and lines[0].startswith("%YAML:"):

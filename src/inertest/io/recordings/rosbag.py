@@ -139,7 +139,7 @@ class RosBag:
         try:
             meta = yaml.safe_load((self.path / "metadata.yaml").read_text(encoding="utf-8"))
             info = meta["rosbag2_bagfile_information"]
-        except (yaml.YAMLError, KeyError, TypeError, OSError):
+        except (yaml.YAMLError, KeyError, TypeError, OSError, UnicodeDecodeError):
             return None
         if info.get("compression_format") or info.get("compression_mode") not in (None, "", "NONE"):
             return None
