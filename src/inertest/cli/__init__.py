@@ -214,8 +214,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         _error(line)
         return status
     except MemoryError:
-        _error("out of memory; analyse a shorter record or a raw binary file (.f32/.f64), "
-               "which is read in chunks")
+        command = next((a for a in args if not a.startswith("-")), "") if args else ""
+        if command in ("simulate", "plan-check", "nav-simulate", "demo"):
+            # the plan asks for the samples: the advice on records does not apply
+            _error("out of memory: the plan asks for more samples than this machine holds; "
+                   "lower its counts (samples_per_position, duration_s, sample_rate_hz, "
+                   "positions, runs)")
+        else:
+            _error("out of memory; analyse a shorter record or a raw binary file "
+                   "(.f32/.f64), which is read in chunks")
         return EXIT_SYSTEM_ERROR
     except SystemExit as exc:
         code = exc.code

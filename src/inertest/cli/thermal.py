@@ -68,9 +68,11 @@ def simulate(output: Path, cycles: int, t_min_c: float, t_max_c: float, ramp_c_p
               show_default=True, help="scale_factor (column scale_factor) or bias (bias_deg_h).")
 @click.option("--validation-cycles", type=int, default=1, show_default=True,
               help="Last cycles held out for validation.")
-@click.option("--max-degree", type=int, default=5, show_default=True)
+@click.option("--max-degree", type=click.IntRange(1, 12), default=5, show_default=True,
+              help="Highest polynomial degree tried (cross-validated; 12 at most: higher "
+                   "degrees in temperature are ill-conditioned).")
 @click.option("--no-rate", is_flag=True, help="Temperature only (no temperature-rate input).")
-@click.option("--hidden", type=int, default=10, show_default=True,
+@click.option("--hidden", type=click.IntRange(1, 10_000), default=10, show_default=True,
               help="Neurons of the network's hidden layer.")
 @click.option("--max-iter", type=int, default=3000, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")

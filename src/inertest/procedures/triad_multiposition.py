@@ -367,7 +367,9 @@ class TriadMultiposition(Procedure[TriadMultipositionSpec, CubeObservations,
             p, cov, sensor="accelerometer", scale=su,
             noise_sigma=pooled if sig is None else float("nan"),
             noise_unit=plan.instrument.output_unit,
-            sigma_from_residuals=sig is None, dof=int(sum(dofs)), rank=12,
+            # Each output is fitted with its own noise (its own residual dof): a coefficient's
+            # std has its output's dof, not the three outputs' sum (which the budget's k took)
+            sigma_from_residuals=sig is None, dof=int(min(dofs)), rank=12,
             residuals=(resid / su.raw_si_per_raw).ravel())
         ident = _with_noise_model(ident, [nf for _, nf in fits], su.raw_si_per_raw)
         messages = _messages(est.misalignment)
