@@ -27,6 +27,7 @@ The same range check and ``--extrapolate`` apply.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import click
@@ -182,7 +183,7 @@ def apply(calibration: Path, data: Path, topic: str | None, layout: Path | None,
     click.echo(f"wrote {n} calibrated rows ({', '.join(done)}) to {output}")
 
 
-def _raw(table: dict, cols: list[str], data: Path) -> np.ndarray:
+def _raw(table: dict, cols: Sequence[str], data: Path) -> np.ndarray:
     """The raw columns as one float array; a column of text is refused with its name."""
     for c in cols:
         if np.asarray(table[c]).dtype.kind not in "iuf":
