@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
@@ -123,12 +124,22 @@ def fit(data: Path, topic: str | None, layout: Path | None, quantity: str,
     from inertest.plan import Instrument
 
     def outputs() -> None:  # the figure and the model, inside the run's transaction
-        if plot is not None:
-            save_figure(thermal_figure(result), plot)
-        if model_out is not None:
-            from inertest.io.thermal_model import write_thermal_model
+        # both or neither: a model that cannot be written withdraws the figure (the figure
+        # was left behind; an independent review found it)
+        drawn = None
+        if plot is not None:  # drawn beside, moved into place once the model is written
+            drawn = plot.with_name(f".{plot.stem}.inertest-tmp-figure{plot.suffix}")
+            save_figure(thermal_figure(result), drawn)
+        try:
+            if model_out is not None:
+                from inertest.io.thermal_model import write_thermal_model
 
-            write_thermal_model(model_out, result.model(model_name))
+                write_thermal_model(model_out, result.model(model_name))
+            if drawn is not None:
+                os.replace(drawn, plot)  # type: ignore[arg-type]
+        finally:
+            if drawn is not None:
+                drawn.unlink(missing_ok=True)
 
     digest = file_sha256(data)
     outcome = file_run(
