@@ -158,7 +158,7 @@ def test_workers_that_do_not_share_the_paths_get_the_files_shipped(scheduler, ma
         code = main(["batch", str(local), "--scheduler", address, "--no-store",
                      "--no-progress", "--json"])
         doc = json.loads(capsys.readouterr().out)
-        assert code == 1 and all("no such file" in (r["error"] or "") for r in doc["runs"])
+        assert code == 1 and all("does not exist" in (r["error"] or "") for r in doc["runs"])
         assert all(r["result"] is None for r in doc["runs"])  # nothing computed there
         db = tmp_path / "h.db"
         assert main(["batch", str(local), "--scheduler", address, "--db", str(db),
