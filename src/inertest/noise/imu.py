@@ -292,6 +292,28 @@ class ImuNoiseResult:
 
 
 
+def timing_messages(timing: TimingReport, time_unit: str | None) -> list[str]:
+    """The notes on the time stamps: the segment kept, jitter, an implausible rate.
+
+    The in-memory and the streamed analysis give the same notes.
+    """
+    s0, s1 = timing.segment
+    messages: list[str] = []
+    if timing.gaps or timing.non_increasing:
+        messages.append(
+            f"time stamps: {len(timing.gaps)} gap(s), {len(timing.non_increasing)} "
+            f"duplicated/non-increasing; analysed the longest clean segment, samples {s0} to "
+            f"{s1 - 1} ({(s1 - s0) * timing.interval_s:.6g} s)")
+    if timing.jitter_s > 0.1 * timing.interval_s:
+        messages.append(f"time-stamp jitter {timing.jitter_s:.3g} s is more than 10 % of the "
+                        f"interval {timing.interval_s:.3g} s; the statistics assume equal "
+                        "spacing")
+    implausible = rate_plausibility(timing.rate_hz, time_unit) if timing.from_stamps else None
+    if implausible:
+        messages.append(implausible)
+    return messages
+
+
 def refuse_gaps(non_inc: Sequence[Gap], gap_list: Sequence[Gap], interval: float) -> NoReturn:
     """Stop on the first non-increasing stamp, else the first gap, naming the fix.
 
@@ -645,19 +667,7 @@ def analyse_imu_noise(
         r, c = (int(v[0]) for v in np.nonzero(bad))
         raise DataError(f"channel {names[c]} has a missing or infinite value at sample "
                         f"{s0 + r}; remove the row or analyse a clean segment")
-    messages: list[str] = []
-    if timing.gaps or timing.non_increasing:
-        messages.append(
-            f"time stamps: {len(timing.gaps)} gap(s), {len(timing.non_increasing)} "
-            f"duplicated/non-increasing; analysed the longest clean segment, samples {s0} to "
-            f"{s1 - 1} ({(s1 - s0) * timing.interval_s:.6g} s)")
-    if timing.jitter_s > 0.1 * timing.interval_s:
-        messages.append(f"time-stamp jitter {timing.jitter_s:.3g} s is more than 10 % of the "
-                        f"interval {timing.interval_s:.3g} s; the statistics assume equal "
-                        "spacing")
-    implausible = rate_plausibility(timing.rate_hz, time_unit) if timing.from_stamps else None
-    if implausible:
-        messages.append(implausible)
+    messages = timing_messages(timing, time_unit)
     rate = timing.rate_hz
     tt = np.arange(s1 - s0) / rate
     counts = []

@@ -55,8 +55,8 @@ from inertest.noise.imu import (
     TimingReport,
     _kalibr_term,
     missing_samples,
-    rate_plausibility,
     refuse_gaps,
+    timing_messages,
 )
 
 #: Samples per block.
@@ -448,19 +448,7 @@ def analyse_imu_noise_stream(
                             f"{_SI_RATE[kinds[j]]} in every sample): there is no noise to "
                             "analyse; check the recording, or leave the channel out with "
                             "--gyro-columns / --accel-columns")
-    messages: list[str] = []
-    if timing.gaps or timing.non_increasing:
-        messages.append(
-            f"time stamps: {len(timing.gaps)} gap(s), {len(timing.non_increasing)} "
-            f"duplicated/non-increasing; analysed the longest clean segment, samples {s0} to "
-            f"{s1 - 1} ({(s1 - s0) * timing.interval_s:.6g} s)")
-    if timing.jitter_s > 0.1 * timing.interval_s:
-        messages.append(f"time-stamp jitter {timing.jitter_s:.3g} s is more than 10 % of the "
-                        f"interval {timing.interval_s:.3g} s; the statistics assume equal "
-                        "spacing")
-    implausible = rate_plausibility(timing.rate_hz, time_unit) if timing.from_stamps else None
-    if implausible:
-        messages.append(implausible)
+    messages = timing_messages(timing, time_unit)
     rate = timing.rate_hz
     window = max(3, int(OUTLIER_WINDOW) | 1)
     views, counts = [], []
