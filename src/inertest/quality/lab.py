@@ -250,19 +250,30 @@ def signatories_from_mapping(doc: Mapping[str, Any], *, source: str = "lab file"
 
     A plan's ``[test] reviewed_by`` / ``approved_by`` win over these.
     """
-    t = doc.get("signatories", {})
-    if not isinstance(t, Mapping):
-        raise LabFileError(f"{source}: [signatories] must be a table")
-    v = read_fields(t, _SIGNATORY_FIELDS, f"{source}: [signatories]", error=LabFileError)
-    return {k: x for k, x in v.items() if x}
+    return _text_table(doc, "signatories", _SIGNATORY_FIELDS, source)
 
 
 def read_signatories(path: str | os.PathLike[str]) -> dict[str, str]:
     """The ``[signatories]`` of the lab file ``path`` (:func:`signatories_from_mapping`)."""
-    source = f"lab file {os.fspath(path)}"
-    doc = read_toml_file(path, source=source, error=LabFileError,
-                         missing="give --equipment the lab's equipment file")
+    doc, source = _lab_document(path)
     return signatories_from_mapping(doc, source=source)
+
+
+def _text_table(doc: Mapping[str, Any], table: str, fields: tuple[Field, ...], source: str
+                ) -> dict[str, str]:
+    """The given (non-empty) text fields of the lab file's ``[table]``; none when absent."""
+    t = doc.get(table, {})
+    if not isinstance(t, Mapping):
+        raise LabFileError(f"{source}: [{table}] must be a table")
+    v = read_fields(t, fields, f"{source}: [{table}]", error=LabFileError)
+    return {k: x for k, x in v.items() if x}
+
+
+def _lab_document(path: str | os.PathLike[str]) -> tuple[dict[str, Any], str]:
+    """The lab file ``path`` parsed, and its name for messages."""
+    source = f"lab file {os.fspath(path)}"
+    return read_toml_file(path, source=source, error=LabFileError,
+                          missing="give --equipment the lab's equipment file"), source
 
 
 _LABORATORY_FIELDS = (
@@ -289,18 +300,12 @@ def laboratory_from_mapping(doc: Mapping[str, Any], *, source: str = "lab file"
     Every report and certificate states them (ISO/IEC 17025:2017 7.8.2.1 b), "not stated"
     where the lab file gives none.
     """
-    t = doc.get("laboratory", {})
-    if not isinstance(t, Mapping):
-        raise LabFileError(f"{source}: [laboratory] must be a table")
-    v = read_fields(t, _LABORATORY_FIELDS, f"{source}: [laboratory]", error=LabFileError)
-    return {k: x for k, x in v.items() if x}
+    return _text_table(doc, "laboratory", _LABORATORY_FIELDS, source)
 
 
 def read_laboratory(path: str | os.PathLike[str]) -> dict[str, str]:
     """The ``[laboratory]`` of the lab file ``path`` (:func:`laboratory_from_mapping`)."""
-    source = f"lab file {os.fspath(path)}"
-    doc = read_toml_file(path, source=source, error=LabFileError,
-                         missing="give --equipment the lab's equipment file")
+    doc, source = _lab_document(path)
     return laboratory_from_mapping(doc, source=source)
 
 
