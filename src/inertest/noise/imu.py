@@ -314,6 +314,21 @@ def timing_messages(timing: TimingReport, time_unit: str | None) -> list[str]:
     return messages
 
 
+def nominal_interval(median: float, rate_hz: float | None) -> float:
+    """The sample interval [s]: ``1 / rate_hz`` if given, else the stamps' median interval.
+
+    A given rate must agree with the stamps' median within 5 %.
+    """
+    if rate_hz is None:
+        return median
+    interval = 1.0 / rate_hz
+    if abs(median / interval - 1.0) > 0.05:
+        raise DataError(f"the time stamps say {1.0 / median:.6g} Hz (median interval "
+                        f"{median:.6g} s) but the rate given is {rate_hz:g} Hz; fix --rate "
+                        "or the time unit")
+    return interval
+
+
 def refuse_gaps(non_inc: Sequence[Gap], gap_list: Sequence[Gap], interval: float) -> NoReturn:
     """Stop on the first non-increasing stamp, else the first gap, naming the fix.
 
@@ -371,14 +386,7 @@ def check_time_stamps(
     if pos.size == 0:
         raise DataError("the time stamps never increase; check the time column and its unit")
     median = float(np.median(pos))
-    if rate_hz is None:
-        interval = median
-    else:
-        interval = 1.0 / rate_hz
-        if abs(median / interval - 1.0) > 0.05:
-            raise DataError(f"the time stamps say {1.0 / median:.6g} Hz (median interval "
-                            f"{median:.6g} s) but the rate given is {rate_hz:g} Hz; fix --rate "
-                            "or the time unit")
+    interval = nominal_interval(median, rate_hz)
     t0 = ts[0]
     bad = np.flatnonzero(dt <= 0)
     miss = missing_samples(ts, median)

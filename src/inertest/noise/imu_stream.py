@@ -55,6 +55,7 @@ from inertest.noise.imu import (
     TimingReport,
     _kalibr_term,
     missing_samples,
+    nominal_interval,
     refuse_gaps,
     timing_messages,
 )
@@ -186,14 +187,7 @@ def stream_time_stamps(t: ArrayLike | None, *, n: int, rate_hz: float | None = N
             yield d[d > 0]
 
     median = exact_median(positive, m)
-    if rate_hz is None:
-        interval = median
-    else:
-        interval = 1.0 / rate_hz
-        if abs(median / interval - 1.0) > 0.05:
-            raise DataError(f"the time stamps say {1.0 / median:.6g} Hz (median interval "
-                            f"{median:.6g} s) but the rate given is {rate_hz:g} Hz; fix --rate "
-                            "or the time unit")
+    interval = nominal_interval(median, rate_hz)
     non_inc: list[Gap] = []
     gap_list: list[Gap] = []
     # Gaps are missing samples (:func:`inertest.noise.imu.missing_samples`): its windows reach
