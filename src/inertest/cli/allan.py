@@ -123,22 +123,11 @@ def _long_enough(names: list[str], n: int, data_type: str) -> tuple[list[str], l
 def _deviations(samples: np.ndarray | SampleFile, rate_hz: float, want: list[str], taus: str,
                 data_type: str) -> dict[str, DeviationResult]:
     """The deviations, with a progress bar on a terminal."""
-    from rich.console import Console  # ~0.1 s: only when the command runs
-    from rich.progress import (
-        BarColumn,
-        Progress,
-        TaskProgressColumn,
-        TextColumn,
-        TimeRemainingColumn,
-    )
+    from inertest.cli._common import progress_bar
 
-    console = Console(stderr=True)
-    with Progress(TextColumn("allan"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
-                  console=console,
-                  transient=True, disable=not console.is_terminal) as bar:
-        task = bar.add_task("allan", total=None)
+    with progress_bar("allan") as tick:
         return deviations(samples, rate_hz, want, _tau_option(taus), data_type,
-                          progress=lambda d, t: bar.update(task, completed=d, total=t))
+                          progress=lambda d, t: tick("deviations", d, t))
 
 
 def _noise_terms(res: dict[str, DeviationResult], samples: np.ndarray | SampleFile,
