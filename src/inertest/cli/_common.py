@@ -169,8 +169,8 @@ def figure_format(path: Path | None, option: str = "--plot") -> str | None:
     return fmt
 
 
-def save_figure(fig: Figure, path: Path, *, dpi: int = 110) -> None:
-    """Write ``fig`` to ``path`` (format by suffix) atomically and close it.
+def save_figure(fig: Figure, path: Path, *, dpi: int = 110, fmt: str | None = None) -> None:
+    """Write ``fig`` to ``path`` (format by suffix, or ``fmt``) atomically and close it.
 
     Its texts are drawn as written (:func:`inertest.report.figure_text.plain_figure_text`).
     """
@@ -178,7 +178,7 @@ def save_figure(fig: Figure, path: Path, *, dpi: int = 110) -> None:
 
     from inertest.report.figure_text import plain_figure_text
 
-    fmt = figure_format(path)
+    fmt = fmt or figure_format(path)
     try:
         plain_figure_text(fig)
         with target_file(path) as tmp:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+import contextlib
 from pathlib import Path
 
 import click
@@ -19,7 +19,7 @@ from inertest.cli._common import (
     recording_options,
     save_figure,
 )
-from inertest.io.atomic import target_directory
+from inertest.io.atomic import target_directory, target_file
 from inertest.io.data_file import write_table
 from inertest.io.recordings import read_data
 from inertest.plan import Plan
@@ -126,20 +126,14 @@ def fit(data: Path, topic: str | None, layout: Path | None, quantity: str,
     def outputs() -> None:  # the figure and the model, inside the run's transaction
         # both or neither: a model that cannot be written withdraws the figure (the figure
         # was left behind; an independent review found it)
-        drawn = None
-        if plot is not None:  # drawn beside, moved into place once the model is written
-            drawn = plot.with_name(f".{plot.stem}.inertest-tmp-figure{plot.suffix}")
-            save_figure(thermal_figure(result), drawn)
-        try:
+        with contextlib.ExitStack() as stack:
+            if plot is not None:  # drawn beside, moved into place once the model is written
+                drawn = stack.enter_context(target_file(plot))
+                save_figure(thermal_figure(result), drawn, fmt=figure_format(plot))
             if model_out is not None:
                 from inertest.io.thermal_model import write_thermal_model
 
                 write_thermal_model(model_out, result.model(model_name))
-            if drawn is not None:
-                os.replace(drawn, plot)  # type: ignore[arg-type]
-        finally:
-            if drawn is not None:
-                drawn.unlink(missing_ok=True)
 
     digest = file_sha256(data)
     outcome = file_run(
