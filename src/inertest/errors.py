@@ -43,6 +43,11 @@ class InertestWarning(UserWarning):
     """Something in the input is usable but not as the procedure recommends (e.g. spacing)."""
 
 
+#: What the name of every temporary inertest writes beside an output contains
+#: (:func:`inertest.io.atomic.target_file`): a message names the output's folder instead.
+TEMP_MARK = ".inertest-tmp-"
+
+
 def os_error_message(exc: OSError) -> tuple[str, bool]:
     """One line naming the problem and the fix for an OSError; True when the machine failed.
 
@@ -55,7 +60,7 @@ def os_error_message(exc: OSError) -> tuple[str, bool]:
         what = "disk full" if exc.errno == errno.ENOSPC else "disk quota exceeded"
         return (f"{what} at {where or 'the output'}: nothing was written; free space or choose "
                 "another output folder", True)
-    if ".inertest-tmp-" in str(where):  # our temporary beside an output: name its folder
+    if TEMP_MARK in str(where):  # our temporary beside an output: name its folder
         where = os.path.dirname(str(where)) or "."
     if isinstance(exc, PermissionError):
         return (f"cannot write in or read {where!s}: permission denied; choose another "

@@ -25,7 +25,7 @@ import warnings
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from inertest.errors import InertestWarning, OutputPathError
+from inertest.errors import TEMP_MARK, InertestWarning, OutputPathError
 
 
 def path_inside(folder: str | os.PathLike[str], rel: str | os.PathLike[str], *,
@@ -118,7 +118,7 @@ def _host() -> str:
 
 def _temp_prefix(final: Path) -> str:
     """Hidden name prefix of this process's temporaries for ``final``."""
-    return f".{final.name}.inertest-tmp-{_host()}-{os.getpid()}-"
+    return f".{final.name}{TEMP_MARK}{_host()}-{os.getpid()}-"
 
 
 def _alive(pid: int) -> bool:
@@ -138,7 +138,7 @@ def remove_stale_temporaries(final: str | os.PathLike[str]) -> list[Path]:
     half-way is not necessarily written again under the same name.
     """
     target = Path(final)
-    pattern = re.compile(r"^\..+\.inertest-tmp-" + re.escape(_host()) + r"-(\d+)-")
+    pattern = re.compile(r"^\..+" + re.escape(TEMP_MARK) + re.escape(_host()) + r"-(\d+)-")
     removed: list[Path] = []
     try:
         siblings = list(target.parent.iterdir())
