@@ -63,31 +63,39 @@ def manifest(tmp_path_factory):
 
 
 class _Transactions:
-    """Statements of every committed transaction on any SQLAlchemy engine in this process."""
+    """Statements of every committed transaction on the SQLite connections this process opens.
+
+    Read from SQLite itself (each connection's trace callback, called for every statement the
+    library runs, whoever issued it), not from SQLAlchemy's events: the filing runs on the
+    driver's cursor.
+    """
 
     def __init__(self):
         self.open: dict[int, list[str]] = {}
         self.committed: list[list[str]] = []
 
-    def _execute(self, conn, cursor, statement, parameters, context, executemany):
-        self.open.setdefault(id(conn), []).append(statement.split("(")[0].strip().upper())
+    def _connect(self, dbapi_connection, _record):
+        key = id(dbapi_connection)
+        dbapi_connection.set_trace_callback(lambda sql: self._statement(key, sql))
 
-    def _commit(self, conn):
-        self.committed.append(self.open.pop(id(conn), []))
-
-    def _rollback(self, conn):
-        self.open.pop(id(conn), None)
+    def _statement(self, key, sql):
+        word = sql.split("(")[0].strip().upper()
+        if word.startswith("BEGIN"):
+            self.open[key] = []
+        elif word == "COMMIT":
+            if key in self.open:
+                self.committed.append(self.open.pop(key))
+        elif word == "ROLLBACK":
+            self.open.pop(key, None)
+        elif key in self.open:
+            self.open[key].append(word)
 
     def __enter__(self):
-        sa.event.listen(sa.engine.Engine, "before_cursor_execute", self._execute)
-        sa.event.listen(sa.engine.Engine, "commit", self._commit)
-        sa.event.listen(sa.engine.Engine, "rollback", self._rollback)
+        sa.event.listen(sa.pool.Pool, "connect", self._connect)
         return self
 
     def __exit__(self, *exc):
-        sa.event.remove(sa.engine.Engine, "before_cursor_execute", self._execute)
-        sa.event.remove(sa.engine.Engine, "commit", self._commit)
-        sa.event.remove(sa.engine.Engine, "rollback", self._rollback)
+        sa.event.remove(sa.pool.Pool, "connect", self._connect)
 
     def with_run_insert(self):
         return [t for t in self.committed if "INSERT INTO RUNS" in t]

@@ -90,6 +90,24 @@ def test_missing_serial_cannot_be_stored():
                               data_sha256="", software_version="0")
 
 
+def test_a_run_whose_estimates_fail_stores_nothing(db_url):
+    """One run, one transaction: the runs row goes when an estimate row is refused."""
+    store = HistoryStore(db_url)
+    store.add(record(days=0))
+    bad = record(days=1)
+    bad = RunRecord(**{**bad.__dict__, "estimates": (
+        *bad.estimates, type(bad.estimates[0])(**{**bad.estimates[0].__dict__, "name": None}))})
+    with pytest.raises(StoreError, match="could not store the run"):
+        store.add(bad)
+    # the same run refused as a duplicate, then filed: the pooled connection still works
+    assert store.add(record(days=0), refuse_same_data=True) == store.runs("FG-1")[0].run_uuid
+    store.add(record(days=2))
+    runs = store.runs("FG-1")
+    assert [r.tested_at.day for r in runs] == [1, 3]
+    assert all(len(r.estimates) == 2 for r in runs)
+    store.close()
+
+
 def _writer(url: str, start: int, n: int) -> None:
     store = HistoryStore(url)
     for i in range(n):

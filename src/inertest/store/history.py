@@ -407,31 +407,63 @@ class HistoryStore:
             Path(str(path) + suffix).unlink(missing_ok=True)
 
     def _add(self, record: RunRecord, refuse_same_data: bool) -> str | None:
-        # The statements are compiled once for the engine's dialect and run as driver SQL: a
-        # run costs the filing process about 0.3 ms (the ORM's unit of work took 10 ms and
-        # SQLAlchemy Core's statement execution 0.8 ms), so that one process keeps up with
-        # the fits of many workers.
+        # The statements are compiled once for the engine's dialect and run on the driver's
+        # own cursor, one transaction a run: a run costs the filing process about 0.2 ms (the
+        # ORM's unit of work took 10 ms, SQLAlchemy Core's statement execution 0.8 ms and its
+        # Connection with driver SQL 0.45 ms), so that one process keeps up with the fits of
+        # many workers. The connection still comes from the engine's pool (pre-pinged on
+        # PostgreSQL), so a server restart between two runs costs neither of them.
         sql = self._statements()
         values = {f: getattr(record, f) for f in _RUN_FIELDS}
         values["stored_at"] = record.filed_at or datetime.now(UTC)
         values["result_json"] = record.result_json or _envelope_json(record.result)
+        estimates = [sql.estimate.params(
+            run_id=None, name=e.name, kind=e.kind, value=e.value, std=e.std, unit=e.unit,
+            terms_json=None if e.terms is None else json.dumps(dict(e.terms)))
+            for e in record.estimates]
+        raw: Any = None
         try:
-            with self.engine.begin() as conn:
+            raw = self.engine.raw_connection()
+            cur = raw.cursor()
+            try:
+                if self.engine.dialect.name == "sqlite":
+                    # the write lock at once: concurrent writers queue (busy timeout) instead
+                    # of failing on lock upgrade (pysqlite runs in autocommit mode here)
+                    cur.execute("BEGIN IMMEDIATE")
                 if refuse_same_data:
-                    earlier = conn.exec_driver_sql(*sql.same_data(
-                        serial=record.serial, procedure=record.procedure,
-                        data_sha256=record.data_sha256)).scalar()
-                    if earlier is not None:
-                        return str(earlier)
-                run_id = conn.exec_driver_sql(*sql.run(**values)).scalar()
-                if record.estimates:
-                    conn.exec_driver_sql(sql.estimate.text, [sql.estimate.params(
-                        run_id=run_id, name=e.name, kind=e.kind, value=e.value, std=e.std,
-                        unit=e.unit, terms_json=None if e.terms is None
-                        else json.dumps(dict(e.terms))) for e in record.estimates])
-        except SQLAlchemyError as exc:
+                    cur.execute(*sql.same_data(serial=record.serial,
+                                               procedure=record.procedure,
+                                               data_sha256=record.data_sha256))
+                    row = cur.fetchone()
+                    if row is not None:
+                        raw.rollback()
+                        return str(row[0])
+                cur.execute(*sql.run(**values))
+                run_id = cur.fetchone()[0]
+                if estimates:
+                    cur.executemany(sql.estimate.text, [sql.estimate.with_value(
+                        p, "run_id", run_id) for p in estimates])
+                raw.commit()
+            except BaseException:
+                with contextlib.suppress(Exception):  # the connection may be gone
+                    raw.rollback()
+                raise
+            finally:
+                with contextlib.suppress(Exception):
+                    cur.close()
+        except (SQLAlchemyError, self._driver_error) as exc:
             raise StoreError(f"could not store the run in {self._shown}: {_reason(exc)}") from None
+        finally:
+            if raw is not None:
+                raw.close()  # back to the pool
         return None
+
+    @property
+    def _driver_error(self) -> type[Exception]:
+        """The database driver's base exception class (PEP 249 ``Error``)."""
+        dialect = self.engine.dialect
+        dbapi: Any = getattr(dialect, "loaded_dbapi", None) or dialect.dbapi
+        return cast(type[Exception], dbapi.Error)
 
     def _statements(self) -> _Statements:
         found = getattr(self, "_compiled", None)
@@ -521,6 +553,13 @@ class _DriverStatement:
 
     def __call__(self, **values: Any) -> tuple[str, Any]:
         return self.text, self.params(**values)
+
+    def with_value(self, params: Any, key: str, value: Any) -> Any:
+        """``params`` (from :meth:`params`) with ``key`` set to ``value`` (no conversion)."""
+        if self.order is None:
+            return {**params, key: value}
+        k = self.order.index(key)
+        return (*params[:k], value, *params[k + 1:])
 
 
 class _Statements:
