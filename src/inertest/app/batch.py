@@ -405,12 +405,14 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
     from inertest.store import HistoryStore
 
     n = slots(executor)
-    # Units of several fits while there are many per worker, single fits at the end: a
-    # future costs this process about 3 ms on Dask (its client's event loop), 0.3 ms on a
-    # process pool, a fit 30-60 ms on its worker.
-    dask = hasattr(executor, "gather")
+    # Units of several fits while there are many per worker, single fits at the end (guided
+    # self-scheduling): a future costs this process about 1 ms on a process pool (its
+    # management thread, pipes and wake-ups) and more on Dask (its client's event loop), a
+    # fit 30-60 ms on its worker. With fits replayed on 16 pool workers (benchmarks/
+    # bench_batch.py), the 57 units of 320 fits take the same time as 146 units of a quarter
+    # the size, and 0.22 instead of 0.37 ms of this process a fit.
     sizes = ([1] * len(todo) if executor is None else unit_sizes(
-        len(todo), n, factor=1.0 if dask else 4.0, most=_MAX_CHUNK))
+        len(todo), n, factor=1.0, most=_MAX_CHUNK))
     window = max_pending or max(4, sum(sizes[:2 * n]))
     fits = Fits(_Shipped(todo) if ship_data else todo, executor, own=own, timeout=timeout,
                 fn=functools.partial(compute, options=options), chunk=sizes)

@@ -22,8 +22,11 @@ from typing import Any
 from inertest.errors import InertestError
 
 
-def local_pool(workers: int) -> Any:
+def local_pool(workers: int, *, at_most_cores: bool = True) -> Any:
     """A process pool of ``min(workers, cpu count)`` processes, safe in a threaded program.
+
+    ``at_most_cores=False`` starts ``workers`` processes whatever the cores (for work that
+    waits more than it computes, and for measuring the batch machinery itself).
 
     Workers start from a fork server (a clean single-threaded process that has imported
     inertest) where the platform has one, so a caller running threads (a Dask client, a GUI, a
@@ -33,7 +36,7 @@ def local_pool(workers: int) -> Any:
     """
     from concurrent.futures import ProcessPoolExecutor
 
-    n = max(1, min(workers, os.cpu_count() or 1))
+    n = max(1, min(workers, os.cpu_count() or 1) if at_most_cores else workers)
     if "forkserver" in multiprocessing.get_all_start_methods():
         ctx = multiprocessing.get_context("forkserver")
         ctx.set_forkserver_preload(["inertest.app.batch"])
