@@ -123,6 +123,12 @@ def _replaying() -> Iterator[None]:
         inertest.app.batch.compute = real  # type: ignore[assignment]
 
 
+def _warm(tasks: list[BatchTask], executor: Any, db: Path) -> None:
+    """Every worker's imports and caches, for both kinds of batch (as a production line's)."""
+    run_batch(tasks, executor=executor)
+    run_batch(tasks, executor=executor, store=str(db))
+
+
 def _timed(manifest: Path, db: Path | None, **kw: Any) -> tuple[float, float, list[str]]:
     """Wall time, driver CPU time (this process, all threads) and the results as JSON.
 
@@ -218,7 +224,7 @@ def main(argv: list[str] | None = None) -> None:
         tasks = read_manifest(manifest)
 
         def measure(kind: str, w: int, executor: Any) -> None:
-            run_batch(tasks[:4 * w], executor=executor)  # warm: imports, caches per worker
+            _warm(tasks[:4 * w], executor, folder / f"warm-{kind}{w}.db")
             for stored in (False, True):
                 db = folder / f"{kind}{w}.db" if stored else None
                 t, c, got = _timed(manifest, db, executor=executor)
@@ -291,7 +297,7 @@ def _machinery(manifest: Path, folder: Path, fits: int, ref: list[str], have_das
             kinds.append(("dask", _dask))
         for kind, make in kinds:
             with make(workers) as executor:
-                run_batch(read_manifest(manifest)[:4 * workers], executor=executor)  # warm
+                _warm(tasks[:4 * workers], executor, folder / f"warm-replay-{kind}.db")
                 for stored in (False, True):
                     db = folder / f"replay-{kind}.db" if stored else None
                     t, c, got = _timed(manifest, db, executor=executor)

@@ -482,7 +482,7 @@ def prepare_run(
         conformance=None if conformance is None else conformance.to_dict()), notices)
     record = None
     if for_store:  # SQLAlchemy, Alembic: only when storing
-        from inertest.store import RunRecord
+        from inertest.store.records import RunRecord
 
         record = RunRecord.from_result(
             envelope_doc, serial=inst.serial, instrument_kind=inst.kind, plan_text=plan_text,
