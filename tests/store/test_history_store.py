@@ -1,7 +1,9 @@
 """The history database: round trip, errors, migrations, concurrent writers."""
 
+import contextlib
 import multiprocessing as mp
 from datetime import UTC, datetime, timedelta
+from pathlib import Path
 
 import pytest
 import sqlalchemy as sa
@@ -106,6 +108,112 @@ def test_a_run_whose_estimates_fail_stores_nothing(db_url):
     assert [r.tested_at.day for r in runs] == [1, 3]
     assert all(len(r.estimates) == 2 for r in runs)
     store.close()
+
+
+def test_a_failed_first_run_never_removes_a_database_another_process_made(tmp_path,
+                                                                          monkeypatch):
+    """Two stores meet at a new file: the one whose first run fails takes nobody's runs with it.
+
+    The other store creates the file and files a run while the first is still making its own
+    database; that first run then fails (or is stored, into the other's file).
+    """
+    import inertest.store.history as h
+
+    path = tmp_path / "new.db"
+    real = h._migrate_engine
+    other = HistoryStore(str(path))
+
+    busy = []
+
+    def meanwhile(engine, shown):  # while this store makes its file, another makes it first
+        real(engine, shown)
+        if not path.exists() and not busy:
+            busy.append(1)  # the other's own making of the file comes through here too
+            other.add(record(serial="THEIRS"))
+
+    monkeypatch.setattr(h, "_migrate_engine", meanwhile)
+    bad = record(days=1)
+    bad = RunRecord(**{**bad.__dict__, "estimates": (
+        type(bad.estimates[0])(**{**bad.estimates[0].__dict__, "name": None}),)})
+    with pytest.raises(StoreError, match="could not store the run"):
+        HistoryStore(str(path)).add(bad)
+    assert [r.serial for r in HistoryStore(str(path)).runs("THEIRS")] == ["THEIRS"]
+    path.unlink()
+    for suffix in ("-wal", "-shm"):
+        Path(str(path) + suffix).unlink(missing_ok=True)
+    other.close()
+    busy.clear()
+    other = HistoryStore(str(path))
+    mine = HistoryStore(str(path))
+    assert mine.add(record()) is None  # stored in the other's file, not lost with its own
+    assert len(mine.runs("FG-1")) == 1 and len(mine.runs("THEIRS")) == 1
+    assert not list(tmp_path.glob(".*inertest-tmp*"))
+    other.close()
+    mine.close()
+
+
+def _racer(url: str, bad: bool, n: int, start) -> None:
+    start.wait()
+    store = HistoryStore(url)
+    if bad:
+        r = record(days=999)
+        r = RunRecord(**{**r.__dict__, "estimates": (
+            type(r.estimates[0])(**{**r.estimates[0].__dict__, "name": None}),)})
+        with contextlib.suppress(StoreError):
+            store.add(r)
+    else:
+        for i in range(n):
+            store.add(record(days=i))
+    store.close()
+
+
+@pytest.mark.slow
+def test_racing_first_writers_of_a_new_file_lose_no_acknowledged_run(tmp_path):
+    """Real processes: two file 10 runs each into a new file while a third's first run fails."""
+    ctx = mp.get_context("spawn")
+    for k in range(4):
+        url = "sqlite:///" + str(tmp_path / f"race{k}.db")
+        start = ctx.Barrier(3)
+        procs = [ctx.Process(target=_racer, args=(url, bad, 10, start))
+                 for bad in (True, False, False)]
+        for p in procs:
+            p.start()
+        for p in procs:
+            p.join(120)
+        assert [p.exitcode for p in procs] == [0, 0, 0]
+        store = HistoryStore(url)
+        assert len(store.runs("FG-1")) == 20, k
+        store.close()
+
+
+def _same_data_writer(url: str, data_sha256: str, start, out) -> None:
+    store = HistoryStore(url)
+    store.serials()  # connected before the start
+    start.wait()  # open and connected: all add at once
+    out.put(store.add(RunRecord(**{**record().__dict__, "data_sha256": data_sha256}),
+                      refuse_same_data=True))
+    store.close()
+
+
+@pytest.mark.slow
+def test_writers_of_the_same_data_at_once_store_it_once(db_url):
+    """Six processes file the same run with refuse_same_data: one stores it, five are told."""
+    HistoryStore(db_url, create=True).close()
+    ctx = mp.get_context("spawn")
+    for k in range(3):
+        start, out, sha = ctx.Barrier(6), ctx.Queue(), f"{k:02d}" * 32
+        procs = [ctx.Process(target=_same_data_writer, args=(db_url, sha, start, out))
+                 for _ in range(6)]
+        for p in procs:
+            p.start()
+        got = [out.get(timeout=120) for _ in procs]
+        for p in procs:
+            p.join(120)
+        store = HistoryStore(db_url)
+        runs = [r for r in store.runs("FG-1") if r.data_sha256 == sha]
+        store.close()
+        assert len(runs) == 1, (k, len(runs))
+        assert sorted(got, key=lambda x: x is not None) == [None] + [runs[0].run_uuid] * 5
 
 
 def _writer(url: str, start: int, n: int) -> None:

@@ -161,9 +161,14 @@ class Fits:
         if self.executor is None:
             return Immediate(run_unit, self.fn, tasks)
         try:
-            fut = self.executor.submit(run_unit, self.fn, tasks)
-            if hasattr(self.executor, "gather"):  # Dask: say when it ends (_wait_dask)
-                fut.add_done_callback(lambda _: self._finished.set())
+            if hasattr(self.executor, "gather"):  # Dask
+                # pure=False: a fresh key, not a hash of the arguments (tokenising a unit's
+                # tasks cost this process 1.4 ms a unit, and a unit submitted again after
+                # its worker was lost must not find the lost future under the same key)
+                fut = self.executor.submit(run_unit, self.fn, tasks, pure=False)
+                fut.add_done_callback(lambda _: self._finished.set())  # see _wait_dask
+            else:
+                fut = self.executor.submit(run_unit, self.fn, tasks)
             return fut
         except Exception as exc:  # noqa: BLE001 - a pool that broke since: handled on collect
             if not is_broken_pool(exc):

@@ -14,8 +14,11 @@ at most 200 characters.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
+import operator
 import os
+import uuid
 from collections.abc import Iterator, Mapping
 from datetime import UTC, datetime
 from pathlib import Path
@@ -85,7 +88,10 @@ class HistoryStore:
     Notes
     -----
     A SQLite file that does not exist is not created here but by the first :meth:`add`; until
-    then the store reads as empty. If that first add fails, the new file is removed again.
+    then the store reads as empty. That first run is stored in the new file before it appears
+    under its name, so a first run that fails leaves no database, and no process ever removes
+    a database another process can see (when two make the same file at once, the second's
+    run goes into the first's).
     """
 
     def __init__(self, url: str | None = None, *, create: bool = False) -> None:
@@ -171,21 +177,28 @@ class HistoryStore:
                 "storage and give that path with --db") from None
         self._ready = True
 
-    def _create_sqlite_file(self, path: Path) -> None:
-        """Create a new SQLite database whole: migrated in a temporary file, then renamed.
+    def _create_sqlite_file(self, path: Path, first: RunRecord | None = None) -> bool:
+        """Create a new SQLite database whole: migrated in a temporary file, then linked.
 
         A kill at any point leaves either no database or a complete one, never a file
-        without tables.
+        without tables. ``first``: the run to store in it before it appears, so that a first
+        run that fails leaves no database and no other process ever sees one that may yet be
+        removed. False when another process created the database first (``first`` is then
+        not stored: store it in theirs).
         """
-        tmp = path.with_name(f".{path.name}.inertest-tmp-{os.getpid()}.db")
+        # unique: two stores of one process may make the same file at once
+        tmp = path.with_name(f".{path.name}.inertest-tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}.db")
         engine = _create_engine("sqlite:///" + str(tmp), "sqlite")
         try:
             _migrate_engine(engine, self._shown)
+            if first is not None:
+                self._add(first, False, engine)
             engine.dispose()  # closing the last connection checkpoints the WAL into the file
             try:
                 os.link(tmp, path)  # never replaces a database another writer just created
             except FileExistsError:
-                pass
+                return False
+            return True
         finally:
             engine.dispose()
             for suffix in ("", "-wal", "-shm", "-journal"):
@@ -218,26 +231,28 @@ class HistoryStore:
         if self._read_only:
             raise StoreError(f"the history database {self._shown} is on read-only storage; "
                              "store the run elsewhere with --db, or use --no-store")
-        created = None
+        self._created = None
         if not self._ready:
-            created = self.path if self.path is not None and not self.path.exists() else None
-            try:
+            if self.path is not None and not self.path.exists():
+                # The first run goes into the new file before it appears (a run that fails
+                # leaves no database); when another process made the file meanwhile, into
+                # theirs below.
+                if self._is_default:
+                    self.path.parent.mkdir(parents=True, exist_ok=True)
+                made = self._create_sqlite_file(self.path, first=record)
                 self._open()
-            except BaseException:
-                self._remove_new_file(created)
-                raise
-        try:
-            earlier = self._add(record, refuse_same_data)
-        except BaseException:
-            self._remove_new_file(created)
-            raise
-        self._created = created
-        return earlier
+                if made:
+                    self._created = self.path
+                    return None
+            else:
+                self._open()
+        return self._add(record, refuse_same_data)
 
     def discard(self, run_uuid: str) -> None:
         """Undo :meth:`add` of ``run_uuid`` (a later step of the same transaction failed).
 
-        Removes the run and its estimates; a SQLite file created by that add is removed whole.
+        Removes the run and its estimates; a SQLite file created by that add is removed whole
+        when it holds no other run (another process may have filed into it since).
         """
         created = getattr(self, "_created", None)
         try:
@@ -245,6 +260,9 @@ class HistoryStore:
                 run = session.scalars(select(Run).where(Run.run_uuid == run_uuid)).first()
                 if run is not None:
                     session.delete(run)
+                    session.flush()
+                if created is not None and session.scalars(select(Run.id).limit(1)).first():
+                    created = None  # another process's runs are in it now: keep the file
         except SQLAlchemyError as exc:
             raise StoreError(f"could not withdraw run {run_uuid} from {self._shown}: "
                              f"{_reason(exc)}") from None
@@ -261,14 +279,16 @@ class HistoryStore:
         for suffix in ("", "-wal", "-shm", "-journal"):
             Path(str(path) + suffix).unlink(missing_ok=True)
 
-    def _add(self, record: RunRecord, refuse_same_data: bool) -> str | None:
+    def _add(self, record: RunRecord, refuse_same_data: bool,
+             engine: Engine | None = None) -> str | None:
         # The statements are compiled once for the engine's dialect and run on the driver's
         # own cursor, one transaction a run: a run costs the filing process about 0.2 ms (the
         # ORM's unit of work took 10 ms, SQLAlchemy Core's statement execution 0.8 ms and its
         # Connection with driver SQL 0.45 ms), so that one process keeps up with the fits of
         # many workers. The connection still comes from the engine's pool (pre-pinged on
         # PostgreSQL), so a server restart between two runs costs neither of them.
-        sql = self._statements()
+        engine = self.engine if engine is None else engine
+        sql = _statements(engine.dialect)
         values = {f: getattr(record, f) for f in _RUN_FIELDS}
         values["stored_at"] = record.filed_at or datetime.now(UTC)
         values["result_json"] = record.result_json or envelope_json(record.result)
@@ -278,13 +298,19 @@ class HistoryStore:
             for e in record.estimates]
         raw: Any = None
         try:
-            raw = self.engine.raw_connection()
+            raw = engine.raw_connection()
             cur = raw.cursor()
             try:
-                if self.engine.dialect.name == "sqlite":
+                if engine.dialect.name == "sqlite":
                     # the write lock at once: concurrent writers queue (busy timeout) instead
                     # of failing on lock upgrade (pysqlite runs in autocommit mode here)
                     cur.execute("BEGIN IMMEDIATE")
+                if refuse_same_data and sql.same_data_lock is not None:
+                    # PostgreSQL (READ COMMITTED): two writers of the same data would both
+                    # find none and both insert; a lock on the (serial, procedure, data)
+                    # held to the end of the transaction makes the second wait and find it
+                    cur.execute(*sql.same_data_lock(key=_data_key(
+                        record.serial, record.procedure, record.data_sha256)))
                 if refuse_same_data:
                     cur.execute(*sql.same_data(serial=record.serial,
                                                procedure=record.procedure,
@@ -306,25 +332,12 @@ class HistoryStore:
             finally:
                 with contextlib.suppress(Exception):
                     cur.close()
-        except (SQLAlchemyError, self._driver_error) as exc:
+        except (SQLAlchemyError, _driver_error(engine)) as exc:
             raise StoreError(f"could not store the run in {self._shown}: {_reason(exc)}") from None
         finally:
             if raw is not None:
                 raw.close()  # back to the pool
         return None
-
-    @property
-    def _driver_error(self) -> type[Exception]:
-        """The database driver's base exception class (PEP 249 ``Error``)."""
-        dialect = self.engine.dialect
-        dbapi: Any = getattr(dialect, "loaded_dbapi", None) or dialect.dbapi
-        return cast(type[Exception], dbapi.Error)
-
-    def _statements(self) -> _Statements:
-        found = getattr(self, "_compiled", None)
-        if found is None or found.dialect is not self.engine.dialect:
-            found = self._compiled = _Statements(self.engine.dialect)
-        return found
 
     def runs_with_data(self, serial: str, procedure: str, data_sha256: str) -> list[str]:
         """UUIDs of stored runs of ``serial`` and ``procedure`` made from the same data file."""
@@ -394,6 +407,7 @@ class _DriverStatement:
         compiled = stmt.compile(dialect=dialect, column_keys=list(columns))
         self.text = str(compiled)
         self.order = compiled.positiontup if dialect.positional else None
+        self._ordered = None if self.order is None else operator.itemgetter(*self.order)
         self.fixed = {k: v for k, v in compiled.params.items() if k not in columns}  # LIMIT
         self.convert = {k: c.type.bind_processor(dialect) for k, c in columns.items()}
         self.convert = {k: f for k, f in self.convert.items() if f is not None}
@@ -404,7 +418,10 @@ class _DriverStatement:
             if k in values:
                 values[k] = f(values[k])
         values.update(self.fixed)
-        return tuple(values[k] for k in self.order) if self.order is not None else values
+        if self._ordered is None:
+            return values
+        got = self._ordered(values)
+        return got if isinstance(got, tuple) else (got,)  # itemgetter of one key: no tuple
 
     def __call__(self, **values: Any) -> tuple[str, Any]:
         return self.text, self.params(**values)
@@ -429,9 +446,36 @@ class _Statements:
         self.estimate = _DriverStatement(
             sa.insert(rows), dialect, {c.name: c for c in rows.columns if c.name != "id"})
         keys = ("serial", "procedure", "data_sha256")
+        key = sa.bindparam("key", type_=sa.BigInteger)
+        self.same_data_lock = (_DriverStatement(
+            sa.select(sa.func.pg_advisory_xact_lock(key)), dialect, {"key": key})
+            if dialect.name == "postgresql" else None)
         self.same_data = _DriverStatement(
             select(runs.c.run_uuid).where(*(runs.c[k] == sa.bindparam(k) for k in keys))
             .limit(1), dialect, {k: runs.c[k] for k in keys})
+
+
+_COMPILED: dict[Any, _Statements] = {}
+
+
+def _statements(dialect: Any) -> _Statements:
+    """The statements of :meth:`HistoryStore.add`, compiled once for ``dialect``."""
+    key = (type(dialect), dialect.positional, dialect.paramstyle)
+    if key not in _COMPILED:
+        _COMPILED[key] = _Statements(dialect)
+    return _COMPILED[key]
+
+
+def _driver_error(engine: Engine) -> type[Exception]:
+    """The database driver's base exception class (PEP 249 ``Error``)."""
+    dbapi: Any = getattr(engine.dialect, "loaded_dbapi", None) or engine.dialect.dbapi
+    return cast(type[Exception], dbapi.Error)
+
+
+def _data_key(serial: str, procedure: str, data_sha256: str) -> int:
+    """A signed 64-bit key for (serial, procedure, data): PostgreSQL's advisory lock."""
+    digest = hashlib.sha256(f"{serial}\0{procedure}\0{data_sha256}".encode()).digest()
+    return int.from_bytes(digest[:8], "big", signed=True)
 
 
 def _migrate_engine(engine: Engine, shown: str) -> None:
