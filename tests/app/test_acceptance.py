@@ -246,8 +246,8 @@ data_origin = "simulated"
 
 
 def test_a_database_of_the_previous_schema_is_migrated_and_its_runs_read(tmp_path):
-    """A history database at revision 0002 (before campaigns) opens, migrates to 0003, keeps
-    its runs and files a campaign."""
+    """A history database at revision 0002 (before campaigns) opens, migrates to the newest,
+    keeps its runs and files a campaign."""
     from alembic import command
     from alembic.config import Config
 
@@ -266,7 +266,7 @@ def test_a_database_of_the_previous_schema_is_migrated_and_its_runs_read(tmp_pat
                  str(tmp_path / "u" / "thermal" / "steps.csv"), "--db", str(old),
                  "--sigma", "0.05"]) == 0
     with sqlite3.connect(old) as conn:
-        assert conn.execute("select version_num from alembic_version").fetchone()[0] == "0003"
+        assert conn.execute("select version_num from alembic_version").fetchone()[0] == "0004"
     run_campaign(manifest, store=str(old), allow_duplicate=True)
     store = HistoryStore(str(old))
     assert len(store.runs("U-6")) == 2 and len(campaigns(store, serial="U-6")) == 1

@@ -2,6 +2,7 @@
 
 import contextlib
 import multiprocessing as mp
+import sqlite3
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -333,3 +334,59 @@ def test_an_old_schema_on_read_only_storage_names_the_fix(tmp_path, monkeypatch)
             HistoryStore(url)
     finally:
         folder.chmod(0o755)
+
+
+def test_a_database_of_revision_0003_on_read_only_storage_is_read(tmp_path, monkeypatch):
+    """0004 only added an index: an archive written before it reads as it is."""
+    from alembic import command
+    from alembic.config import Config
+
+    from inertest.store.history import _MIGRATIONS, _create_engine
+
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    path = folder / "h.db"
+    engine = _create_engine("sqlite:///" + str(path), "sqlite")
+    cfg = Config()
+    cfg.set_main_option("script_location", str(_MIGRATIONS))
+    with engine.begin() as conn:
+        cfg.attributes["connection"] = conn
+        command.upgrade(cfg, "0003")
+    engine.dispose()
+    with sqlite3.connect(path) as con:  # a run as inertest 0003 filed it
+        columns = [r[1] for r in con.execute("PRAGMA table_info(runs)")]
+    store = HistoryStore(str(folder / "elsewhere.db"))
+    store.add(record(di=0.87))
+    store.close()
+    with sqlite3.connect(folder / "elsewhere.db") as src, sqlite3.connect(path) as dst:
+        rows = src.execute(f"SELECT {', '.join(columns)} FROM runs").fetchall()
+        dst.executemany(f"INSERT INTO runs ({', '.join(columns)}) VALUES "
+                        f"({', '.join('?' * len(columns))})", rows)
+        est = [r[1] for r in src.execute("PRAGMA table_info(estimates)")]
+        dst.executemany(f"INSERT INTO estimates ({', '.join(est)}) VALUES "
+                        f"({', '.join('?' * len(est))})",
+                        src.execute(f"SELECT {', '.join(est)} FROM estimates").fetchall())
+    (folder / "elsewhere.db").unlink()
+    for suffix in ("-wal", "-shm"):
+        Path(str(folder / "elsewhere.db") + suffix).unlink(missing_ok=True)
+    _read_only_storage(folder, monkeypatch)
+    try:
+        ro = HistoryStore(str(path))
+        assert [r.estimates[0].value for r in ro.runs("FG-1")] == [0.87]
+        ro.close()
+    finally:
+        folder.chmod(0o755)
+
+
+def test_finding_a_run_of_the_same_data_uses_its_index(tmp_path):
+    """The look-up made at every filing reads the index, not every run of the serial."""
+    from inertest.store.history import _statements
+
+    store = HistoryStore(str(tmp_path / "h.db"), create=True)
+    sql = _statements(store.engine.dialect)
+    text, params = sql.same_data(serial="FG-1", procedure="polar-tumble", data_sha256="ab" * 32)
+    with store.engine.connect() as conn:
+        plan = " ".join(str(r[-1]) for r in conn.exec_driver_sql("EXPLAIN QUERY PLAN " + text,
+                                                                 params))
+    assert "ix_runs_same_data" in plan, plan
+    store.close()

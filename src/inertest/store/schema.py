@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import DateTime, Float, ForeignKey, Integer, String, Text
+from sqlalchemy import DateTime, Float, ForeignKey, Index, Integer, String, Text
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 
 
@@ -16,6 +16,8 @@ class Run(Base):
     """One stored fit: an instrument tested once with one procedure."""
 
     __tablename__ = "runs"
+    # Filing looks for a run of the same serial and procedure made from the same data.
+    __table_args__ = (Index("ix_runs_same_data", "serial", "procedure", "data_sha256"),)
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     run_uuid: Mapped[str] = mapped_column(String(36), unique=True, nullable=False)
