@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from history_database import database_at_revision
 from inertest.app.acceptance import NOT_TESTED, NOT_VERIFIED, CampaignError, run_campaign
 from inertest.cli import main
 from inertest.io.data_file import write_table
@@ -248,19 +249,8 @@ data_origin = "simulated"
 def test_a_database_of_the_previous_schema_is_migrated_and_its_runs_read(tmp_path):
     """A history database at revision 0002 (before campaigns) opens, migrates to the newest,
     keeps its runs and files a campaign."""
-    from alembic import command
-    from alembic.config import Config
-
-    from inertest.store.history import _MIGRATIONS, _create_engine
-
     old = tmp_path / "old.db"
-    engine = _create_engine("sqlite:///" + str(old), "sqlite")
-    cfg = Config()
-    cfg.set_main_option("script_location", str(_MIGRATIONS))
-    with engine.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0002")
-    engine.dispose()
+    database_at_revision(old, "0002")
     manifest = write_unit(tmp_path / "u", serial="U-6", slope=0.004, limit=0.1)
     assert main(["fit", str(tmp_path / "u" / "thermal" / "plan.toml"),
                  str(tmp_path / "u" / "thermal" / "steps.csv"), "--db", str(old),

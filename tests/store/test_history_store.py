@@ -11,6 +11,7 @@ import sqlalchemy as sa
 from alembic.autogenerate import compare_metadata
 from alembic.runtime.migration import MigrationContext
 
+from history_database import database_at_revision
 from inertest.store import HistoryStore, RunRecord, StoreError
 from inertest.store.schema import Base
 
@@ -43,6 +44,13 @@ def record(serial="FG-1", days=0, di=0.85):
         res, serial=serial, instrument_kind="sdf-gyro", plan_text="[site]\n",
         data_sha256="ab" * 32, software_version="0.1.0",
         tested_at=datetime(2026, 1, 1, tzinfo=UTC) + timedelta(days=days))
+
+
+def bad_record(days=0):
+    """A record whose one estimate has no name: the database refuses its estimate row."""
+    r = record(days=days)
+    return RunRecord(**{**r.__dict__, "estimates": (
+        type(r.estimates[0])(**{**r.estimates[0].__dict__, "name": None}),)})
 
 
 def test_round_trip_in_time_order(db_url):
@@ -97,11 +105,8 @@ def test_a_run_whose_estimates_fail_stores_nothing(db_url):
     """One run, one transaction: the runs row goes when an estimate row is refused."""
     store = HistoryStore(db_url)
     store.add(record(days=0))
-    bad = record(days=1)
-    bad = RunRecord(**{**bad.__dict__, "estimates": (
-        *bad.estimates, type(bad.estimates[0])(**{**bad.estimates[0].__dict__, "name": None}))})
     with pytest.raises(StoreError, match="could not store the run"):
-        store.add(bad)
+        store.add(bad_record(days=1))
     # the same run refused as a duplicate, then filed: the pooled connection still works
     assert store.add(record(days=0), refuse_same_data=True) == store.runs("FG-1")[0].run_uuid
     store.add(record(days=2))
@@ -133,11 +138,8 @@ def test_a_failed_first_run_never_removes_a_database_another_process_made(tmp_pa
             other.add(record(serial="THEIRS"))
 
     monkeypatch.setattr(h, "_migrate_engine", meanwhile)
-    bad = record(days=1)
-    bad = RunRecord(**{**bad.__dict__, "estimates": (
-        type(bad.estimates[0])(**{**bad.estimates[0].__dict__, "name": None}),)})
     with pytest.raises(StoreError, match="could not store the run"):
-        HistoryStore(str(path)).add(bad)
+        HistoryStore(str(path)).add(bad_record(days=1))
     assert [r.serial for r in HistoryStore(str(path)).runs("THEIRS")] == ["THEIRS"]
     path.unlink()
     for suffix in ("-wal", "-shm"):
@@ -157,11 +159,8 @@ def _racer(url: str, bad: bool, n: int, start) -> None:
     start.wait()
     store = HistoryStore(url)
     if bad:
-        r = record(days=999)
-        r = RunRecord(**{**r.__dict__, "estimates": (
-            type(r.estimates[0])(**{**r.estimates[0].__dict__, "name": None}),)})
         with contextlib.suppress(StoreError):
-            store.add(r)
+            store.add(bad_record(days=999))
     else:
         for i in range(n):
             store.add(record(days=i))
@@ -338,21 +337,10 @@ def test_an_old_schema_on_read_only_storage_names_the_fix(tmp_path, monkeypatch)
 
 def test_a_database_of_revision_0003_on_read_only_storage_is_read(tmp_path, monkeypatch):
     """0004 only added an index: an archive written before it reads as it is."""
-    from alembic import command
-    from alembic.config import Config
-
-    from inertest.store.history import _MIGRATIONS, _create_engine
-
     folder = tmp_path / "archive"
     folder.mkdir()
     path = folder / "h.db"
-    engine = _create_engine("sqlite:///" + str(path), "sqlite")
-    cfg = Config()
-    cfg.set_main_option("script_location", str(_MIGRATIONS))
-    with engine.begin() as conn:
-        cfg.attributes["connection"] = conn
-        command.upgrade(cfg, "0003")
-    engine.dispose()
+    database_at_revision(path, "0003")
     with sqlite3.connect(path) as con:  # a run as inertest 0003 filed it
         columns = [r[1] for r in con.execute("PRAGMA table_info(runs)")]
     store = HistoryStore(str(folder / "elsewhere.db"))

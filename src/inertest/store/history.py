@@ -134,14 +134,21 @@ class HistoryStore:
         if create or self.path is None or self.path.exists():
             self._open()
 
-    def _open(self) -> None:
+    def _open(self, first: RunRecord | None = None) -> bool:
+        """Open (creating a new SQLite file); True when ``first`` was stored in the new file.
+
+        ``first`` goes into a new file before it appears (a run that fails leaves no
+        database); when the file exists, or another process made it meanwhile, it is not
+        stored here.
+        """
+        made = False
         if self.path is not None and self._is_default:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         if self.path is not None and not self.path.exists():
-            self._create_sqlite_file(self.path)
+            made = self._create_sqlite_file(self.path, first=first) and first is not None
         if self.path is not None and not _writable(self.path):
             self._open_read_only(self.path)
-            return
+            return made
         try:
             self._migrate()
         except SQLAlchemyError as exc:
@@ -154,6 +161,7 @@ class HistoryStore:
             self.engine.dispose()
             raise
         self._ready = True
+        return made
 
     def _open_read_only(self, path: Path) -> None:
         """Open a SQLite file on storage this process cannot write, for reading only.
@@ -235,20 +243,9 @@ class HistoryStore:
             raise StoreError(f"the history database {self._shown} is on read-only storage; "
                              "store the run elsewhere with --db, or use --no-store")
         self._created = None
-        if not self._ready:
-            if self.path is not None and not self.path.exists():
-                # The first run goes into the new file before it appears (a run that fails
-                # leaves no database); when another process made the file meanwhile, into
-                # theirs below.
-                if self._is_default:
-                    self.path.parent.mkdir(parents=True, exist_ok=True)
-                made = self._create_sqlite_file(self.path, first=record)
-                self._open()
-                if made:
-                    self._created = self.path
-                    return None
-            else:
-                self._open()
+        if not self._ready and self._open(first=record):
+            self._created = self.path  # the run came with the new file
+            return None
         return self._add(record, refuse_same_data)
 
     def discard(self, run_uuid: str) -> None:
