@@ -12,7 +12,6 @@ from __future__ import annotations
 import errno
 import hashlib
 import json
-import multiprocessing as mp
 import os
 import random
 import shutil
@@ -1557,12 +1556,10 @@ def test_16_concurrent_writers_lose_nothing(backend, tmp_path):
             pytest.skip("no PostgreSQL server: set INERTEST_TEST_PG_URL")
         from postgres_reset import reset_postgres
         reset_postgres(url)
-    ctx = mp.get_context("spawn")
-    procs = [ctx.Process(target=_writer, args=(url, k * 100, 1)) for k in range(16)]
-    for p in procs:
-        p.start()
-    for p in procs:
-        p.join(180)
+    from child_processes import processes
+
+    with processes(_writer, [(url, k * 100, 1) for k in range(16)], wait_s=180) as procs:
+        pass
     assert [p.exitcode for p in procs] == [0] * 16
     store = HistoryStore(url)
     runs = store.runs("FG-1")

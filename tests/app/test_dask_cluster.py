@@ -175,9 +175,54 @@ def test_workers_that_do_not_share_the_paths_get_the_files_shipped(scheduler, ma
             _stop(w)
 
 
+def _no_workers_left(address: str) -> None:
+    """Wait until the scheduler has dropped the workers an earlier test killed."""
+    from distributed import Client
+
+    with Client(address, timeout="60s") as client:
+        for _ in range(300):
+            if not client.nthreads():
+                return
+            time.sleep(0.1)
+    pytest.fail("the scheduler still lists the killed workers after 30 s")
+
+
+@pytest.mark.slow
+def test_every_worker_lost_mid_batch_ends_it_and_keeps_what_was_filed(scheduler, manifest,
+                                                                      tmp_path):
+    """The one worker killed after the first run is filed: the batch does not wait for ever
+    on futures no worker will run (it did); after --worker-wait seconds without a worker the
+    runs not done fail, saying so, and the runs filed stay filed."""
+    from distributed import Client
+
+    address, folder = scheduler
+    workers = [_worker(address, folder, "last")]
+
+    def progress(item):
+        if item.outcome is not None:
+            _stop(workers[0])
+
+    try:
+        with Client(address, timeout="60s") as client:
+            client.wait_for_workers(1, timeout=60)
+            t0 = time.monotonic()
+            items = run_batch(manifest, executor=client, store=str(tmp_path / "h.db"),
+                              progress=progress, worker_wait=2.0)
+            took = time.monotonic() - t0
+    finally:
+        _stop(workers[0])
+    errors = [i.error for i in items]
+    done = [e for e in errors if e is None]
+    assert done and len(done) < N_RUNS, errors
+    assert all(e is None or "no Dask worker on the scheduler" in str(e) for e in errors)
+    assert len(_filed(tmp_path / "h.db")) == len(done)
+    assert took < 60, took
+
+
 @pytest.mark.slow
 def test_no_worker_is_a_clean_message(scheduler, manifest, tmp_path, capsys):
     address, _ = scheduler
+    _no_workers_left(address)
     assert main(["batch", str(manifest), "--scheduler", address, "--no-store",
                  "--no-progress", "--worker-wait", "2"]) == 2
     err = capsys.readouterr().err

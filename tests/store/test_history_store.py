@@ -1,7 +1,6 @@
 """The history database: round trip, errors, migrations, concurrent writers."""
 
 import contextlib
-import multiprocessing as mp
 import sqlite3
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -11,6 +10,7 @@ import sqlalchemy as sa
 from alembic.autogenerate import compare_metadata
 from alembic.runtime.migration import MigrationContext
 
+from child_processes import barrier, processes, queue
 from history_database import database_at_revision
 from inertest.store import HistoryStore, RunRecord, StoreError
 from inertest.store.schema import Base
@@ -156,7 +156,7 @@ def test_a_failed_first_run_never_removes_a_database_another_process_made(tmp_pa
 
 
 def _racer(url: str, bad: bool, n: int, start) -> None:
-    start.wait()
+    start.wait(120)
     store = HistoryStore(url)
     if bad:
         with contextlib.suppress(StoreError):
@@ -170,16 +170,11 @@ def _racer(url: str, bad: bool, n: int, start) -> None:
 @pytest.mark.slow
 def test_racing_first_writers_of_a_new_file_lose_no_acknowledged_run(tmp_path):
     """Real processes: two file 10 runs each into a new file while a third's first run fails."""
-    ctx = mp.get_context("spawn")
     for k in range(4):
         url = "sqlite:///" + str(tmp_path / f"race{k}.db")
-        start = ctx.Barrier(3)
-        procs = [ctx.Process(target=_racer, args=(url, bad, 10, start))
-                 for bad in (True, False, False)]
-        for p in procs:
-            p.start()
-        for p in procs:
-            p.join(120)
+        start = barrier(3)
+        with processes(_racer, [(url, bad, 10, start) for bad in (True, False, False)]) as procs:
+            pass
         assert [p.exitcode for p in procs] == [0, 0, 0]
         store = HistoryStore(url)
         assert len(store.runs("FG-1")) == 20, k
@@ -189,7 +184,7 @@ def test_racing_first_writers_of_a_new_file_lose_no_acknowledged_run(tmp_path):
 def _same_data_writer(url: str, data_sha256: str, start, out) -> None:
     store = HistoryStore(url)
     store.serials()  # connected before the start
-    start.wait()  # open and connected: all add at once
+    start.wait(120)  # open and connected: all add at once
     out.put(store.add(RunRecord(**{**record().__dict__, "data_sha256": data_sha256}),
                       refuse_same_data=True))
     store.close()
@@ -199,16 +194,10 @@ def _same_data_writer(url: str, data_sha256: str, start, out) -> None:
 def test_writers_of_the_same_data_at_once_store_it_once(db_url):
     """Six processes file the same run with refuse_same_data: one stores it, five are told."""
     HistoryStore(db_url, create=True).close()
-    ctx = mp.get_context("spawn")
     for k in range(3):
-        start, out, sha = ctx.Barrier(6), ctx.Queue(), f"{k:02d}" * 32
-        procs = [ctx.Process(target=_same_data_writer, args=(db_url, sha, start, out))
-                 for _ in range(6)]
-        for p in procs:
-            p.start()
-        got = [out.get(timeout=120) for _ in procs]
-        for p in procs:
-            p.join(120)
+        start, out, sha = barrier(6), queue(), f"{k:02d}" * 32
+        with processes(_same_data_writer, [(db_url, sha, start, out)] * 6):
+            got = [out.get(timeout=120) for _ in range(6)]
         store = HistoryStore(db_url)
         runs = [r for r in store.runs("FG-1") if r.data_sha256 == sha]
         store.close()
@@ -224,12 +213,8 @@ def _writer(url: str, start: int, n: int) -> None:
 
 
 def test_concurrent_writers_lose_nothing(db_url):
-    ctx = mp.get_context("spawn")
-    procs = [ctx.Process(target=_writer, args=(db_url, k * 100, 15)) for k in range(3)]
-    for p in procs:
-        p.start()
-    for p in procs:
-        p.join(120)
+    with processes(_writer, [(db_url, k * 100, 15) for k in range(3)]) as procs:
+        pass
     assert [p.exitcode for p in procs] == [0, 0, 0]
     store = HistoryStore(db_url)
     runs = store.runs("FG-1")

@@ -329,7 +329,9 @@ def run_batch(
         a timeout and no ``executor`` the fits run in a pool even for ``workers=1``.
     worker_wait : float
         With a Dask client: the longest wait for a first worker before submitting [s]; an
-        error naming the scheduler and the ``dask worker`` command when none joins.
+        error naming the scheduler and the ``dask worker`` command when none joins. Also the
+        longest the scheduler may be left without a worker during the batch (every worker
+        lost): the runs not yet done then fail, saying so; those filed are kept.
     full_results : bool
         Each outcome's ``result`` is the procedure's full result (per-sample arrays
         included). By default a run without a report comes back as its envelope alone
@@ -393,14 +395,15 @@ def run_batch(
     return _file_all(todo, local_pool(min(workers, len(todo))) if own else executor,
                      ship_data=ship_data,
                      store=store, allow_duplicate=allow_duplicate, options=options,
-                     progress=progress, max_pending=max_pending, timeout=timeout, own=own)
+                     progress=progress, max_pending=max_pending, timeout=timeout, own=own,
+                     worker_wait=worker_wait)
 
 
 def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | HistoryStore,
               allow_duplicate: bool, options: BatchOptions,
               progress: Callable[[BatchItem], None] | None, max_pending: int | None,
               timeout: float | None = None, own: bool = False,
-              ship_data: bool = False) -> list[BatchItem]:
+              ship_data: bool = False, worker_wait: float = 60.0) -> list[BatchItem]:
     """Submit the fits through a sliding window and file each result in task order."""
     from inertest.store import HistoryStore
 
@@ -415,7 +418,8 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
         len(todo), n, factor=1.0, most=_MAX_CHUNK))
     window = max_pending or max(4, sum(sizes[:2 * n]))
     fits = Fits(_Shipped(todo) if ship_data else todo, executor, own=own, timeout=timeout,
-                fn=functools.partial(compute, options=options), chunk=sizes)
+                fn=functools.partial(compute, options=options), chunk=sizes,
+                worker_wait=worker_wait)
     own_db = store is True or isinstance(store, str)
     db: Any = None
     out: list[BatchItem] = []

@@ -10,6 +10,7 @@ have exited, how to start an equal one) live here and only here: :func:`pool_bro
 
 from __future__ import annotations
 
+import contextlib
 import math
 import multiprocessing
 import os
@@ -61,6 +62,7 @@ def _single_threaded_blas() -> None:
 
 WORKER_DIED = "worker process died (killed or out of memory)"
 _POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [s]
+_WORKER_CHECK_S = 1.0  # how often it asks a Dask scheduler for its workers while it waits [s]
 _MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
 #: :meth:`Fits._failed`'s answer when a lost run was submitted again.
 _RESUBMITTED = object()
@@ -124,8 +126,13 @@ class Fits:
 
     def __init__(self, todo: Sequence[Any], executor: Any, *, own: bool,
                  timeout: float | None, fn: Callable[[Any], Any],
-                 chunk: int | Sequence[int] = 1) -> None:
+                 chunk: int | Sequence[int] = 1, worker_wait: float = 60.0) -> None:
         self.todo, self.executor, self.timeout, self.fn = todo, executor, timeout, fn
+        #: Dask: the longest the scheduler may be without a worker while fits are pending [s]
+        #: (its futures would wait for ever); then the runs not done are stopped.
+        self.worker_wait = worker_wait
+        self._no_worker_since: float | None = None
+        self._next_worker_check = 0.0
         self.owned: list[Any] = [executor] if own and executor is not None else []
         if timeout is not None:
             sizes = [1] * len(todo)
@@ -231,6 +238,8 @@ class Fits:
                         return self._broken(k)
                     if deadline is not None and time.monotonic() > deadline:
                         return self._timed_out(k)
+                    if self._no_worker_left():
+                        return self._give_up_dask(k)
                     continue
                 # Done by now: finished just after the wait timed out (a Dask future's result
                 # is then ready).
@@ -277,6 +286,8 @@ class Fits:
                 return _NOT_YET
             if deadline is not None and time.monotonic() > deadline:
                 return self._timed_out(k)
+            if self._no_worker_left():
+                return self._give_up_dask(k)
             self._finished.wait(_POLL_S)
 
     def _gather_finished(self, k: int) -> Any:
@@ -305,6 +316,45 @@ class Fits:
             return _NOT_YET
         self.breaks_in_a_row = 0
         return self.ready.pop(k)
+
+    def _no_worker_left(self) -> bool:
+        """A Dask scheduler that has had no worker for :attr:`worker_wait` seconds.
+
+        Its queued futures would wait for ever (every worker lost mid-batch, or the last one
+        gone just after the start while the scheduler still listed it). Asked at most every
+        ``_WORKER_CHECK_S`` while the driver waits; a scheduler that does not answer counts
+        as one without workers.
+        """
+        nthreads = getattr(self.executor, "nthreads", None)
+        now = time.monotonic()
+        if not callable(nthreads) or not hasattr(self.executor, "gather"):
+            return False
+        if now < self._next_worker_check:
+            return False
+        self._next_worker_check = now + _WORKER_CHECK_S
+        try:
+            workers = len(nthreads())
+        except Exception:  # noqa: BLE001 - the scheduler unreachable: no worker either
+            workers = 0
+        if workers:
+            self._no_worker_since = None
+            return False
+        if self._no_worker_since is None:
+            self._no_worker_since = now
+        return now - self._no_worker_since >= self.worker_wait
+
+    def _give_up_dask(self, k: int) -> RunStoppedError:
+        """Stop every pending Dask unit (no worker to run them): ``k``'s error."""
+        address = getattr(getattr(self.executor, "scheduler", None), "address", "the scheduler")
+        self.gave_up = (f"not run: no Dask worker on the scheduler at {address} for "
+                        f"{self.worker_wait:g} s (every worker lost); start workers with "
+                        f"`dask worker {address}` and run the batch again (the runs filed so "
+                        "far are kept)")
+        for fut in self.pending.values():
+            with contextlib.suppress(Exception):
+                fut.cancel()
+        self.pending.clear()
+        return RunStoppedError(self.gave_up)
 
     def _failed(self, k: int, exc: BaseException | None) -> Any:
         """Run ``k`` failed with ``exc``: its error, a restart, or resubmitted once when lost.

@@ -30,7 +30,8 @@ if TYPE_CHECKING:  # the runner is imported by the command: --help stays fast (i
 @click.option("--worker-wait", type=FiniteFloatRange(min=0, min_open=True), default=60.0,
               show_default=True, metavar="SECONDS",
               help="With --scheduler: how long to wait for a first Dask worker before giving "
-                   "up.")
+                   "up, and how long the scheduler may be left without any during the batch "
+                   "(the runs not done then fail; those filed are kept).")
 @click.option("--ship-data", is_flag=True,
               help="Send each run's files (plan, data, spec, lab file) to the worker with the "
                    "run: for a cluster whose workers do not share this machine's paths.")
