@@ -23,6 +23,7 @@ import pytest
 
 import inertest
 from inertest.app.batch import run_batch
+from inertest.app.executors import Fits, RunStoppedError
 from inertest.cli import main
 from inertest.io.data_file import write_table
 
@@ -220,6 +221,35 @@ def test_every_worker_lost_mid_batch_ends_it_and_keeps_what_was_filed(scheduler,
 
 
 @pytest.mark.slow
+def test_finished_results_whose_only_worker_died_do_not_hang_the_driver(scheduler):
+    """Dask's gather waits for ever for results whose worker died when no other can compute
+    them again; the driver's gather is bounded, and the runs end with the no-worker message."""
+    from distributed import Client
+
+    address, folder = scheduler
+    _no_workers_left(address)
+    worker = _worker(address, folder, "holder")
+    try:
+        with Client(address, timeout="60s") as client:
+            client.wait_for_workers(1, timeout=60)
+            fits = Fits(list(range(-4, 0)), client, own=False, timeout=None, fn=abs, chunk=2,
+                        worker_wait=1.0)
+            fits.submit_up_to(4)
+            for _ in range(1200):  # both units finished on the worker, not yet fetched
+                if all(f.status == "finished" for f in fits.pending.values()):
+                    break
+                time.sleep(0.05)
+            assert [f.status for f in fits.pending.values()] == ["finished"] * 2
+            _stop(worker)
+            t0 = time.monotonic()
+            with pytest.raises(RunStoppedError, match="no Dask worker on the scheduler"):
+                fits.collect(0)
+            assert time.monotonic() - t0 < 60
+    finally:
+        _stop(worker)
+
+
+@pytest.mark.slow
 def test_no_worker_is_a_clean_message(scheduler, manifest, tmp_path, capsys):
     address, _ = scheduler
     _no_workers_left(address)
@@ -272,8 +302,6 @@ class _Executor:
 
 
 def test_a_result_that_arrives_after_the_wait_timed_out_is_collected_not_none():
-    from inertest.app.executors import Fits
-
     ex = _Executor(empty_first={3})
     fits = Fits(list(range(6)), ex, own=False, timeout=None, fn=lambda t: (t, t * t))
     fits.submit_up_to(6)
@@ -282,8 +310,6 @@ def test_a_result_that_arrives_after_the_wait_timed_out_is_collected_not_none():
 
 
 def test_a_result_lost_twice_fails_that_run_alone():
-    from inertest.app.executors import Fits, RunStoppedError
-
     ex = _Executor(empty_first=set())
     ex.submit = lambda fn, f, tasks: (ex.calls.append(tasks[0]),
                                       _LateFuture(fn(f, tasks), late=False,

@@ -62,6 +62,7 @@ def _single_threaded_blas() -> None:
 
 WORKER_DIED = "worker process died (killed or out of memory)"
 _POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [s]
+_GATHER_S = 10.0  # longest wait for finished Dask results: longer means their worker died [s]
 _WORKER_CHECK_S = 1.0  # how often it asks a Dask scheduler for its workers while it waits [s]
 _MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
 #: :meth:`Fits._failed`'s answer when a lost run was submitted again.
@@ -302,7 +303,7 @@ class Fits:
         if not done:
             return _NOT_YET
         try:
-            values = self.executor.gather([self.pending[u] for u in done], errors="skip")
+            values = _gather_within(self.executor, [self.pending[u] for u in done], _GATHER_S)
         except Exception:  # noqa: BLE001 - any trouble: the one-by-one path below sorts it
             return _NOT_YET
         if len(values) != len(done):  # one failed meanwhile: which is not known here
@@ -475,6 +476,20 @@ class Fits:
                 end_pool(pool)
             else:
                 pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _gather_within(client: Any, futures: list[Any], timeout_s: float) -> list[Any]:
+    """``client.gather(futures, errors="skip")``, but a ``TimeoutError`` after ``timeout_s``.
+
+    Dask's gather never gives up: a finished result whose worker died is computed again, and
+    with no worker left that wait has no end (``Client.gather`` takes no timeout). Through
+    the client's ``sync`` with its ``callback_timeout`` (what ``Future.result(timeout)``
+    does); an object without them is gathered as it is.
+    """
+    sync, gather = getattr(client, "sync", None), getattr(client, "_gather", None)
+    if not callable(sync) or not callable(gather):
+        return client.gather(futures, errors="skip")
+    return sync(gather, futures, errors="skip", callback_timeout=timeout_s)
 
 
 def finished(fut: Any) -> bool:
