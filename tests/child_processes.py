@@ -3,9 +3,18 @@
 from __future__ import annotations
 
 import multiprocessing as mp
+import signal
+import subprocess
+import sys
 from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from typing import Any
+
+import pytest
+
+#: ``inertest ARGV`` as a user runs it, in a fresh process.
+INERTEST = [sys.executable, "-c",
+            "import sys; from inertest.cli import main; sys.exit(main(sys.argv[1:]))"]
 
 
 @contextmanager
@@ -45,3 +54,26 @@ def barrier(parties: int) -> Any:
 def queue() -> Any:
     """A spawn-context queue."""
     return mp.get_context("spawn").Queue()
+
+
+def run_inertest(argv: Sequence[str], *, cwd: Any, env: dict[str, str],
+                 timeout_s: float = 300.0) -> subprocess.CompletedProcess:
+    """``inertest ARGV`` in a fresh process, its output captured.
+
+    One still running after ``timeout_s`` is made to print where it is (Python's
+    faulthandler, on SIGABRT) and the test fails with that stack, instead of waiting for it.
+    """
+    proc = subprocess.Popen([*INERTEST, *argv], cwd=cwd, env={**env, "PYTHONFAULTHANDLER": "1"},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGABRT)
+        err = ""
+        with suppress(subprocess.TimeoutExpired):
+            err = proc.communicate(timeout=30)[1]
+        proc.kill()
+        proc.wait()
+        pytest.fail(f"inertest {' '.join(map(str, argv))} still ran after {timeout_s:g} s; "
+                    f"where it was:\n{err[-8000:]}")
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)

@@ -17,7 +17,6 @@ import random
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -25,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from child_processes import INERTEST, processes, run_inertest
 from inertest.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -1455,9 +1455,7 @@ def test_dollar_signs_in_labels_are_drawn_not_parsed(command, assets, tmp_path):
     # tests left.
     env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONWARNINGS": "error",
            "XDG_CACHE_HOME": str(tmp_path / "cache")}
-    done = subprocess.run([sys.executable, "-c", "import sys; from inertest.cli import main; "
-                           "sys.exit(main(sys.argv[1:]))", *argv], cwd=work, env=env,
-                          capture_output=True, text=True)
+    done = run_inertest(argv, cwd=work, env=env)
     assert done.returncode == 0 and "internal error" not in done.stderr, done.stderr
     if command != "data-file-name":  # the label really is in the file given
         assert f"'{HOSTILE_LABEL}'" in (work / "s.toml").read_text()
@@ -1509,10 +1507,9 @@ def test_kill_9_leaves_nothing_or_a_complete_run_and_report(assets, tmp_path):
         work.mkdir()
         for f in ("plan.toml", "data.csv"):
             shutil.copy(assets / f, work / f)
-        proc = subprocess.Popen(
-            [sys.executable, "-c", "import sys; from inertest.cli import main; "
-             "sys.exit(main(sys.argv[1:]))", "fit", "plan.toml", "data.csv", *argv_tail],
-            cwd=work, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen([*INERTEST, "fit", "plan.toml", "data.csv", *argv_tail],
+                                cwd=work, env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
         time.sleep(rng.uniform(0.5, 4.0))
         proc.send_signal(signal.SIGKILL)
         proc.wait()
@@ -1520,10 +1517,8 @@ def test_kill_9_leaves_nothing_or_a_complete_run_and_report(assets, tmp_path):
         assert runs <= 1
         outcomes.append((runs, report))
         # the next run cleans the killed one's hidden temporaries and completes
-        done = subprocess.run(
-            [sys.executable, "-c", "import sys; from inertest.cli import main; "
-             "sys.exit(main(sys.argv[1:]))", "fit", "plan.toml", "data.csv", *argv_tail,
-             "--allow-duplicate"], cwd=work, env=env, capture_output=True, text=True)
+        done = run_inertest(["fit", "plan.toml", "data.csv", *argv_tail, "--allow-duplicate"],
+                            cwd=work, env=env)
         assert done.returncode == 0, done.stderr
         assert _state(work) == (runs + 1, True)
         assert [p.name for p in work.iterdir() if p.name.startswith(".rep.")] == []
@@ -1556,7 +1551,6 @@ def test_16_concurrent_writers_lose_nothing(backend, tmp_path):
             pytest.skip("no PostgreSQL server: set INERTEST_TEST_PG_URL")
         from postgres_reset import reset_postgres
         reset_postgres(url)
-    from child_processes import processes
 
     with processes(_writer, [(url, k * 100, 1) for k in range(16)], wait_s=180) as procs:
         pass
