@@ -10,6 +10,7 @@ nothing is lost, every run is filed exactly once.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -218,6 +219,43 @@ def test_every_worker_lost_mid_batch_ends_it_and_keeps_what_was_filed(scheduler,
     assert all(e is None or "no Dask worker on the scheduler" in str(e) for e in errors)
     assert len(_filed(tmp_path / "h.db")) == len(done)
     assert took < 60, took
+
+
+@pytest.mark.slow
+def test_a_frozen_worker_with_a_timeout_fails_its_runs_and_the_batch_ends(scheduler, manifest,
+                                                                          tmp_path):
+    """A worker stopped (SIGSTOP: a hung host) holds its results and its fits: with a timeout
+    the batch hung in 6 tries of 9 (fetching a finished result from it has no end); now its
+    runs fail by the timeout or are computed again on the other worker, and it ends."""
+    from distributed import Client
+
+    address, folder = scheduler
+    _no_workers_left(address)
+    workers = [_worker(address, folder, f"f{i}") for i in range(2)]
+    frozen = []
+
+    def progress(item):
+        if not frozen and item.outcome is not None:
+            frozen.append(workers[0].pid)
+            os.killpg(workers[0].pid, signal.SIGSTOP)
+
+    try:
+        with Client(address, timeout="60s") as client:
+            client.wait_for_workers(2, timeout=60)
+            t0 = time.monotonic()
+            items = run_batch(manifest, executor=client, store=str(tmp_path / "h.db"),
+                              progress=progress, timeout=5.0, worker_wait=3.0)
+            took = time.monotonic() - t0
+    finally:
+        for w in workers:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(w.pid, signal.SIGCONT)
+            _stop(w)
+    assert frozen
+    errors = [str(i.error) for i in items if i.error is not None]
+    assert all("timeout" in e or "no result came back" in e for e in errors), errors
+    assert len(_filed(tmp_path / "h.db")) == N_RUNS - len(errors)
+    assert took < 300, took
 
 
 @pytest.mark.slow

@@ -423,6 +423,7 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
     own_db = store is True or isinstance(store, str)
     db: Any = None
     out: list[BatchItem] = []
+    finished = False
     try:
         db = HistoryStore(None if store is True else str(store)) if own_db else store
         for k, t in enumerate(todo):
@@ -439,8 +440,9 @@ def _file_all(todo: Sequence[BatchTask], executor: Any, *, store: bool | str | H
             out.append(item)
             if progress is not None:
                 progress(item)
+        finished = True
     finally:
-        fits.close()
+        fits.close(abort=not finished)
         if own_db and db:
             db.close()
     return out

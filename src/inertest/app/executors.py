@@ -62,7 +62,9 @@ def _single_threaded_blas() -> None:
 
 WORKER_DIED = "worker process died (killed or out of memory)"
 _POLL_S = 0.5  # how often the driver looks at a pool while it waits for a fit [s]
-_GATHER_S = 10.0  # longest wait for finished Dask results: longer means their worker died [s]
+#: Longest wait for finished Dask results [s]: longer, and the worker that holds them does not
+#: answer (frozen, or its host gone without closing the connection); they are computed again.
+_GATHER_S = 10.0
 _WORKER_CHECK_S = 1.0  # how often it asks a Dask scheduler for its workers while it waits [s]
 _MAX_BREAKS_IN_A_ROW = 3  # pool restarts with no fit finished in between, then give up
 #: :meth:`Fits._failed`'s answer when a lost run was submitted again.
@@ -133,7 +135,12 @@ class Fits:
         #: (its futures would wait for ever); then the runs not done are stopped.
         self.worker_wait = worker_wait
         self._no_worker_since: float | None = None
+        self.scheduler_answers = True
         self._next_worker_check = 0.0
+        self._gather_together = True  # off once a gather got stuck: fetched one by one then
+        #: The scheduler's address, for messages (the client forgets it when it is lost).
+        self.address = str(getattr(getattr(executor, "scheduler", None), "address", None)
+                           or "the scheduler")
         self.owned: list[Any] = [executor] if own and executor is not None else []
         if timeout is not None:
             sizes = [1] * len(todo)
@@ -232,7 +239,7 @@ class Fits:
             fut = self.pending[k]
         while True:
             try:
-                value = fut.result(timeout=_POLL_S)
+                value = self._result(fut)
             except TimeoutError:
                 if not fut.done():
                     if pool_broken(self.executor):
@@ -246,7 +253,7 @@ class Fits:
                 # is then ready).
                 err = None if fut.cancelled() else fut.exception()
                 if err is None and not fut.cancelled():
-                    value = fut.result()
+                    value = self._result(fut)
                 else:
                     got = self._failed(k, err)
                     if got is not _RESUBMITTED:
@@ -269,6 +276,23 @@ class Fits:
             self.breaks_in_a_row = 0
             self.resubmitted.discard(k)
             return value
+
+    def _result(self, fut: Any) -> Any:
+        """``fut.result(timeout=_POLL_S)``; a Dask result not fetched within ``_GATHER_S``: None.
+
+        None is a result lost on the way: the unit is computed again.
+
+        A finished Dask future's result is fetched from the worker that holds it, and that
+        fetch has no end when the worker is frozen (SIGSTOP, a hung host): not even the
+        client's own timeout stops it. It runs on a thread of its own here.
+        """
+        if hasattr(self.executor, "gather") and getattr(fut, "status", "") == "finished":
+            try:
+                return within(fut.result, _GATHER_S)
+            except TimeoutError:
+                self._gather_together = False
+                return None
+        return fut.result(timeout=_POLL_S)
 
     def _wait_dask(self, k: int, deadline: float | None) -> Any:
         """Wait for Dask unit ``k`` without a round trip per future.
@@ -300,10 +324,14 @@ class Fits:
         waiting below.
         """
         done = [u for u, f in self.pending.items() if getattr(f, "status", "") == "finished"]
-        if not done:
+        if not done or not self._gather_together:
             return _NOT_YET
+        futures = [self.pending[u] for u in done]
         try:
-            values = _gather_within(self.executor, [self.pending[u] for u in done], _GATHER_S)
+            values = within(lambda: self.executor.gather(futures, errors="skip"), _GATHER_S)
+        except TimeoutError:  # a worker holding some does not answer: one by one from now
+            self._gather_together = False
+            return _NOT_YET
         except Exception:  # noqa: BLE001 - any trouble: the one-by-one path below sorts it
             return _NOT_YET
         if len(values) != len(done):  # one failed meanwhile: which is not known here
@@ -334,27 +362,33 @@ class Fits:
             return False
         self._next_worker_check = now + _WORKER_CHECK_S
         try:
-            workers = len(nthreads())
-        except Exception:  # noqa: BLE001 - the scheduler unreachable: no worker either
-            workers = 0
+            workers = len(within(nthreads, min(_GATHER_S, self.worker_wait)))
+            self.scheduler_answers = True
+        except Exception:  # noqa: BLE001 - the scheduler unreachable or frozen: no worker
+            workers, self.scheduler_answers = 0, False
         if workers:
             self._no_worker_since = None
             return False
         if self._no_worker_since is None:
-            self._no_worker_since = now
-        return now - self._no_worker_since >= self.worker_wait
+            self._no_worker_since = now  # when asked: an unanswered question counts
+        return time.monotonic() - self._no_worker_since >= self.worker_wait
 
     def _give_up_dask(self, k: int) -> RunStoppedError:
         """Stop every pending Dask unit (no worker to run them): ``k``'s error."""
-        address = getattr(getattr(self.executor, "scheduler", None), "address", "the scheduler")
-        self.gave_up = (f"not run: no Dask worker on the scheduler at {address} for "
-                        f"{self.worker_wait:g} s (every worker lost); start workers with "
-                        f"`dask worker {address}` and run the batch again (the runs filed so "
-                        "far are kept)")
-        for fut in self.pending.values():
-            with contextlib.suppress(Exception):
-                fut.cancel()
+        address = self.address
+        if self.scheduler_answers:
+            self.gave_up = (f"not run: no Dask worker on the scheduler at {address} for "
+                            f"{self.worker_wait:g} s (every worker lost); start workers with "
+                            f"`dask worker {address}` and run the batch again (the runs filed "
+                            "so far are kept)")
+        else:
+            self.gave_up = (f"not run: the Dask scheduler at {address} has not answered for "
+                            f"{self.worker_wait:g} s (stopped, or its host lost); start it "
+                            "again and run the batch again (the runs filed so far are kept)")
+        pending = list(self.pending.values())
         self.pending.clear()
+        with contextlib.suppress(Exception):  # a scheduler that does not answer: left as is
+            within(lambda: [f.cancel() for f in pending], _GATHER_S)
         return RunStoppedError(self.gave_up)
 
     def _failed(self, k: int, exc: BaseException | None) -> Any:
@@ -392,8 +426,9 @@ class Fits:
             self._restart()
             for i in innocent:
                 self.pending[i] = self._submit(i)
-        else:
-            fut.cancel()
+        else:  # Dask: a scheduler that does not answer is not waited for
+            with contextlib.suppress(Exception):
+                within(fut.cancel, _GATHER_S)
         return stopped
 
     def _broken(self, k: int) -> Any:
@@ -465,31 +500,69 @@ class Fits:
         self.owned.append(new)
         self.executor = new
 
-    def close(self) -> None:
-        """Cancel what is pending and shut the pools this object started."""
-        for fut in self.pending.values():
-            cancel = getattr(fut, "cancel", None)
-            if cancel is not None:
-                cancel()
-        for pool in self.owned:
-            if pool_broken(pool):
-                end_pool(pool)
+    def close(self, abort: bool = False) -> None:
+        """Cancel what is pending and shut the pools this object started.
+
+        ``abort`` (the batch interrupted, Ctrl-C): the pools' workers are killed, not waited
+        for, and a second Ctrl-C meanwhile is ignored. A second Ctrl-C that broke into a
+        graceful shutdown left idle workers that Python's exit then joined for ever.
+        """
+        with _uninterrupted(abort):
+            pending = [f for f in self.pending.values() if getattr(f, "cancel", None)]
+            if hasattr(self.executor, "gather"):  # Dask: a scheduler may not answer
+                with contextlib.suppress(Exception):
+                    within(lambda: [f.cancel() for f in pending], _GATHER_S)
             else:
-                pool.shutdown(wait=True, cancel_futures=True)
+                for fut in pending:
+                    fut.cancel()
+            for pool in self.owned:
+                if abort or pool_broken(pool):
+                    end_pool(pool)
+                else:
+                    pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _gather_within(client: Any, futures: list[Any], timeout_s: float) -> list[Any]:
-    """``client.gather(futures, errors="skip")``, but a ``TimeoutError`` after ``timeout_s``.
+@contextlib.contextmanager
+def _uninterrupted(on: bool) -> Any:
+    """Ignore SIGINT and SIGTERM inside (when ``on``, in the main thread)."""
+    import signal
 
-    Dask's gather never gives up: a finished result whose worker died is computed again, and
-    with no worker left that wait has no end (``Client.gather`` takes no timeout). Through
-    the client's ``sync`` with its ``callback_timeout`` (what ``Future.result(timeout)``
-    does); an object without them is gathered as it is.
+    if not on or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    kept = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in kept.items():
+            signal.signal(s, handler)
+
+
+def within(call: Callable[[], Any], timeout_s: float) -> Any:
+    """``call()`` on a thread of its own: its value (or error), or ``TimeoutError``.
+
+    After ``timeout_s`` the thread is left to end when it can (a daemon: never waited for).
+
+    For the Dask client's calls that can wait for ever: fetching a result from a frozen
+    worker, asking a frozen scheduler.
     """
-    sync, gather = getattr(client, "sync", None), getattr(client, "_gather", None)
-    if not callable(sync) or not callable(gather):
-        return client.gather(futures, errors="skip")
-    return sync(gather, futures, errors="skip", callback_timeout=timeout_s)
+    box: dict[str, Any] = {}
+    ended = threading.Event()
+
+    def run() -> None:
+        try:
+            box["value"] = call()
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller
+            box["error"] = exc
+        finally:
+            ended.set()
+
+    threading.Thread(target=run, name="inertest-dask-call", daemon=True).start()
+    if not ended.wait(timeout_s):
+        raise TimeoutError(f"no answer within {timeout_s:g} s")
+    if "error" in box:
+        raise box["error"]
+    return box["value"]
 
 
 def finished(fut: Any) -> bool:

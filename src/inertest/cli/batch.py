@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -175,10 +176,20 @@ def _dask_client(address: str | None) -> Iterator[Any]:
     except (OSError, TimeoutError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address} ({exc}); check the "
                          "address, or use --workers N for local processes") from None
+    # Dask logs a lost scheduler or worker with its tracebacks on stderr; the batch says
+    # what became of each run in its own words (one line each).
+    # (Dask's logging configuration gives some of its loggers their own levels: each is set.)
+    dask_logs = [logging.getLogger(name) for name in list(logging.root.manager.loggerDict)
+                 if name == "distributed" or name.startswith("distributed.")]
+    levels = [log.level for log in dask_logs]
+    for log in dask_logs:
+        log.setLevel(logging.CRITICAL)
     try:
         yield client
     finally:
         client.close()
+        for log, level in zip(dask_logs, levels, strict=True):
+            log.setLevel(level)
 
 
 _ADDRESS_FIX = "give it as tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786"
