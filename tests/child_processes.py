@@ -6,6 +6,7 @@ import multiprocessing as mp
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager, suppress
 from typing import Any
@@ -34,8 +35,6 @@ def processes(target: Callable[..., None], args: Sequence[tuple[Any, ...]],
             p.start()
         yield procs
     finally:
-        import time
-
         end = time.monotonic() + wait_s
         for p in procs:
             if p.pid is not None:

@@ -135,11 +135,11 @@ class Fits:
         #: (its futures would wait for ever); then the runs not done are stopped.
         self.worker_wait = worker_wait
         self._no_worker_since: float | None = None
-        self.scheduler_answers = True
+        self._scheduler_answers = True
         self._next_worker_check = 0.0
         self._gather_together = True  # off once a gather got stuck: fetched one by one then
         #: The scheduler's address, for messages (the client forgets it when it is lost).
-        self.address = str(getattr(getattr(executor, "scheduler", None), "address", None)
+        self._address = str(getattr(getattr(executor, "scheduler", None), "address", None)
                            or "the scheduler")
         self.owned: list[Any] = [executor] if own and executor is not None else []
         if timeout is not None:
@@ -363,9 +363,9 @@ class Fits:
         self._next_worker_check = now + _WORKER_CHECK_S
         try:
             workers = len(within(nthreads, min(_GATHER_S, self.worker_wait)))
-            self.scheduler_answers = True
+            self._scheduler_answers = True
         except Exception:  # noqa: BLE001 - the scheduler unreachable or frozen: no worker
-            workers, self.scheduler_answers = 0, False
+            workers, self._scheduler_answers = 0, False
         if workers:
             self._no_worker_since = None
             return False
@@ -375,8 +375,8 @@ class Fits:
 
     def _give_up_dask(self, k: int) -> RunStoppedError:
         """Stop every pending Dask unit (no worker to run them): ``k``'s error."""
-        address = self.address
-        if self.scheduler_answers:
+        address = self._address
+        if self._scheduler_answers:
             self.gave_up = (f"not run: no Dask worker on the scheduler at {address} for "
                             f"{self.worker_wait:g} s (every worker lost); start workers with "
                             f"`dask worker {address}` and run the batch again (the runs filed "
@@ -385,10 +385,8 @@ class Fits:
             self.gave_up = (f"not run: the Dask scheduler at {address} has not answered for "
                             f"{self.worker_wait:g} s (stopped, or its host lost); start it "
                             "again and run the batch again (the runs filed so far are kept)")
-        pending = list(self.pending.values())
+        cancel_dask(list(self.pending.values()))
         self.pending.clear()
-        with contextlib.suppress(Exception):  # a scheduler that does not answer: left as is
-            within(lambda: [f.cancel() for f in pending], _GATHER_S)
         return RunStoppedError(self.gave_up)
 
     def _failed(self, k: int, exc: BaseException | None) -> Any:
@@ -426,9 +424,8 @@ class Fits:
             self._restart()
             for i in innocent:
                 self.pending[i] = self._submit(i)
-        else:  # Dask: a scheduler that does not answer is not waited for
-            with contextlib.suppress(Exception):
-                within(fut.cancel, _GATHER_S)
+        else:
+            cancel_dask([fut])
         return stopped
 
     def _broken(self, k: int) -> Any:
@@ -509,9 +506,8 @@ class Fits:
         """
         with _uninterrupted(abort):
             pending = [f for f in self.pending.values() if getattr(f, "cancel", None)]
-            if hasattr(self.executor, "gather"):  # Dask: a scheduler may not answer
-                with contextlib.suppress(Exception):
-                    within(lambda: [f.cancel() for f in pending], _GATHER_S)
+            if hasattr(self.executor, "gather"):
+                cancel_dask(pending)
             else:
                 for fut in pending:
                     fut.cancel()
@@ -536,6 +532,12 @@ def _uninterrupted(on: bool) -> Any:
     finally:
         for s, handler in kept.items():
             signal.signal(s, handler)
+
+
+def cancel_dask(futures: list[Any]) -> None:
+    """Cancel Dask futures; a scheduler that does not answer within ``_GATHER_S`` is left."""
+    with contextlib.suppress(Exception):
+        within(lambda: [f.cancel() for f in futures], _GATHER_S)
 
 
 def within(call: Callable[[], Any], timeout_s: float) -> Any:
