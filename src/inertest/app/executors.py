@@ -286,13 +286,21 @@ class Fits:
         fetch has no end when the worker is frozen (SIGSTOP, a hung host): not even the
         client's own timeout stops it. It runs on a thread of its own here.
         """
-        if hasattr(self.executor, "gather") and getattr(fut, "status", "") == "finished":
-            try:
-                return within(fut.result, _GATHER_S)
-            except TimeoutError:
-                self._gather_together = False
+        try:
+            if hasattr(self.executor, "gather") and getattr(fut, "status", "") == "finished":
+                try:
+                    return within(fut.result, _GATHER_S)
+                except TimeoutError:
+                    self._gather_together = False
+                    return None
+            return fut.result(timeout=_POLL_S)
+        except Exception:
+            # The fetch of a finished Dask result failed, not the fit (its status would say
+            # "error"): Dask's result() raises an UnboundLocalError when the fetch from a
+            # frozen worker is cancelled inside it. A result lost on the way: computed again.
+            if hasattr(self.executor, "gather") and getattr(fut, "status", "") == "finished":
                 return None
-        return fut.result(timeout=_POLL_S)
+            raise
 
     def _wait_dask(self, k: int, deadline: float | None) -> Any:
         """Wait for Dask unit ``k`` without a round trip per future.
